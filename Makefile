@@ -1,0 +1,46 @@
+# Front door: thin wrappers around the CMake presets (the PX4 / Crazyflie convention).
+#   make flight     set up, build and fly the default HIL flight
+#   make test       set up, build (host and both cross targets) and run every test through ctest
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+SCENARIO ?= sim/scenarios/hover.yaml
+
+.PHONY: all setup configure build test avr cortex-m4 debug test-debug flight clean
+
+all: build
+
+setup:
+	@tools/setup.sh
+
+configure:
+	cmake --preset host
+
+build: configure
+	cmake --build --preset host -j $(JOBS)
+
+avr:
+	cmake --preset avr-apm25
+	cmake --build --preset avr-apm25 -j $(JOBS)
+
+cortex-m4:
+	cmake --preset cortex-m4
+	cmake --build --preset cortex-m4 -j $(JOBS)
+
+test: setup
+	$(MAKE) --no-print-directory build
+	$(MAKE) --no-print-directory avr
+	$(MAKE) --no-print-directory cortex-m4
+	ctest --preset host
+
+debug:
+	cmake --preset host-debug
+	cmake --build --preset host-debug -j $(JOBS)
+
+test-debug: setup debug
+	ctest --preset host-debug
+
+flight: setup
+	$(MAKE) --no-print-directory build
+	tools/flight.sh $(SCENARIO)
+
+clean:
+	rm -rf build

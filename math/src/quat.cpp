@@ -1,0 +1,129 @@
+#include "quad/math/quat.h"
+
+namespace quad {
+
+Mat3 to_dcm(const Quat& q) {
+  // thesis eq. 3.18
+  const float w = q.w, x = q.x, y = q.y, z = q.z;
+  Mat3 r;
+  r.m[0][0] = 1.0f - 2.0f * (y * y + z * z);
+  r.m[0][1] = 2.0f * (x * y - w * z);
+  r.m[0][2] = 2.0f * (x * z + w * y);
+  r.m[1][0] = 2.0f * (x * y + w * z);
+  r.m[1][1] = 1.0f - 2.0f * (x * x + z * z);
+  r.m[1][2] = 2.0f * (y * z - w * x);
+  r.m[2][0] = 2.0f * (x * z - w * y);
+  r.m[2][1] = 2.0f * (y * z + w * x);
+  r.m[2][2] = 1.0f - 2.0f * (x * x + y * y);
+  return r;
+}
+
+Quat from_dcm(const Mat3& r) {
+  const float tr = r.m[0][0] + r.m[1][1] + r.m[2][2];
+  Quat q;
+  if (tr >= r.m[0][0] && tr >= r.m[1][1] && tr >= r.m[2][2]) {
+    const float s = 2.0f * safe_sqrtf(1.0f + tr);  // s = 4 w
+    q = {0.25f * s, (r.m[2][1] - r.m[1][2]) / s, (r.m[0][2] - r.m[2][0]) / s, (r.m[1][0] - r.m[0][1]) / s};
+  } else if (r.m[0][0] >= r.m[1][1] && r.m[0][0] >= r.m[2][2]) {
+    const float s = 2.0f * safe_sqrtf(1.0f + r.m[0][0] - r.m[1][1] - r.m[2][2]);  // s = 4 x
+    q = {(r.m[2][1] - r.m[1][2]) / s, 0.25f * s, (r.m[0][1] + r.m[1][0]) / s, (r.m[0][2] + r.m[2][0]) / s};
+  } else if (r.m[1][1] >= r.m[2][2]) {
+    const float s = 2.0f * safe_sqrtf(1.0f - r.m[0][0] + r.m[1][1] - r.m[2][2]);  // s = 4 y
+    q = {(r.m[0][2] - r.m[2][0]) / s, (r.m[0][1] + r.m[1][0]) / s, 0.25f * s, (r.m[1][2] + r.m[2][1]) / s};
+  } else {
+    const float s = 2.0f * safe_sqrtf(1.0f - r.m[0][0] - r.m[1][1] + r.m[2][2]);  // s = 4 z
+    q = {(r.m[1][0] - r.m[0][1]) / s, (r.m[0][2] + r.m[2][0]) / s, (r.m[1][2] + r.m[2][1]) / s, 0.25f * s};
+  }
+  return canonical(normalized(q));
+}
+
+Mat3 dcm_from_euler(const Euler& e) {
+  // thesis eq. 3.8
+  const float cf = cosf(e.roll), sf = sinf(e.roll);
+  const float ct = cosf(e.pitch), st = sinf(e.pitch);
+  const float cp = cosf(e.yaw), sp = sinf(e.yaw);
+  Mat3 r;
+  r.m[0][0] = ct * cp;
+  r.m[0][1] = sf * st * cp - cf * sp;
+  r.m[0][2] = sf * sp + cf * st * cp;
+  r.m[1][0] = ct * sp;
+  r.m[1][1] = cf * cp + sf * st * sp;
+  r.m[1][2] = cf * st * sp - sf * cp;
+  r.m[2][0] = -st;
+  r.m[2][1] = sf * ct;
+  r.m[2][2] = cf * ct;
+  return r;
+}
+
+Quat from_euler(const Euler& e) {
+  // thesis eq. 3.19
+  const float cf = cosf(0.5f * e.roll), sf = sinf(0.5f * e.roll);
+  const float ct = cosf(0.5f * e.pitch), st = sinf(0.5f * e.pitch);
+  const float cp = cosf(0.5f * e.yaw), sp = sinf(0.5f * e.yaw);
+  return {cf * ct * cp + sf * st * sp, sf * ct * cp - cf * st * sp, cf * st * cp + sf * ct * sp,
+          cf * ct * sp - sf * st * cp};
+}
+
+Euler to_euler(const Quat& qin) {
+  // thesis eq. 3.20 with the errata applied
+  const Quat q = normalized(qin);
+  const float w = q.w, x = q.x, y = q.y, z = q.z;
+  const float sp = 2.0f * (w * y - x * z);
+  Euler e;
+  if (absf(sp) > 0.99999f) {
+    // Gimbal lock: only yaw - sign(pitch) roll is defined. Put it all in yaw.
+    e.pitch = signf(sp) * kHalfPi;
+    e.roll = 0.0f;
+    e.yaw = wrap_pi(-2.0f * signf(sp) * atan2f(x, w));
+    return e;
+  }
+  e.roll = atan2f(2.0f * (w * x + y * z), 1.0f - 2.0f * (x * x + y * y));
+  e.pitch = safe_asinf(sp);
+  e.yaw = atan2f(2.0f * (w * z + x * y), 1.0f - 2.0f * (y * y + z * z));
+  return e;
+}
+
+Quat from_rotation_vector(const Vec3& rv) {
+  const float angle = norm(rv);
+  const float half = 0.5f * angle;
+  const float k = 0.5f * sincf(half);  // sin(angle/2)/angle, finite at 0
+  return {cosf(half), rv.x * k, rv.y * k, rv.z * k};
+}
+
+Vec3 to_rotation_vector(const Quat& qin) {
+  const Quat q = canonical(normalized(qin));
+  const float s = norm(q.vec());
+  if (s < 1e-7f) return q.vec() * 2.0f;  // angle ~ 2 s for tiny rotations
+  const float angle = 2.0f * atan2f(s, q.w);
+  return q.vec() * (angle / s);
+}
+
+namespace {
+// c I4 + k A(Omega) applied to q, with k = T/2 * sinc(.) already folded in: c q + q (x) [0, k Omega].
+Quat apply_propagator(const Quat& q, const Vec3& omega, float c, float k) {
+  const Quat d{c, omega.x * k, omega.y * k, omega.z * k};
+  return q * d;
+}
+}  // namespace
+
+Quat integrate_exact(const Quat& q, const Vec3& omega, float dt) {
+  // thesis eq. 4.14 / 4.15
+  const float half = 0.5f * dt * norm(omega);
+  return apply_propagator(q, omega, cosf(half), 0.5f * dt * sincf(half));
+}
+
+Quat integrate_second_order(const Quat& q, const Vec3& omega, float dt) {
+  // thesis sec. 4.3: second-order approximation of the trigonometric terms of eq. 4.18
+  const float half2 = 0.25f * dt * dt * norm_sq(omega);
+  const float c = 1.0f - 0.5f * half2;
+  const float k = 0.5f * dt * (1.0f - half2 * (1.0f / 6.0f));
+  return normalized(apply_propagator(q, omega, c, k));
+}
+
+float angle_between(const Quat& a, const Quat& b) {
+  const float d = absf(dot(normalized(a), normalized(b)));
+  const float v = norm((conjugate(normalized(a)) * normalized(b)).vec());
+  return 2.0f * atan2f(v, d);
+}
+
+}  // namespace quad
