@@ -1,0 +1,25 @@
+// Cycle probes for code running on the simulated ATmega2560 under tools/avr_cycles.
+//
+// The probes write to the general-purpose I/O registers, which the host watches: GPIOR2 takes the
+// characters of a section name, GPIOR0 takes a command (1 start, 2 stop, 0xFF done). Each probe is a
+// single `out` instruction (1 cycle); the host subtracts the cost of an empty section ("overhead").
+#pragma once
+
+#include <avr/io.h>
+
+namespace quad_probe {
+
+inline void name(const char* s) {
+  while (*s) GPIOR2 = static_cast<uint8_t>(*s++);
+}
+inline void start() { GPIOR0 = 1; }
+inline void stop() { GPIOR0 = 2; }
+inline void done() { GPIOR0 = 0xFF; }
+
+// Keeps the compiler from folding a benchmarked computation away.
+template <typename T>
+inline void keep(const T& value) {
+  __asm__ __volatile__("" : : "r"(&value) : "memory");
+}
+
+}  // namespace quad_probe
