@@ -1,0 +1,32 @@
+// CRC-16/MCRF4XX (the "X.25" checksum of MAVLink): polynomial 0x1021 reflected, initial value 0xFFFF,
+// no final XOR. MAVLink v2 runs it over the frame from the length byte to the end of the payload, then
+// over the message's CRC_EXTRA byte (a hash of its definition, so peers with different definitions of
+// the same id reject each other's frames).
+#ifndef QUAD_LINK_CRC_H
+#define QUAD_LINK_CRC_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+namespace quad {
+namespace mavlink {
+
+constexpr uint16_t kCrcInit = 0xFFFF;
+
+// The byte-wise form from the MAVLink C library (no table: 512 bytes of table would cost SRAM on the AVR).
+inline uint16_t crc_accumulate(uint8_t byte, uint16_t crc) {
+  uint8_t tmp = static_cast<uint8_t>(byte ^ static_cast<uint8_t>(crc & 0xFF));
+  tmp = static_cast<uint8_t>(tmp ^ static_cast<uint8_t>(tmp << 4));
+  return static_cast<uint16_t>((crc >> 8) ^ (static_cast<uint16_t>(tmp) << 8) ^
+                               (static_cast<uint16_t>(tmp) << 3) ^ (tmp >> 4));
+}
+
+inline uint16_t crc_accumulate(const uint8_t* data, size_t length, uint16_t crc) {
+  for (size_t i = 0; i < length; ++i) crc = crc_accumulate(data[i], crc);
+  return crc;
+}
+
+}  // namespace mavlink
+}  // namespace quad
+
+#endif  // QUAD_LINK_CRC_H
