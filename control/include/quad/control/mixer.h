@@ -1,0 +1,78 @@
+// Motor mixing, thesis eq. 5.3-5.8: collective thrust and body torques to squared rotor speeds
+// (w_bar = M^-1 T, eq. 5.8/5.9e) and on to normalised motor commands u_i = w_i / w_max in [0, 1].
+// The motor order, positions and spin directions are those of quad/control/vehicle.h: the commands go
+// out in that order (HIL_ACTUATOR_CONTROLS controls[0..3]).
+//
+// With f_i = b w_i^2, rotor i at (x_i, y_i) spinning s_i (vehicle.h), the forward model (eq. 5.5) is
+//   T = sum f_i,  tau_1 = -sum y_i f_i,  tau_2 = sum x_i f_i,  tau_3 = (kappa / b) sum s_i f_i,
+// which for the plus frame is exactly eq. 5.6. Its inverse for both symmetric layouts is
+//   f_i = T/4 - y_i tau_1 / sum(y^2) + x_i tau_2 / sum(x^2) + s_i tau_3 b / (4 kappa).
+//
+// SATURATION PRIORITY (each motor's thrust must stay in [0, f_max]):
+//   1. roll and pitch torque: kept whenever they fit at all (their motor spread <= f_max), else scaled
+//      down together (direction kept) until they do;
+//   2. collective thrust: kept if roll/pitch fit around it, else shifted by the least amount that makes
+//      them fit (more thrust near idle, less near full power);
+//   3. yaw torque: the largest part of the demand, 0..100 %, that fits in the room left.
+// So under saturation only yaw is given up first, the way PX4 and ArduPilot desaturate; thrust goes
+// second and the roll/pitch torque only when it alone exceeds what the motors can produce.
+//
+// Usage:
+//   quad::ctrl::Mixer mixer(vehicle);                       // VehicleParams: frame, b, kappa, d, f_max
+//   quad::ctrl::MixerOutput out = mixer.mix(thrust, tau);   // out.command[0..3] in [0, 1]
+#pragma once
+
+#include "quad/control/vehicle.h"
+#include "quad/math/math.h"
+
+namespace quad {
+namespace ctrl {
+
+// Collective thrust (N, along body -z) and control torques (body FRD, N m): the control vector of
+// eq. 5.5.
+struct Wrench {
+  float thrust = 0.0f;
+  Vec3 torque;
+};
+
+struct MixerOutput {
+  float rotor_speed_sq[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};  // w_bar_i, (rad/s)^2 (eq. 5.7)
+  float command[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};         // u_i = w_i / w_max in [0, 1]
+  Wrench achieved;              // what the saturated rotor speeds produce (eq. 5.5)
+  bool yaw_limited = false;     // priority 3 gave up some yaw
+  bool thrust_limited = false;  // priority 2 shifted the thrust
+  bool roll_pitch_limited = false;  // priority 1 scaled roll/pitch torque
+};
+
+class Mixer {
+ public:
+  Mixer();
+  explicit Mixer(const VehicleParams& v);
+
+  // Precomputes the inverse mixing coefficients; call when the vehicle parameters change.
+  void set_vehicle(const VehicleParams& v);
+
+  // Mixes a demand with the saturation priority above. Non-finite input gives all motors 0 (and every
+  // limited flag set).
+  MixerOutput mix(float thrust, const Vec3& torque) const;
+  MixerOutput mix(const Wrench& w) const { return mix(w.thrust, w.torque); }
+
+  // The forward model eq. 5.5: thrust and torques from squared rotor speeds.
+  Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
+
+ private:
+  float b_ = 0.0f;
+  float f_max_ = 0.0f;
+  float inv_f_max_ = 0.0f;
+  float inv_b_ = 0.0f;
+  // Per motor: forward factors (roll -y_i, pitch x_i, yaw s_i kappa/b) and the inverse ones.
+  float roll_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float pitch_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float yaw_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float roll_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float pitch_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float yaw_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+};
+
+}  // namespace ctrl
+}  // namespace quad

@@ -1,0 +1,62 @@
+// Setpoint shaping: moving to a new position target along a smooth path instead of a step. The shaper
+// keeps a reference state (p, v) and moves it towards the target with |v| <= max_speed and
+// |a| <= max_accel (Euclidean norms, NED), braking so it arrives without overshoot; its output feeds
+// p_d, v_d, a_d of eq. 8.20. The target may change at any time, also mid-move: the reference stays
+// continuous in position and velocity.
+//
+// Per step: the speed towards the target is the braking-limited square-root law of ArduPilot's
+// sqrt_controller (linear, gain k, within a short distance of the target, so the end is a smooth
+// exponential rather than bang-bang chatter), capped at max_speed; the acceleration that reaches that
+// velocity in one step is capped at max_accel.
+//
+// Usage:
+//   quad::ctrl::SetpointShaper shaper;            // defaults: 1 m/s, 1 m/s^2
+//   shaper.reset(p_now);                          // start from where the vehicle is, at rest
+//   shaper.set_target({2.0f, 0.0f, -1.5f});
+//   each control step: shaper.update(dt, sp);     // fills sp.p_d, sp.v_d, sp.a_d (yaw_d untouched)
+#pragma once
+
+#include "quad/control/position_controller.h"
+#include "quad/math/math.h"
+
+namespace quad {
+namespace ctrl {
+
+struct ShaperParams {
+  float max_speed = 1.0f;   // m/s
+  float max_accel = 1.0f;   // m/s^2
+  float final_gain = 2.0f;  // k, 1/s: the exponential time constant of the last few centimetres is 1/k
+};
+
+class SetpointShaper {
+ public:
+  SetpointShaper() = default;
+  explicit SetpointShaper(const ShaperParams& p) : params_(p) {}
+
+  void set_params(const ShaperParams& p) { params_ = p; }
+  const ShaperParams& params() const { return params_; }
+
+  // Puts the reference at p, at rest, with the target there too.
+  void reset(const Vec3& p);
+  void set_target(const Vec3& target) { target_ = target; }
+  const Vec3& target() const { return target_; }
+
+  // Advances the reference by dt seconds and writes it into sp.p_d, sp.v_d, sp.a_d.
+  void update(float dt, PositionSetpoint& sp);
+
+  const Vec3& position() const { return p_; }
+  const Vec3& velocity() const { return v_; }
+  bool arrived(float tolerance) const;  // within tolerance (m) of the target and nearly at rest
+
+ private:
+  ShaperParams params_;
+  Vec3 target_;
+  Vec3 p_;
+  Vec3 v_;
+};
+
+// Returns nullptr when usable, else the name of the first bad field.
+const char* validate(const ShaperParams& p);
+
+}  // namespace ctrl
+}  // namespace quad

@@ -1,0 +1,75 @@
+// Thrust and desired attitude from the desired virtual acceleration, thesis eq. 8.28-8.37 with the errata
+// applied, composed with the desired heading:
+//   T   = m ||g e_z - mu_d||                                   (eq. 8.30)
+//   u   = (g e_z - mu_d) / ||g e_z - mu_d||,  R_d e_3 = u      (eq. 8.28/8.32 with R_d = R_IB)
+//   Q_tilt: q0 = sqrt((1 + u_z) / 2),  q = (mu_d2, -mu_d1, 0) / (2 N q0)   (eq. 8.37a/b, corrected)
+//   Q_d = Q_tilt (x) Q_yaw(yaw_d)                               (errata "8.37 yaw")
+// Thrust acts along body -z (FRD), so R_d (-e_3) points along mu_d - g e_z: the commanded specific force.
+//
+// Limits, applied to mu_d before the formulas so the result is always well defined:
+//   1. vertical: g - mu_d3 >= min_thrust / m (the thrust never points down, which also keeps eq. 8.37
+//      away from its singularity u = -e_z) and <= max_thrust / m;
+//   2. tilt: the horizontal part of mu_d is scaled down so the tilt stays <= max_tilt;
+//   3. total thrust: if T would exceed max_thrust the horizontal part is scaled down further (altitude
+//      has priority over horizontal acceleration).
+// The heading of Q_d's body x axis equals yaw_d exactly when level and to second order in the tilt.
+//
+// Usage:
+//   quad::ctrl::ThrustAttitude ta;                         // defaults: Quad-C, 35 deg, thrust range
+//   ta.set_params(quad::ctrl::ThrustAttitudeParams::for_vehicle(vehicle));
+//   quad::ctrl::AttitudeCommand cmd = ta.update(mu_d, yaw_d);   // cmd.thrust (N), cmd.q_d
+#pragma once
+
+#include "quad/control/vehicle.h"
+#include "quad/math/math.h"
+
+namespace quad {
+namespace ctrl {
+
+struct ThrustAttitudeParams {
+  float mass = 1.4f;                   // kg
+  float max_tilt = 35.0f * kDegToRad;  // rad, in (0, 80 deg]
+  float min_thrust = 0.1f * 1.4f * kGravity;  // N: keeps the vehicle upright and controllable
+  float max_thrust = 4.0f * 0.880f * kGravity;  // N: what the four motors can give
+
+  // mass and maximum thrust from the vehicle; min_thrust 10 % of hover.
+  static ThrustAttitudeParams for_vehicle(const VehicleParams& v);
+};
+
+// What the attitude loop and the mixer need: collective thrust and desired attitude.
+struct AttitudeCommand {
+  float thrust = 0.0f;       // N, along body -z
+  Quat q_d;                  // desired attitude q_IB
+  Vec3 mu_applied;           // the mu_d actually realised after the limits, m/s^2 (NED)
+  bool limited = false;      // true when any limit changed mu_d
+};
+
+class ThrustAttitude {
+ public:
+  ThrustAttitude();
+  explicit ThrustAttitude(const ThrustAttitudeParams& p);
+
+  // Precomputes tan(max_tilt) and the thrust bounds in m/s^2; call when parameters change.
+  void set_params(const ThrustAttitudeParams& p);
+  const ThrustAttitudeParams& params() const { return params_; }
+
+  // T and Q_d for the desired virtual acceleration mu_d (NED, m/s^2) and heading yaw_d (rad).
+  // Non-finite input yields a level, hover-thrust command with limited = true.
+  AttitudeCommand update(const Vec3& mu_d, float yaw_d);
+
+ private:
+  Quat yaw_quat(float yaw_d);  // cached: the trigonometry runs only when yaw_d changes
+
+  ThrustAttitudeParams params_;
+  float tan_max_tilt_ = 0.0f;
+  float min_accel_ = 0.0f;  // min_thrust / m
+  float max_accel_ = 0.0f;  // max_thrust / m
+  float cached_yaw_ = 0.0f;
+  Quat cached_yaw_quat_;
+};
+
+// Returns nullptr when usable, else the name of the first bad field.
+const char* validate(const ThrustAttitudeParams& p);
+
+}  // namespace ctrl
+}  // namespace quad

@@ -1,0 +1,87 @@
+#include "quad/control/manual.h"
+
+#include "quad/control/approx.h"
+
+namespace quad {
+namespace ctrl {
+
+namespace {
+constexpr int kMidPulse = 1500;
+constexpr int kHalfRange = 500;  // us from mid stick to full deflection
+}  // namespace
+
+float stick_to_unit(uint16_t pulse_us, uint16_t dead_band) {
+  const int d = static_cast<int>(pulse_us) - kMidPulse;
+  const int mag = d < 0 ? -d : d;
+  const int band = dead_band < kHalfRange ? dead_band : kHalfRange - 1;
+  if (mag <= band) return 0.0f;
+  const float u = static_cast<float>(mag - band) / static_cast<float>(kHalfRange - band);
+  const float clamped = minf(u, 1.0f);
+  return d < 0 ? -clamped : clamped;
+}
+
+float throttle_to_unit(uint16_t pulse_us) {
+  return clampf(static_cast<float>(static_cast<int>(pulse_us) - 1000) * 1e-3f, 0.0f, 1.0f);
+}
+
+void ManualControl::reset(float yaw) {
+  const float half = 0.5f * wrap_pi(is_finite(yaw) ? yaw : 0.0f);
+  yaw_half_c_ = cosf(half);
+  yaw_half_s_ = sinf(half);
+  command_ = AttitudeCommand{};
+  command_.q_d = Quat{yaw_half_c_, 0.0f, 0.0f, yaw_half_s_};
+}
+
+float ManualControl::heading() const { return wrap_pi(2.0f * atan2f(yaw_half_s_, yaw_half_c_)); }
+
+bool ManualControl::update(const RcSticks& rc, float dt) {
+  const uint16_t lo = params_.min_pulse;
+  const uint16_t hi = params_.max_pulse;
+  if (rc.roll < lo || rc.roll > hi || rc.pitch < lo || rc.pitch > hi || rc.yaw < lo || rc.yaw > hi ||
+      rc.throttle < lo || rc.throttle > hi || !is_finite(dt) || dt < 0.0f) {
+    return false;
+  }
+
+  const float roll_unit = stick_to_unit(rc.roll, params_.dead_band);
+  const float pitch_unit = stick_to_unit(rc.pitch, params_.dead_band);
+  const float yaw_unit = stick_to_unit(rc.yaw, params_.dead_band);
+  const float roll = params_.max_angle * (params_.reverse_roll ? -roll_unit : roll_unit);
+  const float pitch = params_.max_angle * (params_.reverse_pitch ? -pitch_unit : pitch_unit);
+  const float yaw_rate = params_.max_yaw_rate * (params_.reverse_yaw ? -yaw_unit : yaw_unit);
+
+  // Sec. 6.1.4: the yaw stick is a rate. Turn the held half-heading by half of yaw_rate dt, a rotation
+  // of the unit pair (cos, sin); one Newton step on the norm keeps it unit without a square root.
+  const SinCos step = sincos_small(clampf(0.5f * yaw_rate * dt, -0.8f, 0.8f));
+  const float c = yaw_half_c_ * step.c - yaw_half_s_ * step.s;
+  const float s = yaw_half_s_ * step.c + yaw_half_c_ * step.s;
+  const float renorm = 0.5f * (3.0f - (c * c + s * s));
+  yaw_half_c_ = c * renorm;
+  yaw_half_s_ = s * renorm;
+
+  // thesis eq. 6.2 (ZYX Euler angles to quaternion) from the half-angle sines and cosines.
+  const SinCos r = sincos_small(0.5f * roll);
+  const SinCos p = sincos_small(0.5f * pitch);
+  const float cy = yaw_half_c_;
+  const float sy = yaw_half_s_;
+  command_.q_d = Quat{r.c * p.c * cy + r.s * p.s * sy,
+                      r.s * p.c * cy - r.c * p.s * sy,
+                      r.c * p.s * cy + r.s * p.c * sy,
+                      r.c * p.c * sy - r.s * p.s * cy};
+  command_.thrust = params_.max_thrust * throttle_to_unit(rc.throttle);
+  command_.mu_applied = Vec3{};
+  command_.limited = false;
+  return true;
+}
+
+const char* validate(const ManualParams& p) {
+  if (!(is_finite(p.max_angle) && p.max_angle > 0.0f && p.max_angle <= 45.0f * kDegToRad)) return "max_angle";
+  if (!(is_finite(p.max_yaw_rate) && p.max_yaw_rate > 0.0f && p.max_yaw_rate <= 2.0f * kTwoPi)) return "max_yaw_rate";
+  if (!(is_finite(p.max_thrust) && p.max_thrust > 0.0f)) return "max_thrust";
+  if (p.dead_band >= 200) return "dead_band";
+  if (p.min_pulse > 1000) return "min_pulse";
+  if (p.max_pulse < 2000) return "max_pulse";
+  return nullptr;
+}
+
+}  // namespace ctrl
+}  // namespace quad
