@@ -1,0 +1,150 @@
+// Named parameters: every gain, filter setting, limit and airframe constant of the flight application.
+//
+// One table (QUAD_PARAM_TABLE) gives each parameter its MAVLink name (at most 16 characters), its
+// default (thesis table 8.1 where the thesis gives one) and its valid range. Values are floats (MAVLink
+// MAV_PARAM_TYPE_REAL32) held in RAM; names, defaults and ranges stay in flash.
+#pragma once
+
+#include <stdint.h>
+
+namespace quad {
+namespace fw {
+
+// X(id, "NAME", default, min, max)
+#define QUAD_PARAM_TABLE(X)                                                                  \
+  /* scheduler */                                                                            \
+  X(kLoopHz, "SYS_LOOP_HZ", 100.0f, 50.0f, 1000.0f)                                          \
+  /* boot calibration: the vehicle must stay still for CAL_TIME seconds */                   \
+  X(kCalTime, "CAL_TIME", 2.0f, 0.2f, 30.0f)                                                 \
+  X(kCalGyroStill, "CAL_GYRO_STILL", 0.05f, 0.001f, 1.0f)                                    \
+  X(kCalAccStill, "CAL_ACC_STILL", 0.5f, 0.01f, 5.0f)                                        \
+  /* conditioned attitude observer, thesis table 8.1 */                                      \
+  X(kObsK1, "OBS_K1", 1.0f, 0.0f, 100.0f)                                                    \
+  X(kObsK2, "OBS_K2", 0.2f, 0.0f, 100.0f)                                                    \
+  X(kObsK3, "OBS_K3", 0.03125f, 0.0f, 10.0f)                                                 \
+  X(kObsK4, "OBS_K4", 0.00625f, 0.0f, 10.0f)                                                 \
+  X(kObsKb, "OBS_KB", 16.0f, 0.0f, 1000.0f)                                                  \
+  X(kObsDelta, "OBS_DELTA", 0.03f, 0.0f, 1.0f)                                               \
+  /* position Kalman filter (thesis eq. 8.12: Q = diag(s_p^2 T, s_v^2 T), table 8.1 Q = I T) */ \
+  X(kKfQPos, "KF_Q_POS", 1.0f, 0.0f, 100.0f)                                                 \
+  X(kKfQVel, "KF_Q_VEL", 1.0f, 0.0f, 100.0f)                                                 \
+  X(kKfRPos, "KF_R_POS", 0.0025f, 1e-6f, 10.0f)                                              \
+  X(kKfGate, "KF_GATE", 25.0f, 0.0f, 1000.0f)                                                \
+  /* vision: star position in NED (m) and the oldest fix still fused (s) */                  \
+  X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                        \
+  X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                        \
+  X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                        \
+  X(kVisMaxAge, "VIS_MAX_AGE", 0.3f, 0.0f, 1.0f)                                             \
+  /* attitude PD, thesis eq. 8.39 and table 8.1 */                                           \
+  X(kAttAlpha, "ATT_ALPHA", 3.0f, 0.0f, 100.0f)                                              \
+  X(kAttGammaXY, "ATT_GAMMA_XY", 0.625f, 0.0f, 100.0f)                                       \
+  X(kAttGammaZ, "ATT_GAMMA_Z", 0.5f, 0.0f, 100.0f)                                           \
+  /* position control, thesis eq. 8.20 and table 8.1 */                                      \
+  X(kPosKpXY, "POS_KP_XY", 3.625f, 0.0f, 100.0f)                                             \
+  X(kPosKpZ, "POS_KP_Z", 3.625f, 0.0f, 100.0f)                                               \
+  X(kPosKvXY, "POS_KV_XY", 11.875f, 0.0f, 100.0f)                                            \
+  X(kPosKvZ, "POS_KV_Z", 3.5f, 0.0f, 100.0f)                                                 \
+  X(kPosTiltMax, "POS_TILT_MAX", 0.5f, 0.05f, 1.2f)                                          \
+  /* airframe (3DR Quad-C, plus configuration; docs/firmware.md) */                          \
+  X(kVehMass, "VEH_MASS", 1.4f, 0.1f, 20.0f)                                                 \
+  X(kVehArm, "VEH_ARM", 0.26f, 0.05f, 2.0f)                                                  \
+  X(kVehThrMax, "VEH_THR_MAX", 8.63f, 0.5f, 100.0f)                                          \
+  X(kVehYawK, "VEH_YAW_K", 0.016f, 0.0f, 1.0f)                                               \
+  X(kVehIdle, "VEH_IDLE", 0.05f, 0.0f, 0.3f)                                                 \
+  /* manual flight from the RC sticks, thesis sec. 6.1.4 */                                  \
+  X(kManTiltMax, "MAN_TILT_MAX", 0.35f, 0.05f, 1.0f)                                         \
+  X(kManYawRate, "MAN_YAW_RATE", 1.57f, 0.1f, 6.0f)                                          \
+  X(kManThrMax, "MAN_THR_MAX", 0.8f, 0.1f, 1.0f)                                             \
+  /* arming, landing and failsafes */                                                        \
+  X(kArmThrMax, "ARM_THR_MAX", 0.1f, 0.0f, 0.5f)                                             \
+  X(kLandSpeed, "LAND_SPEED", 0.5f, 0.1f, 3.0f)                                              \
+  X(kLandVzMax, "LAND_VZ_MAX", 0.25f, 0.05f, 1.0f)                                           \
+  X(kLandThrFrac, "LAND_THR_FRAC", 0.7f, 0.1f, 1.0f)                                         \
+  X(kLandTime, "LAND_TIME", 1.0f, 0.1f, 10.0f)                                               \
+  X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                     \
+  X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                        \
+  X(kFsRcEnable, "FS_RC_ENABLE", 1.0f, 0.0f, 1.0f)                                           \
+  /* telemetry rates (Hz; 0 turns a stream off) */                                           \
+  X(kTelHbHz, "TEL_HB_HZ", 1.0f, 0.0f, 50.0f)                                                \
+  X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                            \
+  X(kTelPosHz, "TEL_POS_HZ", 10.0f, 0.0f, 500.0f)                                            \
+  X(kTelSysHz, "TEL_SYS_HZ", 1.0f, 0.0f, 50.0f)
+
+enum ParamId : uint8_t {
+#define QUAD_PARAM_ENUM(id, name, def, lo, hi) id,
+  QUAD_PARAM_TABLE(QUAD_PARAM_ENUM)
+#undef QUAD_PARAM_ENUM
+  kParamCount
+};
+
+constexpr uint8_t kParamNameLength = 16;  // MAVLink param_id: 16 chars, NUL-terminated only if shorter
+
+struct ParamInfo {
+  char name[kParamNameLength + 1];
+  float default_value;
+  float min;
+  float max;
+};
+
+// Copies the table entry out of flash.
+ParamInfo param_info(uint8_t index);
+
+// Index of the parameter whose name equals the first 16 characters of `name` (which need not be
+// NUL-terminated at 16), or -1.
+int16_t param_find(const char* name);
+
+// Why a value was refused.
+enum class ParamError : uint8_t { kNone, kUnknownName, kNotFinite, kOutOfRange };
+
+class Params {
+ public:
+  Params() { reset_to_defaults(); }
+
+  float get(ParamId id) const { return values_[id]; }
+  float get(uint8_t index) const { return values_[index]; }
+
+  // Sets a value after checking it is finite and within the table's range.
+  ParamError set(uint8_t index, float value);
+
+  void reset_to_defaults();
+
+  // Counts changes, so users can tell cheaply whether to re-read their configuration.
+  uint16_t generation() const { return generation_; }
+
+ private:
+  float values_[kParamCount];
+  uint16_t generation_ = 0;
+};
+
+// Persistent store: header (magic, layout version, schema hash of the table's names, count) and the
+// values, protected by a CRC-16. The storage is accessed through two functions so the same code
+// serves the AVR EEPROM, the host file and the tests.
+struct StorageIo {
+  bool (*read)(uint16_t offset, void* dst, uint16_t length);
+  bool (*write)(uint16_t offset, const void* src, uint16_t length);
+};
+
+enum class StoreStatus : uint8_t {
+  kLoaded,         // every value came from the store
+  kEmpty,          // erased storage (first boot): defaults
+  kSchemaChanged,  // written by firmware with another parameter table: defaults
+  kCorrupt,        // CRC mismatch or a value out of range: defaults
+  kIoError,        // the storage could not be read: defaults
+};
+
+const char* store_status_text(StoreStatus status);
+
+uint16_t params_schema_hash();
+uint16_t params_store_size();
+
+// Loads every value from the store, or resets `params` to the defaults and says why.
+StoreStatus params_load(const StorageIo& io, Params& params);
+
+// Writes the whole store (header, values, CRC).
+bool params_save_all(const StorageIo& io, const Params& params);
+
+// Rewrites one value and the CRC only (an EEPROM byte takes 3.3 ms to write on the AVR).
+bool params_save_one(const StorageIo& io, const Params& params, uint8_t index);
+
+}  // namespace fw
+}  // namespace quad

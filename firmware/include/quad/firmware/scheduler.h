@@ -1,0 +1,59 @@
+// Fixed-rate scheduling: the control loop's period, its measured execution time and overruns, and
+// dividers that run slower tasks (telemetry, parameters) every n-th iteration.
+#pragma once
+
+#include <stdint.h>
+
+namespace quad {
+namespace fw {
+
+// Decides when the next control iteration is due on a free-running microsecond clock and measures
+// each iteration. Periods are kept on a fixed grid (no drift); when an iteration starts later than one
+// whole period after its slot the missed slots are skipped and counted as overruns.
+class LoopTimer {
+ public:
+  void set_rate_hz(float hz);
+  uint32_t period_us() const { return period_us_; }
+
+  // True when an iteration is due at `now_us`; advances the grid. The first call always fires.
+  bool due(uint32_t now_us);
+
+  // Brackets one iteration (start/end on the same clock) to measure its execution time.
+  void begin(uint32_t now_us) { begin_us_ = now_us; }
+  void end(uint32_t now_us);
+
+  // Ticks of the grid that passed without an iteration, plus iterations that took longer than a
+  // period.
+  uint32_t overruns() const { return overruns_; }
+  uint32_t iterations() const { return iterations_; }
+  uint32_t last_exec_us() const { return last_exec_us_; }
+  uint32_t max_exec_us() const { return max_exec_us_; }
+  // Share of the period spent in the loop, 0..1000 per mille (SYS_STATUS.load), filtered over ~1 s.
+  uint16_t load_permille() const { return static_cast<uint16_t>(load_permille_ + 0.5f); }
+
+ private:
+  uint32_t period_us_ = 10000;
+  uint32_t next_us_ = 0;
+  bool started_ = false;
+  uint32_t begin_us_ = 0;
+  uint32_t last_exec_us_ = 0;
+  uint32_t max_exec_us_ = 0;
+  uint32_t overruns_ = 0;
+  uint32_t iterations_ = 0;
+  float load_permille_ = 0.0f;
+};
+
+// Runs a task at `rate_hz` out of a loop at `loop_hz` by counting iterations (deterministic in
+// lockstep). A rate of 0 turns the task off; rates above the loop rate run every iteration.
+class RateDivider {
+ public:
+  void configure(float rate_hz, float loop_hz);
+  bool tick();  // call once per loop iteration; true when the task should run now
+
+ private:
+  uint16_t divisor_ = 0;  // 0: off
+  uint16_t count_ = 0;
+};
+
+}  // namespace fw
+}  // namespace quad

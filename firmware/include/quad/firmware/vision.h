@@ -1,0 +1,62 @@
+// The vision path: the base station's star fix, measured at a past capture time, becomes a vehicle
+// position in NED.
+//
+// LANDING_TARGET carries the star's position relative to the vehicle in body FRD, p_B. With the star
+// at the known NED point s (parameters VIS_STAR_N/E/D) and the attitude R_IB the vehicle had when the
+// image was captured,
+//   p_I = s - R_IB(t_capture) p_B                       (thesis eq. 8.5, sign per the errata:
+//                                                        p_I = -R_IB (R_BC p_C + t_BC) with the camera
+//                                                        terms already applied by the station)
+// The attitude at the capture time comes from AttitudeHistory, a short record of past attitudes.
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/math/math.h"
+
+namespace quad {
+namespace fw {
+
+// Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad) so that a
+// few hundred milliseconds of history cost a few hundred bytes of SRAM.
+class AttitudeHistory {
+ public:
+  static constexpr uint8_t kCapacity = 32;
+
+  // Record one sample every `decimation` calls to push().
+  void set_decimation(uint8_t decimation) { decimation_ = decimation == 0 ? 1 : decimation; }
+  uint8_t decimation() const { return decimation_; }
+  void clear() { count_ = 0; head_ = 0; skip_ = 0; }
+
+  void push(uint32_t t_us, const Quat& q);
+
+  // The attitude at t_us, interpolated between the two records around it. False when t_us lies
+  // outside the recorded span (older than the oldest record, or newer than the newest by more than
+  // one record spacing).
+  bool lookup(uint32_t t_us, Quat& q) const;
+
+  uint8_t size() const { return count_; }
+
+ private:
+  struct Record {
+    uint32_t t_us;
+    int16_t q[4];
+  };
+  const Record& at(uint8_t age) const;  // 0 = newest
+  static Quat unpack(const Record& r);
+
+  Record records_[kCapacity];
+  uint8_t head_ = 0;   // next slot to write
+  uint8_t count_ = 0;
+  uint8_t decimation_ = 1;
+  uint8_t skip_ = 0;
+  uint32_t newest_push_us_ = 0;
+};
+
+// thesis eq. 8.5 (errata sign): the vehicle's NED position from the star seen in body FRD.
+inline Vec3 vehicle_position_from_star(const Vec3& star_ned, const Quat& q_ib_at_capture, const Vec3& star_body) {
+  return star_ned - rotate(q_ib_at_capture, star_body);
+}
+
+}  // namespace fw
+}  // namespace quad

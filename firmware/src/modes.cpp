@@ -1,0 +1,153 @@
+#include "quad/firmware/modes.h"
+
+namespace quad {
+namespace fw {
+namespace {
+
+// True when `then_us` is at most `timeout_s` before `now_us`, robust to the 32-bit microsecond clock
+// wrapping. Compared in microseconds, where the usual timeouts (0.5 s, 1 s) are exact floats.
+bool within(uint32_t now_us, uint32_t then_us, float timeout_s) {
+  const int32_t age_us = static_cast<int32_t>(now_us - then_us);
+  return age_us <= 0 || static_cast<float>(age_us) <= timeout_s * 1e6f;
+}
+
+}  // namespace
+
+const char* mode_name(FlightMode mode) {
+  switch (mode) {
+    case FlightMode::kDisarmed: return "DISARMED";
+    case FlightMode::kManual: return "MANUAL";
+    case FlightMode::kAuto: return "AUTO";
+    case FlightMode::kLanding: return "LANDING";
+  }
+  return "?";
+}
+
+const char* reason_text(Reason reason) {
+  switch (reason) {
+    case Reason::kNone: return "";
+    case Reason::kArmed: return "armed";
+    case Reason::kDisarmed: return "disarmed";
+    case Reason::kLandedDisarmed: return "landed, disarmed";
+    case Reason::kManualSelected: return "manual selected";
+    case Reason::kAutoSelected: return "auto selected";
+    case Reason::kLandCommanded: return "land commanded";
+    case Reason::kFailsafeVisionLost: return "FAILSAFE vision lost: level, land";
+    case Reason::kFailsafeRcLost: return "FAILSAFE RC lost: land";
+    case Reason::kFailsafeEstimator: return "FAILSAFE estimator unhealthy: land";
+    case Reason::kRejectEstimatorNotConverged: return "arm refused: estimator not converged";
+    case Reason::kRejectSensors: return "arm refused: sensors unhealthy";
+    case Reason::kRejectNoRc: return "refused: no RC";
+    case Reason::kRejectThrottleHigh: return "arm refused: throttle not low";
+    case Reason::kRejectNoVision: return "auto refused: no vision fix";
+    case Reason::kRejectEstimatorUnhealthy: return "auto refused: estimator unhealthy";
+    case Reason::kRejectNotArmed: return "refused: not armed";
+    case Reason::kRejectAlreadyArmed: return "arm refused: already armed";
+    case Reason::kRejectInFlight: return "disarm refused: in flight";
+    case Reason::kRejectLanding: return "refused: landing";
+  }
+  return "?";
+}
+
+bool ModeMachine::vision_fresh(const ModeInputs& in) const {
+  return in.vision_seen && within(in.now_us, in.vision_time_us, config_.vision_timeout_s);
+}
+
+bool ModeMachine::rc_fresh(const ModeInputs& in) const {
+  return in.rc_seen && within(in.now_us, in.rc_time_us, config_.rc_timeout_s);
+}
+
+Transition ModeMachine::go(FlightMode to, Reason reason, bool level) {
+  Transition t;
+  t.changed = to != mode_;
+  t.from = mode_;
+  t.to = to;
+  t.reason = reason;
+  mode_ = to;
+  land_level_ = to == FlightMode::kLanding && level;
+  return t;
+}
+
+Transition ModeMachine::refuse(FlightMode mode, Reason reason) {
+  Transition t;
+  t.accepted = false;
+  t.from = t.to = mode;
+  t.reason = reason;
+  return t;
+}
+
+Transition ModeMachine::command(Command cmd, const ModeInputs& in) {
+  const bool rc_ok = !config_.rc_required || rc_fresh(in);
+  switch (cmd) {
+    case Command::kArm:
+      if (armed()) return refuse(mode_, Reason::kRejectAlreadyArmed);
+      if (!in.estimator_converged) return refuse(mode_, Reason::kRejectEstimatorNotConverged);
+      if (!in.sensors_healthy) return refuse(mode_, Reason::kRejectSensors);
+      if (!rc_ok) return refuse(mode_, Reason::kRejectNoRc);
+      if (rc_fresh(in) && in.rc_throttle > config_.arm_throttle_max) return refuse(mode_, Reason::kRejectThrottleHigh);
+      return go(FlightMode::kManual, Reason::kArmed);
+
+    case Command::kDisarm: {
+      if (!armed()) return Transition{};
+      const bool throttle_low = mode_ == FlightMode::kManual && rc_fresh(in) && in.rc_throttle <= config_.arm_throttle_max;
+      if (!in.landed && !throttle_low) return refuse(mode_, Reason::kRejectInFlight);
+      return go(FlightMode::kDisarmed, Reason::kDisarmed);
+    }
+
+    case Command::kForceDisarm:
+      if (!armed()) return Transition{};
+      return go(FlightMode::kDisarmed, Reason::kDisarmed);
+
+    case Command::kManual:
+      if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
+      if (mode_ == FlightMode::kManual) return Transition{false, true, mode_, mode_, Reason::kNone};
+      if (!rc_fresh(in)) return refuse(mode_, Reason::kRejectNoRc);
+      return go(FlightMode::kManual, Reason::kManualSelected);
+
+    case Command::kAuto:
+      if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
+      if (mode_ == FlightMode::kAuto) return Transition{false, true, mode_, mode_, Reason::kNone};
+      if (mode_ == FlightMode::kLanding) return refuse(mode_, Reason::kRejectLanding);
+      if (!in.estimator_healthy) return refuse(mode_, Reason::kRejectEstimatorUnhealthy);
+      if (!vision_fresh(in)) return refuse(mode_, Reason::kRejectNoVision);
+      return go(FlightMode::kAuto, Reason::kAutoSelected);
+
+    case Command::kLand:
+      if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
+      if (mode_ == FlightMode::kLanding) return Transition{false, true, mode_, mode_, Reason::kNone};
+      // Without a fresh fix there is no horizontal position to hold: land level.
+      return go(FlightMode::kLanding, Reason::kLandCommanded, !vision_fresh(in));
+  }
+  return Transition{};
+}
+
+Transition ModeMachine::update(const ModeInputs& in) {
+  switch (mode_) {
+    case FlightMode::kDisarmed:
+      return Transition{};
+    case FlightMode::kManual:
+    case FlightMode::kAuto:
+      if (!in.estimator_healthy) return go(FlightMode::kLanding, Reason::kFailsafeEstimator, true);
+      if (config_.rc_required && !rc_fresh(in)) {
+        return go(FlightMode::kLanding, Reason::kFailsafeRcLost, mode_ != FlightMode::kAuto || !vision_fresh(in));
+      }
+      if (mode_ == FlightMode::kAuto && !vision_fresh(in)) {
+        return go(FlightMode::kLanding, Reason::kFailsafeVisionLost, true);
+      }
+      return Transition{};
+    case FlightMode::kLanding:
+      if (in.landed) return go(FlightMode::kDisarmed, Reason::kLandedDisarmed);
+      // A landing that holds position falls back to level once the fix or the estimator is gone, and
+      // stays level for the rest of the descent.
+      if (!land_level_ && (!in.estimator_healthy || !vision_fresh(in))) {
+        land_level_ = true;
+        return Transition{false, true, mode_, mode_,
+                          in.estimator_healthy ? Reason::kFailsafeVisionLost : Reason::kFailsafeEstimator};
+      }
+      return Transition{};
+  }
+  return Transition{};
+}
+
+}  // namespace fw
+}  // namespace quad

@@ -1,0 +1,53 @@
+#include "quad/firmware/scheduler.h"
+
+namespace quad {
+namespace fw {
+
+void LoopTimer::set_rate_hz(float hz) {
+  if (!(hz >= 1.0f)) hz = 1.0f;
+  period_us_ = static_cast<uint32_t>(1e6f / hz + 0.5f);
+}
+
+bool LoopTimer::due(uint32_t now_us) {
+  if (!started_) {
+    started_ = true;
+    next_us_ = now_us + period_us_;
+    return true;
+  }
+  const int32_t late = static_cast<int32_t>(now_us - next_us_);
+  if (late < 0) return false;
+  const uint32_t missed = static_cast<uint32_t>(late) / period_us_;
+  overruns_ += missed;
+  next_us_ += (missed + 1u) * period_us_;
+  return true;
+}
+
+void LoopTimer::end(uint32_t now_us) {
+  last_exec_us_ = now_us - begin_us_;
+  if (last_exec_us_ > max_exec_us_) max_exec_us_ = last_exec_us_;
+  if (last_exec_us_ > period_us_) ++overruns_;
+  ++iterations_;
+  const float load = 1000.0f * static_cast<float>(last_exec_us_) / static_cast<float>(period_us_);
+  // First-order filter with a time constant of about 100 iterations (1 s at 100 Hz).
+  load_permille_ += 0.01f * ((load > 1000.0f ? 1000.0f : load) - load_permille_);
+}
+
+void RateDivider::configure(float rate_hz, float loop_hz) {
+  count_ = 0;
+  if (!(rate_hz > 0.0f) || !(loop_hz > 0.0f)) {
+    divisor_ = 0;
+    return;
+  }
+  const float d = loop_hz / rate_hz + 0.5f;
+  divisor_ = d < 1.0f ? 1 : (d > 65535.0f ? 65535 : static_cast<uint16_t>(d));
+}
+
+bool RateDivider::tick() {
+  if (divisor_ == 0) return false;
+  if (++count_ < divisor_) return false;
+  count_ = 0;
+  return true;
+}
+
+}  // namespace fw
+}  // namespace quad

@@ -1,0 +1,224 @@
+// Host HAL: termios raw serial ports, CLOCK_MONOTONIC, file-backed parameter storage.
+#include "quad/hal/host.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <string.h>
+#include <termios.h>
+#include <time.h>
+#include <unistd.h>
+
+
+namespace quad {
+namespace hal {
+namespace host {
+namespace {
+
+struct PortState {
+  int fd = -1;
+  bool hung_up = false;
+  uint32_t dropped = 0;
+};
+
+struct State {
+  PortState ports[kPortCount];
+  uint8_t storage[kStorageSize];
+  int storage_fd = -1;
+  bool led = false;
+  timespec epoch{};
+};
+
+State g_state;
+
+bool speed_for(uint32_t baud, speed_t* out) {
+  static const struct {
+    uint32_t baud;
+    speed_t speed;
+  } kTable[] = {{9600, B9600},       {19200, B19200},     {38400, B38400},     {57600, B57600},
+                {115200, B115200},   {230400, B230400},   {460800, B460800},   {500000, B500000},
+                {576000, B576000},   {921600, B921600},   {1000000, B1000000}, {1152000, B1152000},
+                {1500000, B1500000}, {2000000, B2000000}, {2500000, B2500000}, {3000000, B3000000},
+                {3500000, B3500000}, {4000000, B4000000}};
+  for (const auto& entry : kTable) {
+    if (entry.baud == baud) {
+      *out = entry.speed;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string system_error(const std::string& what, const std::string& path) {
+  return what + " '" + path + "': " + strerror(errno);
+}
+
+bool open_port(const PortConfig& config, const char* name, PortState* port, std::string* error) {
+  speed_t speed;
+  if (!speed_for(config.baud, &speed)) {
+    *error = std::string(name) + ": unsupported baud rate " + std::to_string(config.baud) +
+             " (use a standard rate such as 57600, 115200 or 921600)";
+    return false;
+  }
+  const int fd = ::open(config.path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    *error = system_error(std::string(name) + ": cannot open serial port", config.path);
+    return false;
+  }
+  termios tio;
+  if (tcgetattr(fd, &tio) != 0) {
+    *error = system_error(std::string(name) + ": not a serial port", config.path);
+    ::close(fd);
+    return false;
+  }
+  cfmakeraw(&tio);
+  tio.c_cflag |= CLOCAL | CREAD;
+  tio.c_cc[VMIN] = 0;
+  tio.c_cc[VTIME] = 0;
+  if (cfsetispeed(&tio, speed) != 0 || cfsetospeed(&tio, speed) != 0 || tcsetattr(fd, TCSANOW, &tio) != 0) {
+    *error = system_error(std::string(name) + ": cannot configure serial port", config.path);
+    ::close(fd);
+    return false;
+  }
+  tcflush(fd, TCIOFLUSH);
+  port->fd = fd;
+  port->hung_up = false;
+  port->dropped = 0;
+  return true;
+}
+
+// The storage file holds exactly kStorageSize bytes; a new file starts erased, like a new EEPROM.
+bool open_storage(const std::string& path, std::string* error) {
+  memset(g_state.storage, 0xFF, sizeof g_state.storage);
+  if (path.empty()) return true;
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    *error = system_error("cannot open parameter storage", path);
+    return false;
+  }
+  const ssize_t n = pread(fd, g_state.storage, sizeof g_state.storage, 0);
+  if (n < 0) {
+    *error = system_error("cannot read parameter storage", path);
+    ::close(fd);
+    return false;
+  }
+  if (n < static_cast<ssize_t>(sizeof g_state.storage)) {
+    // A short (or new) file: the missing tail is erased memory; write it out so the size is right.
+    if (pwrite(fd, g_state.storage + n, sizeof g_state.storage - static_cast<size_t>(n), n) < 0) {
+      *error = system_error("cannot write parameter storage", path);
+      ::close(fd);
+      return false;
+    }
+  }
+  g_state.storage_fd = fd;
+  return true;
+}
+
+}  // namespace
+
+bool baud_supported(uint32_t baud) {
+  speed_t unused;
+  return speed_for(baud, &unused);
+}
+
+bool open(const Config& config, std::string* error) {
+  close();
+  static const char* const kNames[kPortCount] = {"uart0", "uart2"};
+  for (int i = 0; i < kPortCount; ++i) {
+    if (config.ports[i].path.empty()) continue;
+    if (!open_port(config.ports[i], kNames[i], &g_state.ports[i], error)) {
+      close();
+      return false;
+    }
+  }
+  if (!open_storage(config.storage_path, error)) {
+    close();
+    return false;
+  }
+  clock_gettime(CLOCK_MONOTONIC, &g_state.epoch);
+  return true;
+}
+
+void close() {
+  for (PortState& port : g_state.ports) {
+    if (port.fd >= 0) ::close(port.fd);
+    port = PortState{};
+  }
+  if (g_state.storage_fd >= 0) ::close(g_state.storage_fd);
+  g_state.storage_fd = -1;
+}
+
+bool port_hung_up(Port port) { return g_state.ports[port].hung_up; }
+uint32_t bytes_dropped(Port port) { return g_state.ports[port].dropped; }
+bool led_state() { return g_state.led; }
+
+}  // namespace host
+
+void init() {}
+
+uint32_t micros() {
+  timespec now;
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  const int64_t us = (static_cast<int64_t>(now.tv_sec) - host::g_state.epoch.tv_sec) * 1000000 +
+                     (now.tv_nsec - host::g_state.epoch.tv_nsec) / 1000;
+  return static_cast<uint32_t>(us);
+}
+
+void idle(uint32_t max_wait_us) {
+  pollfd fds[kPortCount];
+  nfds_t n = 0;
+  for (const auto& port : host::g_state.ports) {
+    if (port.fd >= 0 && !port.hung_up) fds[n++] = pollfd{port.fd, POLLIN, 0};
+  }
+  const int timeout_ms = static_cast<int>((max_wait_us + 999u) / 1000u);
+  if (n == 0) {
+    timespec wait{static_cast<time_t>(max_wait_us / 1000000u), static_cast<long>(max_wait_us % 1000000u) * 1000};
+    nanosleep(&wait, nullptr);
+    return;
+  }
+  poll(fds, n, timeout_ms);
+}
+
+uint16_t serial_read(Port port, uint8_t* dst, uint16_t capacity) {
+  host::PortState& state = host::g_state.ports[port];
+  if (state.fd < 0 || state.hung_up || capacity == 0) return 0;
+  const ssize_t n = ::read(state.fd, dst, capacity);
+  if (n > 0) return static_cast<uint16_t>(n);
+  // EIO on a pseudo-terminal slave means the master closed; 0 on a tty means hang-up.
+  if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) state.hung_up = true;
+  return 0;
+}
+
+uint16_t serial_write(Port port, const uint8_t* src, uint16_t length) {
+  host::PortState& state = host::g_state.ports[port];
+  if (state.fd < 0 || state.hung_up) {
+    state.dropped += length;
+    return 0;
+  }
+  const ssize_t n = ::write(state.fd, src, length);
+  const uint16_t written = n > 0 ? static_cast<uint16_t>(n) : 0;
+  if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) state.hung_up = true;
+  state.dropped += static_cast<uint32_t>(length - written);
+  return written;
+}
+
+uint16_t storage_size() { return host::kStorageSize; }
+
+bool storage_read(uint16_t offset, void* dst, uint16_t length) {
+  if (static_cast<uint32_t>(offset) + length > host::kStorageSize) return false;
+  memcpy(dst, host::g_state.storage + offset, length);
+  return true;
+}
+
+bool storage_write(uint16_t offset, const void* src, uint16_t length) {
+  if (static_cast<uint32_t>(offset) + length > host::kStorageSize) return false;
+  memcpy(host::g_state.storage + offset, src, length);
+  if (host::g_state.storage_fd < 0) return true;
+  return pwrite(host::g_state.storage_fd, src, length, offset) == static_cast<ssize_t>(length) &&
+         fdatasync(host::g_state.storage_fd) == 0;
+}
+
+void led_write(bool on) { host::g_state.led = on; }
+
+}  // namespace hal
+}  // namespace quad

@@ -1,0 +1,169 @@
+// Scheduler timing (grid, overruns, load, dividers) and the vision path (attitude history, eq. 8.5).
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "eigen_oracle.h"
+#include "quad/firmware/scheduler.h"
+#include "quad/firmware/vision.h"
+
+namespace {
+
+using quad::fw::AttitudeHistory;
+using quad::fw::LoopTimer;
+using quad::fw::RateDivider;
+
+TEST(LoopTimer, FiresOnAFixedGridWithoutDrift) {
+  LoopTimer t;
+  t.set_rate_hz(100.0f);
+  ASSERT_EQ(t.period_us(), 10000u);
+  uint32_t now = 5000;
+  int fired = 0;
+  // Poll every 300 us for one simulated second: exactly 100 iterations, never two in one period.
+  for (int i = 0; i < 3334; ++i, now += 300) fired += t.due(now) ? 1 : 0;
+  EXPECT_EQ(fired, 100);
+  EXPECT_EQ(t.overruns(), 0u);
+}
+
+TEST(LoopTimer, ConfigurableRates) {
+  LoopTimer t;
+  t.set_rate_hz(50.0f);
+  EXPECT_EQ(t.period_us(), 20000u);
+  t.set_rate_hz(400.0f);
+  EXPECT_EQ(t.period_us(), 2500u);
+  t.set_rate_hz(1000.0f);
+  EXPECT_EQ(t.period_us(), 1000u);
+}
+
+TEST(LoopTimer, CountsMissedSlotsAndLongIterations) {
+  LoopTimer t;
+  t.set_rate_hz(100.0f);
+  ASSERT_TRUE(t.due(0));
+  t.begin(0);
+  t.end(35000);  // 35 ms in a 10 ms period
+  EXPECT_EQ(t.overruns(), 1u);
+  EXPECT_EQ(t.max_exec_us(), 35000u);
+  // The next call is 3.5 periods late: slots at 10, 20, 30 ms passed; 20 and 30 were missed.
+  EXPECT_TRUE(t.due(35000));
+  EXPECT_EQ(t.overruns(), 3u);
+  // Back on the grid: the next slot is 40 ms.
+  EXPECT_FALSE(t.due(39999));
+  EXPECT_TRUE(t.due(40000));
+}
+
+TEST(LoopTimer, LoadTracksExecutionShare) {
+  LoopTimer t;
+  t.set_rate_hz(100.0f);
+  uint32_t now = 0;
+  for (int i = 0; i < 1000; ++i) {
+    t.begin(now);
+    t.end(now + 2500);  // 25 % of the period
+    now += 10000;
+  }
+  EXPECT_NEAR(t.load_permille(), 250, 2);
+  EXPECT_EQ(t.overruns(), 0u);
+  EXPECT_EQ(t.iterations(), 1000u);
+}
+
+TEST(LoopTimer, SurvivesClockWrap) {
+  LoopTimer t;
+  t.set_rate_hz(100.0f);
+  uint32_t now = 0xFFFFFFFFu - 25000u;
+  int fired = 0;
+  for (int i = 0; i < 100; ++i, now += 1000) fired += t.due(now) ? 1 : 0;
+  EXPECT_EQ(fired, 10);
+  EXPECT_EQ(t.overruns(), 0u);
+}
+
+TEST(RateDivider, RunsAtTheRequestedShareOfTheLoop) {
+  RateDivider d;
+  d.configure(10.0f, 100.0f);
+  int runs = 0;
+  for (int i = 0; i < 1000; ++i) runs += d.tick() ? 1 : 0;
+  EXPECT_EQ(runs, 100);
+  d.configure(0.0f, 100.0f);
+  for (int i = 0; i < 1000; ++i) EXPECT_FALSE(d.tick());
+  d.configure(500.0f, 100.0f);  // faster than the loop: every iteration
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(d.tick());
+}
+
+quad::Quat random_quat(std::mt19937& rng) {
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  return quad::normalized(quad::Quat{n(rng), n(rng), n(rng), n(rng)});
+}
+
+TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
+  // A vehicle turning at a constant 1 rad/s about a tilted axis; 100 Hz, one record per iteration.
+  const Eigen::Vector3f axis = Eigen::Vector3f(0.3f, -0.5f, 0.8f).normalized();
+  auto truth = [&](double t) { return Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(t), axis)); };
+  AttitudeHistory h;
+  for (int k = 0; k <= 40; ++k) {
+    const Eigen::Quaternionf q = truth(k * 0.01);
+    h.push(static_cast<uint32_t>(k * 10000), quad::Quat{q.w(), q.x(), q.y(), q.z()});
+  }
+  EXPECT_EQ(h.size(), AttitudeHistory::kCapacity);
+  // 0.27 s ago, between two records.
+  const uint32_t t_query = 400000 - 270000 + 4321;
+  quad::Quat q;
+  ASSERT_TRUE(h.lookup(t_query, q));
+  const Eigen::Quaternionf expect = truth(t_query * 1e-6);
+  const float err = Eigen::Quaternionf(q.w, q.x, q.y, q.z).angularDistance(expect);
+  EXPECT_LT(err, 2e-4f);
+  // Older than the oldest record (32 records span 0.31 s): refused rather than guessed.
+  EXPECT_FALSE(h.lookup(400000 - 320000, q));
+  // Newer than the last push: refused.
+  EXPECT_FALSE(h.lookup(400001, q));
+  EXPECT_TRUE(h.lookup(400000, q));
+}
+
+TEST(AttitudeHistory, DecimationStretchesTheSpan) {
+  AttitudeHistory h;
+  h.set_decimation(4);  // 400 Hz loop, one record per 10 ms
+  for (int k = 0; k <= 400; ++k) h.push(static_cast<uint32_t>(k * 2500), quad::Quat::identity());
+  quad::Quat q;
+  EXPECT_TRUE(h.lookup(1000000 - 300000, q)) << "0.3 s back must still be covered";
+}
+
+TEST(AttitudeHistory, InterpolatesAcrossTheQuaternionSignFlip) {
+  AttitudeHistory h;
+  // Same attitude family, the second sample given with the opposite sign.
+  const quad::Quat a = quad::from_rotation_vector(quad::Vec3{0.0f, 0.0f, 3.1f});
+  const quad::Quat b = -quad::from_rotation_vector(quad::Vec3{0.0f, 0.0f, 3.12f});
+  h.push(0, a);
+  h.push(10000, b);
+  quad::Quat q;
+  ASSERT_TRUE(h.lookup(5000, q));
+  EXPECT_LT(quad::angle_between(q, quad::from_rotation_vector(quad::Vec3{0.0f, 0.0f, 3.11f})), 1e-3f);
+}
+
+TEST(VisionFix, StarBelowLevelVehicleMeansVehicleAboveStar) {
+  // Level vehicle 1.5 m above the star (at the origin): the star is 1.5 m below, along body +z.
+  const quad::Vec3 p = quad::fw::vehicle_position_from_star({0, 0, 0}, quad::Quat::identity(), {0, 0, 1.5f});
+  EXPECT_NEAR(p.z, -1.5f, 1e-6f);  // NED: above = negative down
+  // The star ahead-right of the vehicle: the vehicle is behind-left of the star.
+  const quad::Vec3 q = quad::fw::vehicle_position_from_star({0, 0, 0}, quad::Quat::identity(), {0.2f, 0.1f, 1.5f});
+  EXPECT_NEAR(q.x, -0.2f, 1e-6f);
+  EXPECT_NEAR(q.y, -0.1f, 1e-6f);
+}
+
+TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
+  // thesis eq. 8.5 (errata): p_I = s - R_IB p_B, i.e. the star's NED position equals the vehicle's plus
+  // the rotated body vector.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  for (int i = 0; i < 200; ++i) {
+    const quad::Quat q = random_quat(rng);
+    const quad::Vec3 star{u(rng), u(rng), u(rng)};
+    const quad::Vec3 body{u(rng), u(rng), u(rng)};
+    const quad::Vec3 p = quad::fw::vehicle_position_from_star(star, q, body);
+    const Eigen::Vector3f expect =
+        Eigen::Vector3f(star.x, star.y, star.z) -
+        Eigen::Quaternionf(q.w, q.x, q.y, q.z).toRotationMatrix() * Eigen::Vector3f(body.x, body.y, body.z);
+    EXPECT_NEAR(p.x, expect.x(), 1e-5f);
+    EXPECT_NEAR(p.y, expect.y(), 1e-5f);
+    EXPECT_NEAR(p.z, expect.z(), 1e-5f);
+  }
+}
+
+}  // namespace
