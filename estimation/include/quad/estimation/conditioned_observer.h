@@ -1,0 +1,106 @@
+// Conditioned nonlinear attitude observer (thesis ch. 4: eq. 4.7-4.10, discrete form eq. 4.18).
+//
+// Usage:
+//   quad::est::ObserverParams p;               // thesis table 8.1 gains by default
+//   p.mag_ref_ned = {...};                      // or keep p.mag_ref_from_init = true
+//   quad::est::ConditionedObserver obs(p);
+//   obs.initialize(accel_frd, mag_frd);         // from the first samples: right at any boot attitude
+//   every IMU sample:
+//     obs.update(gyro_frd, accel_frd, mag_frd, mag_is_new_and_valid, dt);
+//     quad::Quat q = obs.attitude();            // q_IB (body FRD -> NED)
+//     quad::Vec3 w = obs.rate();                // gyro minus estimated bias, for the rate controller
+//
+// Units: gyro rad/s, accelerometer m/s^2 (specific force, reads (0,0,-g) level at rest), magnetometer any
+// unit as long as mag_ref_ned uses the same one (mag_ref_from_init learns it from the first sample).
+// Bad samples never touch the state: a non-finite gyro or dt skips the step, an accelerometer whose norm
+// is far from g (or non-finite) drops the gravity correction, a non-finite or degenerate magnetometer
+// sample drops the heading correction; each case is counted in health().
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/math/math.h"
+
+namespace quad {
+namespace est {
+
+// How the attitude is carried over one sample period.
+enum class Propagator : uint8_t {
+  Exact,        // cos/sinc of eq. 4.14 (two transcendental calls)
+  SecondOrder,  // thesis sec. 4.3: second-order Taylor terms, no trigonometry (the APM 2.5 form)
+};
+
+// Which innovation drives the observer.
+enum class Innovation : uint8_t {
+  Conditioned,    // eq. 4.7-4.9: the magnetometer only turns the estimate about the estimated vertical
+  Unconditioned,  // eq. 4.3-4.4 (Mahony's explicit filter): the magnetometer also tilts the estimate
+};
+
+struct ObserverParams {
+  // Thesis table 8.1.
+  float k1 = 1.0f;        // gravity direction gain
+  float k2 = 0.2f;        // heading gain
+  float k3 = 0.03125f;    // bias gain, gravity term
+  float k4 = 0.00625f;    // bias gain, heading term
+  float kb = 16.0f;       // pull-back rate of the bias estimate outside the ball of radius delta
+  float delta = 0.03f;    // bound on the gyro bias norm, rad/s
+  // Unconditioned mode only: the integral gain k_I of eq. 4.4 (b' = -k_I sigma_R).
+  float k_i = 0.03125f;
+  Innovation innovation = Innovation::Conditioned;
+  Propagator propagator = Propagator::SecondOrder;
+  // Earth field in NED, in the magnetometer's units. Ignored when mag_ref_from_init is set: initialize()
+  // then takes it from the first sample with magnetic north as the x axis (seed 001's "SAC" convention).
+  Vec3 mag_ref_ned{0.42f, 0.0f, 0.91f};
+  bool mag_ref_from_init = true;
+  // The gravity correction is used only while | |a|/g - 1 | stays below this (specific force of
+  // manoeuvres is not gravity).
+  float accel_norm_tolerance = 0.2f;
+};
+
+struct ObserverHealth {
+  uint32_t updates = 0;          // samples that propagated the state
+  uint32_t skipped = 0;          // samples dropped entirely (non-finite gyro, dt not in (0, 0.5] s)
+  uint32_t accel_rejected = 0;   // samples whose accelerometer was not used
+  uint32_t mag_rejected = 0;     // samples flagged valid whose magnetometer was not used
+  uint32_t state_restored = 0;   // steps whose result was non-finite and was discarded
+};
+
+class ConditionedObserver {
+ public:
+  ConditionedObserver() : ConditionedObserver(ObserverParams{}) {}
+  explicit ConditionedObserver(const ObserverParams& params);
+
+  // Replaces the parameters (gains, reference field, modes) without touching the state.
+  void set_params(const ObserverParams& params);
+  const ObserverParams& params() const { return params_; }
+
+  // Attitude from one accelerometer/magnetometer pair (TRIAD); bias set to zero. Returns false (state
+  // unchanged) for unusable samples. update() before a successful initialize() starts from the identity.
+  bool initialize(const Vec3& accel_frd, const Vec3& mag_frd);
+  // Explicit state, e.g. from a stationary calibration; the bias is clamped into the delta ball.
+  void reset(const Quat& q_ib, const Vec3& gyro_bias);
+
+  // One sample: thesis eq. 4.18 with the innovation of eq. 4.9 (or 4.4).
+  void update(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt);
+
+  const Quat& attitude() const { return q_; }           // q_IB
+  const Vec3& gyro_bias() const { return bias_; }       // b of eq. 4.2, rad/s
+  const Vec3& rate() const { return rate_; }            // Omega_m - b, rad/s (last sample)
+  bool initialized() const { return initialized_; }
+  const ObserverHealth& health() const { return health_; }
+
+ private:
+  void cache_reference();
+
+  ObserverParams params_;
+  Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
+  float inv_mag_h_ = 1.0f;  // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
+  Quat q_;
+  Vec3 bias_;
+  Vec3 rate_;
+  bool initialized_ = false;
+  ObserverHealth health_;
+};
+
+}  // namespace est
+}  // namespace quad

@@ -1,0 +1,185 @@
+// Per-axis Kalman filter for NED position and velocity with delayed vision fixes (thesis sec. 8.2,
+// eq. 8.6-8.12 with the errata; delayed fusion as in Oh et al., seed 003, errata form of S).
+//
+// Usage:
+//   quad::est::PositionFilterParams p;                      // thesis table 8.1: Q = I2 T
+//   quad::est::PositionFilter<quad::est::history_length(100)> kf(p);   // 100 Hz loop
+//   every IMU sample (vehicle clock in microseconds):
+//     kf.predict(quad::est::kinematic_acceleration(observer.attitude(), accel_frd), now_us);
+//   when a vision fix arrives, with the time its image was captured (same clock):
+//     kf.fuse_position(p_ned, capture_us);
+//   kf.position(), kf.velocity()
+//
+// Each NED axis is its own filter with state (p, v), plus an accelerometer bias b on z when enabled
+// (v' = u_z - b). Process noise is the continuous model whose Euler form is eq. 8.12,
+// Q(T) = int_0^T Phi(t) diag(q_p, q_v, q_b) Phi(t)^T dt, discretised exactly so that it composes over
+// any sequence of steps; the white-acceleration model is q_p = 0, q_v = sigma_a^2.
+//
+// Delayed fixes: the filter fuses a fix at its capture time s and carries the correction forward to
+// now. With tau = now - s and Phi the constant-velocity transition, the covariance at s follows from the
+// current one, P_s = Phi(-tau) (P_now - Q(tau)) Phi(-tau)^T, and the correction reaches now through
+// Phi(tau): only the predicted position at s must be remembered. The history buffer therefore holds one
+// 16-byte entry (time, position) per predict step; corrections fused after an entry was written are
+// kept as one accumulated correction per axis instead of rewriting the buffer. Fixes older than the
+// buffer, older than the last fused fix, or from before a reset are refused.
+//
+// Capacity: history_length(rate_hz) entries cover 250 ms at rate_hz (26 at 100 Hz: 416 bytes; 101 at
+// 400 Hz). Fixes captured before the oldest entry are rejected as too old.
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/math/math.h"
+
+namespace quad {
+namespace est {
+
+// Entries that cover `window_ms` (default 250 ms) of history at a predict rate of rate_hz, plus one so
+// that a fix captured exactly window_ms ago still has an entry at or before it.
+constexpr int history_length(int rate_hz, int window_ms = 250) { return (rate_hz * window_ms + 999) / 1000 + 1; }
+
+// u = g e_z + R a_B   (thesis eq. 8.7): the kinematic acceleration in NED from the specific force.
+Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd);
+
+enum class ProcessNoise : uint8_t {
+  ThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
+  WhiteAcceleration,  // continuous white acceleration of spectral density q_accel (q_p = 0)
+};
+
+struct PositionFilterParams {
+  ProcessNoise process_noise = ProcessNoise::ThesisDiagonal;
+  float q_pos = 1.0f;        // sigma^2_{q,p}, m^2/s            (ThesisDiagonal)
+  float q_vel = 1.0f;        // sigma^2_{q,v}, (m/s)^2/s        (ThesisDiagonal)
+  float q_accel = 1.0f;      // sigma_a^2, (m/s^2)^2/Hz         (WhiteAcceleration)
+  float fix_sigma_xy = 0.05f;  // sigma_r of a vision fix, horizontal, m   (eq. 8.12b)
+  float fix_sigma_z = 0.05f;   // sigma_r of a vision fix, vertical, m
+  bool z_accel_bias = false;   // estimate a constant accelerometer bias along NED z
+  float q_bias = 1e-4f;        // bias random walk, (m/s^2)^2/s
+  float bias_sigma0 = 0.3f;    // initial bias standard deviation, m/s^2
+  float vel_sigma0 = 1.0f;     // initial velocity standard deviation, m/s
+  float gate_sigma = 5.0f;     // a fix is rejected if any axis' innovation exceeds gate_sigma * sqrt(S)
+  uint16_t reset_after_rejections = 20;  // consecutive rejections that make the next fix a reset (0: never)
+};
+
+enum class FixResult : uint8_t {
+  Fused,          // used at its capture time
+  Initialized,    // first fix (or reset after repeated rejections): position set to the fix
+  RejectedGate,   // innovation outside the Mahalanobis gate
+  RejectedTooOld, // captured before the oldest history entry or before the last reset
+  RejectedOutOfOrder,  // captured before the last fused fix
+  RejectedInvalid,     // non-finite, or fused before the first predict
+};
+
+struct PositionFilterHealth {
+  uint32_t fused = 0;
+  uint32_t rejected_gate = 0;   // outliers
+  uint32_t rejected_too_old = 0;
+  uint32_t rejected_out_of_order = 0;
+  uint32_t rejected_invalid = 0;
+  uint32_t resets = 0;
+  uint32_t predict_skipped = 0;  // non-finite input or time not moving forward
+};
+
+// Covariance of one axis: (p, v) or (p, v, b); symmetric, upper triangle stored.
+struct AxisCovariance {
+  float pp = 0.0f, pv = 0.0f, vv = 0.0f;
+  float pb = 0.0f, vb = 0.0f, bb = 0.0f;
+};
+
+struct HistoryEntry {
+  uint32_t t_us = 0;
+  float p[3] = {0.0f, 0.0f, 0.0f};  // predicted position at t_us, less the accumulated correction
+};
+
+// The filter proper; the storage of its history buffer comes from PositionFilter<N> below.
+class PositionFilterCore {
+ public:
+  void set_params(const PositionFilterParams& params);
+  const PositionFilterParams& params() const { return params_; }
+
+  // Sets the state at time t_us (position, velocity, bias zero) with the initial covariances and
+  // forgets the history.
+  void reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us);
+
+  // Prediction to t_us with the kinematic acceleration u (thesis eq. 8.11a). The first call only starts
+  // the clock. Steps longer than 0.5 s are taken as a gap: the state is propagated, the history cleared.
+  void predict(const Vec3& u_ned, uint32_t t_us);
+
+  // Fuses a NED position fix captured at capture_us (thesis eq. 8.11b with the errata, at capture time).
+  FixResult fuse_position(const Vec3& p_ned, uint32_t capture_us);
+
+  Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
+  Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
+  float accel_bias_z() const { return x_[2].b; }  // m/s^2; 0 unless z_accel_bias
+  const AxisCovariance& covariance(int axis) const { return p_[axis]; }
+  // Gain of the last fused fix on each axis (position, velocity) expressed at capture time.
+  float last_gain_p(int axis) const { return gain_p_[axis]; }
+  float last_gain_v(int axis) const { return gain_v_[axis]; }
+  // Normalised innovation squared of the last fix that reached the gate, summed over the axes.
+  float last_nis() const { return last_nis_; }
+  bool initialized() const { return initialized_; }
+  uint32_t time_us() const { return t_us_; }
+  const PositionFilterHealth& health() const { return health_; }
+
+ protected:
+  PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params);
+  PositionFilterCore(const PositionFilterCore&) = delete;
+  PositionFilterCore& operator=(const PositionFilterCore&) = delete;
+
+ private:
+  struct AxisState {
+    float p = 0.0f, v = 0.0f, b = 0.0f;
+  };
+  struct Correction {  // accumulated correction, expressed at corr_origin_us_
+    float p = 0.0f, v = 0.0f, b = 0.0f;
+  };
+
+  void push_history();
+  void clear_history();
+  void rebase_correction(uint32_t t_us);
+  void fold_correction();
+  bool predicted_position_at(uint32_t t_us, float out[3]) const;
+  float correction_position(int axis, float dt) const;
+  void initialize_from_fix(const Vec3& p_ned);
+
+  PositionFilterParams params_;
+  float qp_[3] = {0.0f, 0.0f, 0.0f};  // spectral densities per axis: q_p, q_v, q_b
+  float qv_[3] = {0.0f, 0.0f, 0.0f};
+  float qb_ = 0.0f;
+  AxisState x_[3];
+  AxisCovariance p_[3];
+  Correction corr_[3];
+  uint32_t corr_origin_us_ = 0;
+  float gain_p_[3] = {0.0f, 0.0f, 0.0f};
+  float gain_v_[3] = {0.0f, 0.0f, 0.0f};
+  float last_nis_ = 0.0f;
+  uint32_t t_us_ = 0;
+  uint32_t reset_us_ = 0;       // fixes captured before this are refused
+  uint32_t last_fix_us_ = 0;    // capture time of the last fused fix
+  bool clock_started_ = false;
+  bool initialized_ = false;
+  bool have_fix_ = false;
+  uint16_t consecutive_rejections_ = 0;
+  HistoryEntry* history_;
+  uint16_t capacity_;
+  uint16_t head_ = 0;   // index of the next entry to write
+  uint16_t count_ = 0;  // valid entries
+  PositionFilterHealth health_;
+};
+
+// The filter with its history buffer of kHistory entries (compile-time: no heap).
+template <int kHistory>
+class PositionFilter : public PositionFilterCore {
+  static_assert(kHistory >= 2 && kHistory <= 65535, "history needs at least two entries");
+
+ public:
+  PositionFilter() : PositionFilter(PositionFilterParams{}) {}
+  explicit PositionFilter(const PositionFilterParams& params)
+      : PositionFilterCore(storage_, static_cast<uint16_t>(kHistory), params) {}
+
+ private:
+  HistoryEntry storage_[kHistory];
+};
+
+}  // namespace est
+}  // namespace quad

@@ -1,0 +1,26 @@
+// Attitude from one accelerometer and one magnetometer sample (TRIAD), and the accelerometer tilt.
+//
+// Usage:
+//   quad::Quat q;
+//   if (quad::est::attitude_from_vectors(accel_frd, mag_frd, mag_ref_ned, q)) { ... q = q_IB ... }
+//
+// The accelerometer at rest reads the specific force -g R^T e_z, so "down" in the body is -a/|a|. Down and
+// the magnetic field span the same plane in both frames; the triads built from them give R_IB. Used to
+// initialise the observers and as the measured attitude R_m of the Mahony baseline. Costs two square
+// roots and a few divisions: an initialisation path, not a per-sample one for the conditioned observer.
+#pragma once
+
+#include "quad/math/math.h"
+
+namespace quad {
+namespace est {
+
+// Sets q_ib and returns true when both vectors are finite, non-zero and not parallel.
+bool attitude_from_vectors(const Vec3& accel_frd, const Vec3& mag_frd, const Vec3& mag_ref_ned, Quat& q_ib);
+
+// The magnetic reference a vehicle sees at boot, expressed with magnetic north as the x axis of NED:
+// (|m_horizontal|, 0, m_down), in the magnetometer's own units. Returns false for degenerate input.
+bool magnetic_reference_from_sample(const Vec3& accel_frd, const Vec3& mag_frd, Vec3& mag_ref_ned);
+
+}  // namespace est
+}  // namespace quad
