@@ -1,0 +1,257 @@
+// avr_pil: processor-in-the-loop host for the APM 2.5 image. Runs an AVR .elf on simavr's ATmega2560
+// at 16 MHz and bridges its UART0 and UART2 to serial devices (normally the pseudo-terminals the
+// simulator created), byte for byte, with flow control so no byte is dropped.
+//
+//   avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]
+//           [--realtime] [--max-seconds S]
+//
+// The command line matches quad_firmware's, so the simulator starts either the same way
+// (`quad_sim --firmware "avr_pil --elf build/avr-apm25/firmware/quad_fw.elf"`). A port given no
+// path gets a new pseudo-terminal whose path is printed. The baud options are accepted for that
+// compatibility: the bytes' timing on the wire is the AVR's own (simavr times its UARTs from UBRR).
+// simavr's uart_pty part is not used: it drops input bytes; this bridge feeds input only while the
+// UART signals XON.
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <signal.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_io.h>
+#include <simavr/sim_irq.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+volatile sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+// One AVR UART bridged to one file descriptor.
+struct UartBridge {
+  char name = '0';
+  uint16_t ucsrb = 0;  // data address of UCSRnB, whose RXEN bit says the firmware listens
+  int fd = -1;
+  avr_irq_t* input = nullptr;  // host -> AVR
+  const avr_t* avr = nullptr;
+  bool xon = true;             // the AVR's receive FIFO can take bytes
+  std::deque<uint8_t> to_avr;
+  std::vector<uint8_t> to_host;
+  uint64_t bytes_in = 0, bytes_out = 0;
+
+  // Bytes wait on the host side until the firmware has enabled its receiver: a pty peer may write
+  // before the image has booted, and the simulated UART would drop them.
+  void feed(const avr_t* avr) {
+    if (!(avr->data[ucsrb] & (1u << 4))) return;  // RXENn is bit 4 of UCSRnB
+    while (xon && !to_avr.empty()) {
+      const uint8_t b = to_avr.front();
+      to_avr.pop_front();
+      ++bytes_in;
+      avr_raise_irq(input, b);  // may call on_xoff re-entrantly
+    }
+  }
+};
+
+void on_output(avr_irq_t*, uint32_t value, void* param) {
+  auto* u = static_cast<UartBridge*>(param);
+  u->to_host.push_back(static_cast<uint8_t>(value));
+  ++u->bytes_out;
+}
+void on_xon(avr_irq_t*, uint32_t, void* param) {
+  auto* u = static_cast<UartBridge*>(param);
+  u->xon = true;
+  u->feed(u->avr);
+}
+void on_xoff(avr_irq_t*, uint32_t, void* param) { static_cast<UartBridge*>(param)->xon = false; }
+
+bool make_raw(int fd) {
+  termios tio{};
+  if (tcgetattr(fd, &tio) != 0) return true;  // not a terminal (e.g. a pipe or socket): nothing to set
+  cfmakeraw(&tio);
+  return tcsetattr(fd, TCSANOW, &tio) == 0;
+}
+
+// Opens `path`, or, if empty, a new pseudo-terminal whose slave path is printed for the user.
+int open_port(const std::string& path, char uart) {
+  if (!path.empty()) {
+    const int fd = open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+    if (fd < 0) {
+      std::fprintf(stderr, "avr_pil: cannot open UART%c device %s: %s\n", uart, path.c_str(), std::strerror(errno));
+      return -1;
+    }
+    if (!make_raw(fd)) {
+      std::fprintf(stderr, "avr_pil: cannot set raw mode on %s: %s\n", path.c_str(), std::strerror(errno));
+      close(fd);
+      return -1;
+    }
+    return fd;
+  }
+  int master = -1, slave = -1;
+  char name[256];
+  if (openpty(&master, &slave, name, nullptr, nullptr) != 0) {
+    std::fprintf(stderr, "avr_pil: openpty for UART%c failed: %s\n", uart, std::strerror(errno));
+    return -1;
+  }
+  make_raw(slave);
+  make_raw(master);
+  fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
+  std::printf("avr_pil: UART%c on %s\n", uart, name);
+  std::fflush(stdout);
+  // The slave stays open so the master does not see hang-ups between clients.
+  return master;
+}
+
+void attach(avr_t* avr, UartBridge& u) {
+  u.avr = avr;
+  uint32_t flags = 0;  // no console printing, no polling sleep (it would usleep inside the AVR loop)
+  avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS(u.name), &flags);
+  u.input = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u.name), UART_IRQ_INPUT);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u.name), UART_IRQ_OUTPUT), on_output, &u);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u.name), UART_IRQ_OUT_XON), on_xon, &u);
+  avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u.name), UART_IRQ_OUT_XOFF), on_xoff, &u);
+}
+
+// Moves bytes between the host side and the bridge's queues. Returns false when the peer hung up.
+bool pump(UartBridge& u) {
+  if (u.fd < 0) return true;
+  uint8_t buf[4096];
+  for (;;) {
+    const ssize_t n = read(u.fd, buf, sizeof buf);
+    if (n > 0) {
+      u.to_avr.insert(u.to_avr.end(), buf, buf + n);
+      continue;
+    }
+    if (n == 0) return true;  // EOF on a pty master only means no client yet
+    if (errno == EAGAIN || errno == EINTR) break;
+    if (errno == EIO) break;  // pty slave closed for the moment
+    std::fprintf(stderr, "avr_pil: UART%c read failed: %s\n", u.name, std::strerror(errno));
+    return false;
+  }
+  size_t off = 0;
+  while (off < u.to_host.size()) {
+    const ssize_t n = write(u.fd, u.to_host.data() + off, u.to_host.size() - off);
+    if (n > 0) {
+      off += static_cast<size_t>(n);
+    } else if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
+      pollfd p{u.fd, POLLOUT, 0};
+      poll(&p, 1, 5);
+      if (g_stop) break;
+    } else {
+      std::fprintf(stderr, "avr_pil: UART%c write failed: %s\n", u.name, std::strerror(errno));
+      return false;
+    }
+  }
+  u.to_host.clear();
+  u.feed(u.avr);
+  return true;
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]\n"
+               "               [--realtime] [--max-seconds S]\n");
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string elf, uart0, uart2;
+  bool realtime = false;
+  double max_seconds = 0.0;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* what) -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "avr_pil: %s needs a value\n", what);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--elf") elf = value("--elf");
+    else if (a == "--uart0") uart0 = value("--uart0");
+    else if (a == "--uart2") uart2 = value("--uart2");
+    else if (a == "--uart0-baud" || a == "--uart2-baud") value(a.c_str());
+    else if (a == "--params") value("--params");  // parameters live in the AVR's EEPROM
+    else if (a == "--realtime") realtime = true;
+    else if (a == "--max-seconds") max_seconds = std::atof(value("--max-seconds"));
+    else {
+      std::fprintf(stderr, "avr_pil: unknown option %s\n", a.c_str());
+      return usage();
+    }
+  }
+  if (elf.empty()) return usage();
+
+  elf_firmware_t fw;
+  std::memset(&fw, 0, sizeof fw);
+  if (elf_read_firmware(elf.c_str(), &fw) != 0) {
+    std::fprintf(stderr, "avr_pil: %s: cannot read the ELF image\n", elf.c_str());
+    return 1;
+  }
+  avr_t* avr = avr_make_mcu_by_name("atmega2560");
+  if (!avr) {
+    std::fprintf(stderr, "avr_pil: simavr has no atmega2560 core\n");
+    return 1;
+  }
+  avr_init(avr);
+  avr->frequency = 16000000;
+  avr_load_firmware(avr, &fw);
+
+  UartBridge u0, u2;
+  u0.name = '0';
+  u0.ucsrb = 0xC1;  // ATmega2560 UCSR0B
+  u2.name = '2';
+  u2.ucsrb = 0xD1;  // ATmega2560 UCSR2B
+  u0.fd = open_port(uart0, '0');
+  u2.fd = open_port(uart2, '2');
+  if (u0.fd < 0 || u2.fd < 0) return 1;
+  attach(avr, u0);
+  attach(avr, u2);
+
+  signal(SIGINT, on_signal);
+  signal(SIGTERM, on_signal);
+  signal(SIGPIPE, SIG_IGN);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  constexpr int kSlice = 2000;  // AVR instructions between host-side polls (~0.1-0.3 ms of AVR time)
+  int state = cpu_Running;
+  while (!g_stop) {
+    for (int i = 0; i < kSlice; ++i) {
+      state = avr_run(avr);
+      if (state == cpu_Done || state == cpu_Crashed) break;
+    }
+    if (state == cpu_Done || state == cpu_Crashed) break;
+    if (!pump(u0) || !pump(u2)) break;
+    const double avr_seconds = static_cast<double>(avr->cycle) / avr->frequency;
+    if (max_seconds > 0.0 && avr_seconds >= max_seconds) break;
+    if (realtime) {
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (avr_seconds > wall + 0.001) std::this_thread::sleep_for(std::chrono::duration<double>(avr_seconds - wall));
+    }
+  }
+  pump(u0);
+  pump(u2);
+  if (state == cpu_Crashed) {
+    std::fprintf(stderr, "avr_pil: the AVR crashed at pc 0x%05x after %llu cycles\n", avr->pc,
+                 static_cast<unsigned long long>(avr->cycle));
+    return 1;
+  }
+  std::fprintf(stderr, "avr_pil: stopped after %.3f s of AVR time; UART0 %llu in / %llu out, UART2 %llu in / %llu out\n",
+               static_cast<double>(avr->cycle) / avr->frequency, static_cast<unsigned long long>(u0.bytes_in),
+               static_cast<unsigned long long>(u0.bytes_out), static_cast<unsigned long long>(u2.bytes_in),
+               static_cast<unsigned long long>(u2.bytes_out));
+  avr_terminate(avr);
+  return 0;
+}
