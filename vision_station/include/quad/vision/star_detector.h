@@ -1,0 +1,98 @@
+// Four-pointed-star detection in one greyscale image (thesis sec. 8.1, steps 1–5 and filters 1–5).
+//
+// The thesis ran its filters on rectified frames. Here the contours are found in the raw frame and only
+// their points are undistorted and rectified (PointRectifier); filters 2–5 and the centroid then work on
+// the rectified polygon, so the strong barrel distortion near the image edge does not squash the star
+// out of the aspect or Hu limits.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "quad/vision/point_rectifier.h"
+
+namespace quad::vision {
+
+// Every threshold of the detector. Defaults are the thesis' values (sec. 8.1) unless marked (project).
+struct DetectorSettings {
+  // Threshold (project): the floor brightness is estimated as the local maximum over a window larger
+  // than the star's dark core on a 1/cell-size image; Otsu on the image/floor ratio picks the contrast
+  // threshold, clamped to [min, max] so that an empty floor does not split its own noise.
+  int background_cell_px = 8;
+  int background_window_px = 192;
+  double min_threshold_ratio = 0.25;
+  double max_threshold_ratio = 0.85;
+  int morphology_kernel_px = 3;      // square structuring element of erode, dilate ×2, erode
+
+  int edge_margin_px = 2;            // filter 1: contour at least this far from the image edge
+  double min_area_px = 350.0;        // filter 2: rectified contour area strictly above this
+  double raw_area_prefilter = 0.25;  // (project) raw area must exceed this fraction of min_area_px
+                                     // before its points are rectified (edge distortion shrinks areas)
+  double min_aspect = 0.7;           // filter 3: bounding-box height/width within [min, 1/min]
+  int ideal_vertex_count = 8;        // filter 4: polygon vertex count within tolerance of this
+  int vertex_count_tolerance = 1;
+  double polygon_epsilon = 0.025;    // (project) approxPolyDP tolerance, fraction of the perimeter
+  double min_hu_distance = 1e-7;     // filter 5: Hu-moment distance (CONTOURS_MATCH_I1) in (min, max)
+  double max_hu_distance = 0.5;
+  double inner_ratio = 0.4;          // ideal star: inner vertex radius / tip radius
+  // (project) sixth filter, area / convex-hull area. The ideal star has 0.566; circles, squares and
+  // blobs are near 1, which the Hu distance alone does not separate (a 4-fold symmetric shape has
+  // h2..h7 ≈ 0, so I1 compares h1 only).
+  double min_solidity = 0.42;
+  double max_solidity = 0.75;
+};
+
+// One contour that passed every filter.
+struct StarCandidate {
+  std::vector<cv::Point> contour;       // raw image pixels
+  std::vector<cv::Point2f> rectified;   // the same points undistorted and rectified
+  cv::Rect box;                         // raw bounding box
+  cv::Point2d centroid;                 // rectified, from the polygon's moments (sub-pixel)
+  double area = 0.0;                    // rectified pixels²
+  double hu_distance = 0.0;
+  double solidity = 0.0;
+  int vertices = 0;
+};
+
+// Wall time of the detector's stages, microseconds (accumulated over calls).
+struct DetectorTimes {
+  double threshold_morphology_us = 0.0;
+  double contours_filters_us = 0.0;
+  double rectify_points_us = 0.0;
+};
+
+// Holds the settings, the ideal star's Hu moments and scratch images, so that a frame allocates little
+// once the buffers have grown.
+class StarDetector {
+ public:
+  StarDetector(const DetectorSettings& settings, const PointRectifier& rectifier = PointRectifier());
+
+  // Finds the star candidates inside `roi` (clipped to the image; an empty rect means the whole image),
+  // best first (smallest Hu distance). A contour touching an ROI border that is not an image border is
+  // dropped as possibly cut. `gray` must be CV_8UC1.
+  std::vector<StarCandidate> detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times = nullptr);
+
+  const DetectorSettings& settings() const { return settings_; }
+
+  // The binary image of the last call (inside its ROI) and its threshold ratio, for display and tests.
+  const cv::Mat& last_binary() const { return binary_; }
+  double last_threshold_ratio() const { return threshold_ratio_; }
+
+ private:
+  void threshold(const cv::Mat& gray);
+  double hu_distance(const cv::Moments& moments) const;
+
+  DetectorSettings settings_;
+  PointRectifier rectifier_;
+  std::array<double, 7> ideal_hu_log_{};  // sign(h)·log10|h| of the ideal star, 0 where |h| is negligible
+  cv::Mat kernel_;
+  cv::Mat small_, background_, ratio_, threshold_small_, threshold_full_;
+  cv::Mat binary_;
+  cv::Mat scratch_;
+  double threshold_ratio_ = 0.0;
+  std::vector<std::vector<cv::Point>> contours_;
+};
+
+}  // namespace quad::vision

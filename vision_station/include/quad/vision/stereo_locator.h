@@ -1,0 +1,89 @@
+// Stereo fix of the star (thesis eq. 8.2–8.5, errata applied): detect the star in both views, undistort
+// and rectify the contour points, take the centroid from the contour's moments, match by rectified row,
+// triangulate from the disparity, and express the result in the left camera frame and the body frame.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "quad/vision/star_detector.h"
+#include "quad/vision/stereo_calibration.h"
+
+namespace quad::vision {
+
+struct LocatorSettings {
+  DetectorSettings detector;
+  double max_row_difference_px = 2.5;  // rectified centroid rows must agree within this
+  double min_range_m = 0.2;            // depths outside [min, max] are no fix
+  double max_range_m = 6.0;
+  double centroid_sigma_px = 0.1;      // 1-σ noise of one rectified centroid coordinate (uncertainty)
+  bool track_roi = true;               // search around the last fix first, full frame as fallback
+  double roi_growth = 1.6;             // ROI = last contour box scaled by this about its centre ...
+  int roi_margin_px = 24;              // ... plus this margin on every side
+  int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
+};
+
+// Wall time of each stage of one stereo frame, microseconds.
+struct StageTimes {
+  double threshold_morphology_us = 0.0;
+  double contours_filters_us = 0.0;
+  double rectify_points_us = 0.0;
+  double triangulation_us = 0.0;
+  double total_us() const {
+    return threshold_morphology_us + contours_filters_us + rectify_points_us + triangulation_us;
+  }
+};
+
+struct StarFix {
+  bool found = false;
+  cv::Vec3d p_left;                   // star in the left camera frame (OpenCV axes), metres
+  cv::Vec3d sigma_left;               // 1-σ of each coordinate from the centroid noise
+  cv::Point2d left_rectified;         // rectified centroids, pixels
+  cv::Point2d right_rectified;
+  double disparity_px = 0.0;
+  double row_difference_px = 0.0;
+  std::vector<cv::Point> left_contour;   // raw image pixels, for display
+  std::vector<cv::Point> right_contour;
+  bool used_roi = false;
+  StageTimes times;
+};
+
+// p_B = R_BC·p_C + t_BC (thesis eq. 7.22): the star relative to the vehicle in body FRD.
+cv::Vec3d camera_to_body(const CameraMount& mount, const cv::Vec3d& p_camera);
+
+// The vehicle's position relative to the star in NED given R_IB (thesis eq. 8.5 with the erratum:
+// p_I = −R_IB (R_BC p_C + t_BC)).
+cv::Vec3d vehicle_position_from_star(const cv::Matx33d& R_IB, const CameraMount& mount,
+                                     const cv::Vec3d& p_camera);
+
+class StereoStarLocator {
+ public:
+  StereoStarLocator(const StereoCalibration& calibration, const LocatorSettings& settings);
+
+  // One stereo frame (CV_8UC1 images of the calibrated size) to a fix.
+  StarFix locate(const cv::Mat& left_gray, const cv::Mat& right_gray);
+
+  // Forget the last fix: the next frame searches the full images.
+  void reset_tracking();
+
+  const StereoCalibration& calibration() const { return calibration_; }
+  const LocatorSettings& settings() const { return settings_; }
+
+ private:
+  struct ViewResult {
+    std::vector<StarCandidate> candidates;
+    bool used_roi = false;
+  };
+  ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
+                         DetectorTimes* times);
+
+  StereoCalibration calibration_;
+  LocatorSettings settings_;
+  StarDetector left_detector_;
+  StarDetector right_detector_;
+  cv::Rect last_left_box_;
+  cv::Rect last_right_box_;
+};
+
+}  // namespace quad::vision

@@ -1,0 +1,151 @@
+#include "quad/vision/star_detector.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "quad/vision/ideal_star.h"
+
+namespace quad::vision {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double microseconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::micro>(b - a).count();
+}
+
+// OpenCV's CONTOURS_MATCH_I1 works on m_i = sign(h_i)·log10|h_i| and skips invariants below this.
+constexpr double kHuEpsilon = 1e-5;
+
+std::array<double, 7> hu_log(const cv::Moments& moments) {
+  double hu[7];
+  cv::HuMoments(moments, hu);
+  std::array<double, 7> m{};
+  for (int i = 0; i < 7; ++i) {
+    const double a = std::fabs(hu[i]);
+    m[i] = a > kHuEpsilon ? std::copysign(std::log10(a), hu[i]) : 0.0;
+  }
+  return m;
+}
+
+}  // namespace
+
+StarDetector::StarDetector(const DetectorSettings& settings, const PointRectifier& rectifier)
+    : settings_(settings),
+      rectifier_(rectifier),
+      kernel_(cv::getStructuringElement(cv::MORPH_RECT,
+                                        cv::Size(settings.morphology_kernel_px, settings.morphology_kernel_px))) {
+  ideal_hu_log_ = hu_log(cv::moments(ideal_star_contour(settings.inner_ratio)));
+}
+
+double StarDetector::hu_distance(const cv::Moments& moments) const {
+  // Thesis filter 5: sum of absolute differences of the inverted log Hu invariants (CONTOURS_MATCH_I1).
+  const std::array<double, 7> m = hu_log(moments);
+  double distance = 0.0;
+  for (int i = 0; i < 7; ++i) {
+    if (m[i] != 0.0 && ideal_hu_log_[i] != 0.0) distance += std::fabs(1.0 / m[i] - 1.0 / ideal_hu_log_[i]);
+  }
+  return distance;
+}
+
+void StarDetector::threshold(const cv::Mat& gray) {
+  // Thesis steps 1–3 (greyscale, invert, threshold): a pixel is star-coloured when it is darker than a
+  // fraction of the local floor brightness. The fraction comes from the image (Otsu on the ratio image),
+  // so exposure, shadows and lighting gradients need no retune.
+  const DetectorSettings& s = settings_;
+  const int cell = std::max(1, s.background_cell_px);
+  const cv::Size small_size(std::max(1, gray.cols / cell), std::max(1, gray.rows / cell));
+  cv::resize(gray, small_, small_size, 0, 0, cv::INTER_AREA);
+  const int window = std::max(1, s.background_window_px / cell) | 1;
+  cv::dilate(small_, background_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)));
+  cv::blur(background_, background_, cv::Size(3, 3));
+  cv::divide(small_, background_, ratio_, 255.0);
+  const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
+  threshold_ratio_ = std::clamp(otsu, s.min_threshold_ratio, s.max_threshold_ratio);
+  background_.convertTo(threshold_small_, CV_8U, threshold_ratio_);
+  cv::resize(threshold_small_, threshold_full_, gray.size(), 0, 0, cv::INTER_LINEAR);
+  cv::compare(gray, threshold_full_, binary_, cv::CMP_LT);  // inverted: dark becomes 255
+}
+
+std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times) {
+  CV_Assert(gray.type() == CV_8UC1);
+  const cv::Rect image_rect(0, 0, gray.cols, gray.rows);
+  roi = roi.empty() ? image_rect : (roi & image_rect);
+  std::vector<StarCandidate> candidates;
+  if (roi.empty()) return candidates;
+
+  // Steps 1–4: threshold, then erode, dilate twice, erode (thesis sec. 8.1) to smooth the edges and
+  // remove salt noise.
+  const Clock::time_point t0 = Clock::now();
+  threshold(gray(roi));
+  cv::erode(binary_, scratch_, kernel_);
+  cv::dilate(scratch_, binary_, kernel_, cv::Point(-1, -1), 2);
+  cv::erode(binary_, scratch_, kernel_);
+  std::swap(binary_, scratch_);
+  const Clock::time_point t1 = Clock::now();
+
+  // Step 5: outer contours of the white shapes, then the filters.
+  cv::findContours(binary_, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, roi.tl());
+  const DetectorSettings& s = settings_;
+  // Borders of the ROI that are not image borders: a contour touching one may be cut by the ROI.
+  const bool roi_left = roi.x > 0, roi_top = roi.y > 0;
+  const bool roi_right = roi.br().x < gray.cols, roi_bottom = roi.br().y < gray.rows;
+  std::vector<cv::Point2f> polygon, hull;
+  double rectify_us = 0.0;
+  for (std::vector<cv::Point>& contour : contours_) {
+    const cv::Rect box = cv::boundingRect(contour);
+    // Filter 1: away from the image edge (a star cut by the edge can look like a better star).
+    if (box.x < s.edge_margin_px || box.y < s.edge_margin_px || box.br().x > gray.cols - s.edge_margin_px ||
+        box.br().y > gray.rows - s.edge_margin_px) {
+      continue;
+    }
+    if ((roi_left && box.x <= roi.x) || (roi_top && box.y <= roi.y) || (roi_right && box.br().x >= roi.br().x) ||
+        (roi_bottom && box.br().y >= roi.br().y)) {
+      continue;
+    }
+    if (!(cv::contourArea(contour) > s.raw_area_prefilter * s.min_area_px)) continue;
+
+    StarCandidate c;
+    const Clock::time_point r0 = Clock::now();
+    rectifier_.apply(contour, c.rectified);
+    rectify_us += microseconds(r0, Clock::now());
+    // Filter 2: area (rectified pixels).
+    const cv::Moments moments = cv::moments(c.rectified);
+    c.area = std::fabs(moments.m00);
+    if (!(c.area > s.min_area_px)) continue;
+    // Filter 3: aspect ratio of the bounding box.
+    const cv::Rect2f rectified_box = cv::boundingRect(c.rectified);
+    const double aspect = rectified_box.height / std::max(rectified_box.width, 1e-3f);
+    if (aspect < s.min_aspect || aspect > 1.0 / s.min_aspect) continue;
+    // Project filter: solidity.
+    cv::convexHull(c.rectified, hull);
+    c.solidity = c.area / std::max(cv::contourArea(hull), 1.0);
+    if (c.solidity < s.min_solidity || c.solidity > s.max_solidity) continue;
+    // Filter 4: vertex count of the simplified polygon.
+    cv::approxPolyDP(c.rectified, polygon, s.polygon_epsilon * cv::arcLength(c.rectified, true), true);
+    c.vertices = static_cast<int>(polygon.size());
+    if (std::abs(c.vertices - s.ideal_vertex_count) > s.vertex_count_tolerance) continue;
+    // Filter 5: Hu-moment distance to the ideal star.
+    c.hu_distance = hu_distance(moments);
+    if (!(c.hu_distance > s.min_hu_distance && c.hu_distance < s.max_hu_distance)) continue;
+
+    // Sub-pixel centroid from the moments of the rectified polygon (input of eq. 8.2–8.4).
+    c.centroid = cv::Point2d(moments.m10 / moments.m00, moments.m01 / moments.m00);
+    c.box = box;
+    c.contour = std::move(contour);
+    candidates.push_back(std::move(c));
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
+  if (times != nullptr) {
+    times->threshold_morphology_us += microseconds(t0, t1);
+    times->contours_filters_us += microseconds(t1, Clock::now()) - rectify_us;
+    times->rectify_points_us += rectify_us;
+  }
+  return candidates;
+}
+
+}  // namespace quad::vision

@@ -1,0 +1,152 @@
+#include "quad/vision/stereo_locator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+
+namespace quad::vision {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double microseconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::micro>(b - a).count();
+}
+
+// Candidates considered per view when pairing left with right.
+constexpr size_t kMaxCandidatesPerView = 3;
+
+}  // namespace
+
+cv::Vec3d camera_to_body(const CameraMount& mount, const cv::Vec3d& p_camera) {
+  return mount.R_BC * p_camera + mount.t_BC;  // thesis eq. 7.22
+}
+
+cv::Vec3d vehicle_position_from_star(const cv::Matx33d& R_IB, const CameraMount& mount,
+                                     const cv::Vec3d& p_camera) {
+  return -(R_IB * camera_to_body(mount, p_camera));  // thesis eq. 8.5 (erratum: sign and t_BC)
+}
+
+StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const LocatorSettings& settings)
+    : calibration_(calibration),
+      settings_(settings),
+      left_detector_(settings.detector, PointRectifier(calibration, 0, settings.undistort_iterations)),
+      right_detector_(settings.detector, PointRectifier(calibration, 1, settings.undistort_iterations)) {}
+
+void StereoStarLocator::reset_tracking() {
+  last_left_box_ = cv::Rect();
+  last_right_box_ = cv::Rect();
+}
+
+StereoStarLocator::ViewResult StereoStarLocator::detect_view(StarDetector& detector, const cv::Mat& gray,
+                                                             const cv::Rect& last_box, DetectorTimes* times) {
+  ViewResult result;
+  if (settings_.track_roi && !last_box.empty()) {
+    const double w = last_box.width * settings_.roi_growth + 2.0 * settings_.roi_margin_px;
+    const double h = last_box.height * settings_.roi_growth + 2.0 * settings_.roi_margin_px;
+    const double cx = last_box.x + 0.5 * last_box.width;
+    const double cy = last_box.y + 0.5 * last_box.height;
+    const cv::Rect roi(cvRound(cx - 0.5 * w), cvRound(cy - 0.5 * h), cvRound(w), cvRound(h));
+    result.candidates = detector.detect(gray, roi, times);
+    if (!result.candidates.empty()) {
+      result.used_roi = true;
+      return result;
+    }
+  }
+  result.candidates = detector.detect(gray, cv::Rect(), times);
+  return result;
+}
+
+StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right_gray) {
+  CV_Assert(left_gray.type() == CV_8UC1 && right_gray.type() == CV_8UC1);
+  CV_Assert(left_gray.size() == calibration_.rig.image_size && right_gray.size() == calibration_.rig.image_size);
+  StarFix fix;
+  DetectorTimes left_times, right_times;
+  ViewResult left = detect_view(left_detector_, left_gray, last_left_box_, &left_times);
+  ViewResult right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+
+  const cv::Matx34d& P1 = calibration_.P1;
+  const cv::Matx34d& P2 = calibration_.P2;
+  const double f = P1(0, 0);
+  const double fy = P1(1, 1);
+  const double cx1 = P1(0, 2);
+  const double cy = P1(1, 2);
+  const double cx2 = P2(0, 2);
+  const double b = calibration_.baseline();
+
+  // Pair the candidates: rows must agree after rectification, the depth must be plausible; among the
+  // valid pairs the best (smallest summed Hu distance) wins, not the first.
+  auto try_pairs = [&](const ViewResult& l, const ViewResult& r) {
+    const Clock::time_point t1 = Clock::now();
+    const size_t nl = std::min(l.candidates.size(), kMaxCandidatesPerView);
+    const size_t nr = std::min(r.candidates.size(), kMaxCandidatesPerView);
+    std::vector<cv::Point2d> cl(nl), cr(nr);
+    for (size_t i = 0; i < nl; ++i) cl[i] = l.candidates[i].centroid;
+    for (size_t j = 0; j < nr; ++j) cr[j] = r.candidates[j].centroid;
+
+    double best_score = std::numeric_limits<double>::infinity();
+    size_t best_i = 0, best_j = 0;
+    for (size_t i = 0; i < nl; ++i) {
+      for (size_t j = 0; j < nr; ++j) {
+        const double row_difference = std::fabs(cl[i].y - cr[j].y);
+        const double disparity = (cl[i].x - cx1) - (cr[j].x - cx2);
+        if (!(row_difference <= settings_.max_row_difference_px) || !(disparity > 0.0)) continue;
+        const double z = f * b / disparity;  // thesis eq. 8.3
+        if (z < settings_.min_range_m || z > settings_.max_range_m) continue;
+        const double score = l.candidates[i].hu_distance + r.candidates[j].hu_distance;
+        if (score < best_score) {
+          best_score = score;
+          best_i = i;
+          best_j = j;
+        }
+      }
+    }
+    if (std::isfinite(best_score)) {
+      const cv::Point2d pl = cl[best_i];
+      const cv::Point2d pr = cr[best_j];
+      const double d = (pl.x - cx1) - (pr.x - cx2);
+      const double z = f * b / d;                  // thesis eq. 8.3
+      const double x = z * (pl.x - cx1) / f;       // thesis eq. 8.4a
+      const double y = z * (pl.y - cy) / fy;       // thesis eq. 8.4b
+      // The triangulated point is in the rectified left frame; R1 rotated the left camera into it.
+      const cv::Matx33d R1t = calibration_.R1.t();
+      fix.p_left = R1t * cv::Vec3d(x, y, z);
+      // Uncertainty: first-order propagation of independent centroid noise on u_l, v_l, u_r.
+      const cv::Matx33d J(-x / d + z / f, 0.0, x / d,   // ∂X/∂(u_l, v_l, u_r)
+                          -y / d, z / fy, y / d,        // ∂Y/∂(...)
+                          -z / d, 0.0, z / d);          // ∂Z/∂(...)
+      const double s2 = settings_.centroid_sigma_px * settings_.centroid_sigma_px;
+      const cv::Matx33d cov = R1t * (s2 * J * J.t()) * R1t.t();
+      fix.sigma_left = cv::Vec3d(std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)));
+      fix.left_rectified = pl;
+      fix.right_rectified = pr;
+      fix.disparity_px = d;
+      fix.row_difference_px = std::fabs(pl.y - pr.y);
+      fix.left_contour = l.candidates[best_i].contour;
+      fix.right_contour = r.candidates[best_j].contour;
+      fix.used_roi = l.used_roi && r.used_roi;
+      fix.found = true;
+      last_left_box_ = l.candidates[best_i].box;
+      last_right_box_ = r.candidates[best_j].box;
+    }
+    fix.times.triangulation_us += microseconds(t1, Clock::now());
+  };
+
+  try_pairs(left, right);
+  if (!fix.found && (left.used_roi || right.used_roi)) {
+    // The tracked ROIs found something that does not pair up: search both full frames once.
+    reset_tracking();
+    left = detect_view(left_detector_, left_gray, last_left_box_, &left_times);
+    right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+    try_pairs(left, right);
+  }
+  if (!fix.found) reset_tracking();
+  fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
+  fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;
+  fix.times.rectify_points_us = left_times.rectify_points_us + right_times.rectify_points_us;
+  return fix;
+}
+
+}  // namespace quad::vision
