@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 
+#include "quad/control/vehicle.h"
 #include "quad/sim/frames.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/vehicle.h"
@@ -24,10 +25,11 @@ int index_of(const VehicleParams& p, const std::string& name) {
   return -1;
 }
 
-// Commands giving each rotor `scale[i]` times the hover thrust m g / 4.
+// Commands giving each rotor `scale[i]` times the hover thrust m g / 4 (command = speed / max speed).
 std::array<double, 4> hover_commands(const Vehicle& v, const std::array<double, 4>& scale) {
   std::array<double, 4> c{};
-  for (size_t i = 0; i < 4; ++i) c[i] = scale[i] * v.mass_kg() * kG / 4.0 / v.motor(0).params().max_thrust_n;
+  for (size_t i = 0; i < 4; ++i)
+    c[i] = std::sqrt(scale[i] * v.mass_kg() * kG / 4.0 / v.motor(0).params().max_thrust_n);
   return c;
 }
 
@@ -107,12 +109,12 @@ struct TorqueCase {
 
 TEST(Physics, RotorDifferencesTurnTheVehicleTheFirmwaresWay) {
   // FRD: positive roll = right side down; positive pitch = nose up; positive yaw = clockwise from above.
-  // Front/back props turn clockwise, left/right counter-clockwise (the MJCF): speeding up left and right
-  // yaws the body clockwise.
+  // Front/back props turn counter-clockwise, left/right clockwise (control/vehicle.h): thesis eq. 5.4,
+  // tau_3 = kappa (w_f^2 + w_b^2 - w_l^2 - w_r^2), so faster front and back rotors yaw the nose right.
   const TorqueCase cases[] = {
       {"roll", {"rotor_left", "rotor_left"}, {"rotor_right", "rotor_right"}, 0},
       {"pitch", {"rotor_front", "rotor_front"}, {"rotor_back", "rotor_back"}, 1},
-      {"yaw", {"rotor_left", "rotor_right"}, {"rotor_front", "rotor_back"}, 2},
+      {"yaw", {"rotor_front", "rotor_back"}, {"rotor_left", "rotor_right"}, 2},
   };
   for (const auto& c : cases) {
     const VehicleParams p = quad_c();
@@ -149,13 +151,42 @@ TEST(Physics, MotorLagAndSlowerSpinDown) {
   m.settle(0.5);
   for (int i = 0; i < 50; ++i) m.step(0.0, 0.001);
   EXPECT_NEAR(m.speed_rad_s() / target, std::exp(-0.5), 1e-3) << "spin-down uses tau_down = 0.1 s";
-  // Full command gives 880 g; thrust linear in the command by default.
+  // Full command gives 880 g at 6500 RPM; the command is proportional to rotor speed (control/vehicle.h).
   m.settle(1.0);
   EXPECT_NEAR(m.thrust_n(), 0.880 * kG, 1e-9);
-  m.settle(0.25);
+  EXPECT_NEAR(m.speed_rad_s(), 6500.0 * 2.0 * M_PI / 60.0, 1e-9);
+  m.settle(0.5);
   EXPECT_NEAR(m.thrust_n(), 0.25 * 0.880 * kG, 1e-9);
+  EXPECT_NEAR(m.speed_rad_s(), 0.5 * 6500.0 * 2.0 * M_PI / 60.0, 1e-9);
   m.set_efficiency(0.8);
   EXPECT_NEAR(m.thrust_n(), 0.8 * 0.25 * 0.880 * kG, 1e-9);
+}
+
+}  // namespace
+}  // namespace quad::sim
+
+namespace quad::sim {
+namespace {
+
+// The simulator's rotors sit and spin where the controller's mixer believes they do.
+TEST(Physics, RotorLayoutMatchesTheControllersVehicleDescription) {
+  const VehicleParams p = quad_c();
+  Vehicle v(p);
+  const mjModel* m = v.model();
+  const ctrl::VehicleParams controller;
+  for (int i = 0; i < 4; ++i) {
+    const int a = mj_name2id(m, mjOBJ_ACTUATOR, p.rotor_order[static_cast<size_t>(i)].c_str());
+    ASSERT_GE(a, 0);
+    const int site = m->actuator_trnid[2 * a];
+    const Eigen::Vector3d pos_frd = flu_to_frd({m->site_pos[3 * site], m->site_pos[3 * site + 1], m->site_pos[3 * site + 2]});
+    const ctrl::MotorLayout layout = ctrl::motor_layout(controller.frame, controller.arm_length, i);
+    EXPECT_NEAR(pos_frd.x(), layout.x, 1e-6) << "motor " << i;
+    EXPECT_NEAR(pos_frd.y(), layout.y, 1e-6) << "motor " << i;
+    // gear[5] is the yaw torque per newton about z up; spin +1 (CCW) means torque along FRD +z = -z up.
+    const double yaw_frd_per_newton = -m->actuator_gear[6 * a + 5];
+    EXPECT_GT(yaw_frd_per_newton * layout.spin, 0.0) << "motor " << i;
+    EXPECT_NEAR(std::abs(yaw_frd_per_newton), controller.yaw_coeff / controller.thrust_coeff, 1e-6);
+  }
 }
 
 }  // namespace

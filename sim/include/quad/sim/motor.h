@@ -11,8 +11,10 @@ struct MotorParams {
   double tau_up_s = 0.05;
   double tau_down_s = 0.10;
   // ESC map: the thrust the command asks for, T_cmd = T_max ((1 - a) c + a c^2) (PX4's THR_MDL_FAC
-  // form); a = 0 makes thrust linear in the command. Below `idle_command` the motor stops.
-  double thrust_curve = 0.0;
+  // form). a = 1 (default) makes the command proportional to rotor speed, the convention of
+  // control/include/quad/control/vehicle.h; a = 0 makes thrust linear in the command. Below
+  // `idle_command` the motor stops.
+  double thrust_curve = 1.0;
   double idle_command = 0.02;
   // Yaw reaction torque = kappa * thrust (RotorS, Flightmare: 0.016 m). The sign per rotor is in the MJCF.
   double yaw_moment_coefficient_m = 0.016;
