@@ -1,0 +1,115 @@
+// A HIL flight scenario, loaded from YAML (sim/scenarios/*.yaml; the keys are documented in
+// docs/simulator.md). Loading checks every key: an unknown key, a wrong type or a missing value is a
+// ScenarioError that names the file, the line and the key.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "quad/sim/imu.h"
+#include "quad/sim/magnetometer.h"
+#include "quad/sim/motor.h"
+#include "quad/sim/serial_line.h"
+
+namespace quad::sim {
+
+class ScenarioError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// One ground-station command at a time; exactly one of the optionals is set.
+struct GcsCommand {
+  double at_s = 0.0;
+  std::optional<bool> arm;                 // COMMAND_LONG 400
+  std::optional<int> mode;                 // COMMAND_LONG 176, custom mode (quad/firmware/modes.h)
+  std::optional<Eigen::Vector3d> setpoint_ned_m;  // SET_POSITION_TARGET_LOCAL_NED
+  double yaw_rad = 0.0;                    // with the setpoint
+  bool land = false;                       // COMMAND_LONG 21
+};
+
+// RC sticks from at_s on (MANUAL_CONTROL units: -1000..1000, throttle 0..1000).
+struct RcSticks {
+  double at_s = 0.0;
+  int roll = 0, pitch = 0, yaw = 0, throttle = 0;
+};
+
+struct Gust {
+  double start_s = 0.0, end_s = 0.0;
+  Eigen::Vector3d velocity_ned_m_s = Eigen::Vector3d::Zero();  // added to the mean wind
+};
+
+enum class FaultType {
+  kVisionDropout,
+  kRadioLoss,
+  kBitErrorRate,
+  kRadioLatency,
+  kMagDisturbance,
+  kGyroBiasStep,
+  kMotorEfficiency,
+  kRcLoss,
+};
+
+struct Fault {
+  FaultType type = FaultType::kVisionDropout;
+  double start_s = 0.0, end_s = 0.0;
+  double value = 0.0;                           // loss, bit error rate, latency_s or efficiency
+  Eigen::Vector3d vector = Eigen::Vector3d::Zero();  // mag field offset (gauss, NED) or gyro bias (rad/s)
+  int motor = 0;
+  bool active(double t) const { return t >= start_s && t < end_s; }
+};
+
+struct VisionParams {
+  double rate_hz = 30.0;
+  double latency_s = 0.030;  // capture to the radio (station processing); the radio adds its own
+  double noise_m = 0.005;    // per axis, NED
+  bool enabled = true;
+};
+
+struct Scenario {
+  std::string path;  // where it was loaded from
+  std::string name;
+  double duration_s = 0.0;
+  uint64_t seed = 1;
+  std::string model_path;
+  Eigen::Vector2d initial_north_east_m = Eigen::Vector2d::Zero();
+  double initial_height_m = 0.0;
+  double initial_yaw_rad = 0.0;
+
+  double control_rate_hz = 100.0;  // one HIL_SENSOR / HIL_ACTUATOR_CONTROLS exchange per period
+  int uart0_baud = 921600;
+  int radio_baud = 57600;
+  RadioConditions radio{0.004, 0.002, 0.0, 0.0};
+  bool gcs_over_radio = false;  // ground-station commands on UART2 instead of UART0
+  double rc_rate_hz = 50.0;
+
+  VisionParams vision;
+  MotorParams motor;
+  ImuParams imu;
+  MagParams mag;
+  Eigen::Vector3d field_ned_gauss{0.20, -0.02, 0.45};
+  double drag_linear = 0.15, drag_quadratic = 0.06;
+
+  Eigen::Vector3d wind_mean_ned_m_s = Eigen::Vector3d::Zero();
+  std::vector<Gust> gusts;
+  std::vector<GcsCommand> commands;  // sorted by time
+  std::vector<RcSticks> rc;          // sorted by time
+  std::vector<Fault> faults;
+
+  // Metrics window (the hold) and the settling band.
+  double hold_start_s = 0.0, hold_end_s = 0.0;
+  double settle_band_m = 0.05;
+
+  Eigen::Vector3d wind_at(double t) const;
+};
+
+Scenario load_scenario(const std::string& path);
+// Parses YAML text; `name` stands for the file in error messages and `base_dir` resolves relative paths.
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir);
+
+}  // namespace quad::sim

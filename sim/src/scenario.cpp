@@ -1,0 +1,351 @@
+#include "quad/sim/scenario.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "quad/firmware/modes.h"
+
+namespace quad::sim {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+// A YAML node with its dotted key path, so every error can name the key and the line.
+class Field {
+ public:
+  Field(YAML::Node node, std::string key, const std::string* file) : node_(std::move(node)), key_(std::move(key)), file_(file) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    std::ostringstream s;
+    s << *file_;
+    if (node_.IsDefined() && node_.Mark().line >= 0) s << ":" << node_.Mark().line + 1;
+    s << ": '" << key_ << "' " << what;
+    throw ScenarioError(s.str());
+  }
+
+  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+  const std::string& key() const { return key_; }
+
+  // A mapping whose keys must all be in `allowed`.
+  void expect_map(std::initializer_list<const char*> allowed) const {
+    if (!node_.IsMap()) fail("must be a mapping");
+    const std::set<std::string> ok(allowed.begin(), allowed.end());
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!ok.count(k)) {
+        std::string list;
+        for (const auto& a : ok) list += (list.empty() ? "" : ", ") + a;
+        Field(kv.first, key_.empty() ? k : key_ + "." + k, file_).fail("is not a known key (expected one of: " + list + ")");
+      }
+    }
+  }
+
+  Field operator[](const char* k) const {
+    return Field(node_[k], key_.empty() ? std::string(k) : key_ + "." + k, file_);
+  }
+  Field at(size_t i) const { return Field(node_[i], key_ + "[" + std::to_string(i) + "]", file_); }
+  size_t size() const {
+    if (!node_.IsSequence()) fail("must be a list");
+    return node_.size();
+  }
+
+  double number() const {
+    if (!defined()) fail("is required");
+    try {
+      const double v = node_.as<double>();
+      if (!std::isfinite(v)) fail("must be a finite number");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail("must be a number, not '" + scalar() + "'");
+    }
+  }
+  double number(double lo, double hi) const {
+    const double v = number();
+    if (v < lo || v > hi) {
+      std::ostringstream s;
+      s << "must be in [" << lo << ", " << hi << "], not " << v;
+      fail(s.str());
+    }
+    return v;
+  }
+  int integer(int lo, int hi) const {
+    const double v = number(lo, hi);
+    if (v != std::floor(v)) fail("must be a whole number");
+    return static_cast<int>(v);
+  }
+  bool boolean() const {
+    if (!defined()) fail("is required");
+    try {
+      return node_.as<bool>();
+    } catch (const YAML::Exception&) {
+      fail("must be true or false, not '" + scalar() + "'");
+    }
+  }
+  std::string text() const {
+    if (!defined()) fail("is required");
+    if (!node_.IsScalar()) fail("must be a string");
+    return node_.as<std::string>();
+  }
+  Eigen::Vector3d vec3() const {
+    if (!node_.IsSequence() || node_.size() != 3) fail("must be a list of three numbers");
+    return {at(0).number(), at(1).number(), at(2).number()};
+  }
+  Eigen::Vector2d vec2() const {
+    if (!node_.IsSequence() || node_.size() != 2) fail("must be a list of two numbers");
+    return {at(0).number(), at(1).number()};
+  }
+
+  // Optional setters: leave `out` alone when the key is absent.
+  void get(double& out) const { if (defined()) out = number(); }
+  void get(double& out, double lo, double hi) const { if (defined()) out = number(lo, hi); }
+  void get(bool& out) const { if (defined()) out = boolean(); }
+  void get(Eigen::Vector3d& out) const { if (defined()) out = vec3(); }
+
+ private:
+  std::string scalar() const { return node_.IsScalar() ? node_.Scalar() : std::string("<") + (node_.IsMap() ? "mapping" : "list") + ">"; }
+
+  YAML::Node node_;
+  std::string key_;
+  const std::string* file_;
+};
+
+int parse_mode(const Field& f) {
+  const std::string s = f.text();
+  std::string upper = s;
+  std::transform(upper.begin(), upper.end(), upper.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  std::string names;
+  // The names and numbers are the firmware's own (quad/firmware/modes.h).
+  for (int m = 0; m <= static_cast<int>(fw::FlightMode::kLanding); ++m) {
+    const char* name = fw::mode_name(static_cast<fw::FlightMode>(m));
+    if (upper == name) return m;
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  }
+  f.fail("is not a flight mode (expected one of: " + names + ")");
+}
+
+void parse_axis(const Field& f, ImuAxisParams& a) {
+  f.expect_map({"noise_density", "bias_random_walk", "turn_on_bias", "vibration_at_full_speed"});
+  f["noise_density"].get(a.noise_density, 0.0, 1.0);
+  f["bias_random_walk"].get(a.bias_random_walk, 0.0, 1.0);
+  f["turn_on_bias"].get(a.turn_on_bias, 0.0, 10.0);
+  f["vibration_at_full_speed"].get(a.vibration_at_full_speed, 0.0, 100.0);
+}
+
+void parse_radio(const Field& f, RadioConditions& r) {
+  f["latency_s"].get(r.latency_s, 0.0, 10.0);
+  f["jitter_s"].get(r.jitter_s, 0.0, 10.0);
+  f["loss"].get(r.loss, 0.0, 1.0);
+  f["bit_error_rate"].get(r.bit_error_rate, 0.0, 0.5);
+}
+
+Fault parse_fault(const Field& f, double duration) {
+  static const std::pair<const char*, FaultType> kTypes[] = {
+      {"vision_dropout", FaultType::kVisionDropout}, {"radio_loss", FaultType::kRadioLoss},
+      {"bit_error_rate", FaultType::kBitErrorRate},  {"radio_latency", FaultType::kRadioLatency},
+      {"mag_disturbance", FaultType::kMagDisturbance}, {"gyro_bias_step", FaultType::kGyroBiasStep},
+      {"motor_efficiency", FaultType::kMotorEfficiency}, {"rc_loss", FaultType::kRcLoss},
+  };
+  f.expect_map({"type", "start_s", "end_s", "loss", "rate", "latency_s", "field_ned_gauss", "bias_rad_s", "motor", "efficiency"});
+  Fault fault;
+  const std::string type = f["type"].text();
+  std::string names;
+  bool found = false;
+  for (const auto& [name, t] : kTypes) {
+    names += (names.empty() ? "" : ", ") + std::string(name);
+    if (type == name) {
+      fault.type = t;
+      found = true;
+    }
+  }
+  if (!found) f["type"].fail("is not a fault type (expected one of: " + names + ")");
+  fault.start_s = f["start_s"].number(0.0, duration);
+  fault.end_s = f["end_s"].defined() ? f["end_s"].number(fault.start_s, 1e9) : duration;
+  auto required = [&](const char* k) {
+    if (!f[k].defined()) f[k].fail("is required for a " + type + " fault");
+    return f[k];
+  };
+  switch (fault.type) {
+    case FaultType::kRadioLoss: fault.value = f["loss"].defined() ? f["loss"].number(0.0, 1.0) : 1.0; break;
+    case FaultType::kBitErrorRate: fault.value = required("rate").number(0.0, 0.5); break;
+    case FaultType::kRadioLatency: fault.value = required("latency_s").number(0.0, 10.0); break;
+    case FaultType::kMagDisturbance: fault.vector = required("field_ned_gauss").vec3(); break;
+    case FaultType::kGyroBiasStep: fault.vector = required("bias_rad_s").vec3(); break;
+    case FaultType::kMotorEfficiency:
+      fault.motor = required("motor").integer(0, 3);
+      fault.value = required("efficiency").number(0.0, 1.0);
+      break;
+    case FaultType::kVisionDropout:
+    case FaultType::kRcLoss: break;
+  }
+  return fault;
+}
+
+std::string resolve(const std::string& base_dir, const std::string& p) {
+  if (p.empty() || p[0] == '/') return p;
+  return base_dir.empty() ? p : base_dir + "/" + p;
+}
+
+}  // namespace
+
+Eigen::Vector3d Scenario::wind_at(double t) const {
+  Eigen::Vector3d w = wind_mean_ned_m_s;
+  for (const Gust& g : gusts)
+    if (t >= g.start_s && t < g.end_s) w += g.velocity_ned_m_s;
+  return w;
+}
+
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw ScenarioError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
+  }
+  Scenario s;
+  s.path = name;
+  const Field top(root, "", &name);
+  top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
+                  "vision", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "rc", "faults", "metrics"});
+  s.name = top["name"].text();
+  s.duration_s = top["duration_s"].number(0.01, 86400.0);
+  if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
+  s.model_path = resolve(base_dir, top["model"].defined() ? top["model"].text() : std::string("../models/quad_c.xml"));
+
+  if (const Field f = top["initial"]; f.defined()) {
+    f.expect_map({"north_east_m", "height_m", "yaw_deg"});
+    if (f["north_east_m"].defined()) s.initial_north_east_m = f["north_east_m"].vec2();
+    f["height_m"].get(s.initial_height_m, 0.0, 1000.0);
+    if (f["yaw_deg"].defined()) s.initial_yaw_rad = f["yaw_deg"].number(-360.0, 360.0) * kDeg;
+  }
+  if (const Field f = top["hil"]; f.defined()) {
+    f.expect_map({"rate_hz", "uart0_baud"});
+    f["rate_hz"].get(s.control_rate_hz, 10.0, 1000.0);
+    if (f["uart0_baud"].defined()) s.uart0_baud = f["uart0_baud"].integer(9600, 921600);
+  }
+  if (const Field f = top["radio"]; f.defined()) {
+    f.expect_map({"baud", "latency_s", "jitter_s", "loss", "bit_error_rate"});
+    if (f["baud"].defined()) s.radio_baud = f["baud"].integer(9600, 921600);
+    parse_radio(f, s.radio);
+  }
+  if (const Field f = top["gcs"]; f.defined()) {
+    f.expect_map({"port"});
+    const std::string port = f["port"].text();
+    if (port != "uart0" && port != "radio") f["port"].fail("must be uart0 or radio");
+    s.gcs_over_radio = port == "radio";
+  }
+  top["rc_rate_hz"].get(s.rc_rate_hz, 1.0, 500.0);
+  if (const Field f = top["vision"]; f.defined()) {
+    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
+    f["enabled"].get(s.vision.enabled);
+    f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
+    f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
+    f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
+  }
+  if (const Field f = top["motors"]; f.defined()) {
+    f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});
+    f["tau_up_s"].get(s.motor.tau_up_s, 1e-4, 10.0);
+    f["tau_down_s"].get(s.motor.tau_down_s, 1e-4, 10.0);
+    f["thrust_curve"].get(s.motor.thrust_curve, 0.0, 1.0);
+    f["idle_command"].get(s.motor.idle_command, 0.0, 0.5);
+    f["max_thrust_n"].get(s.motor.max_thrust_n, 0.1, 1000.0);
+  }
+  if (const Field f = top["imu"]; f.defined()) {
+    f.expect_map({"dlpf_cutoff_hz", "gyro", "accel"});
+    f["dlpf_cutoff_hz"].get(s.imu.dlpf_cutoff_hz, 0.0, 500.0);
+    if (f["gyro"].defined()) parse_axis(f["gyro"], s.imu.gyro);
+    if (f["accel"].defined()) parse_axis(f["accel"], s.imu.accel);
+  }
+  if (const Field f = top["magnetometer"]; f.defined()) {
+    f.expect_map({"noise_gauss", "scale", "misalignment_rad", "hard_iron_gauss"});
+    f["noise_gauss"].get(s.mag.noise_gauss, 0.0, 1.0);
+    f["scale"].get(s.mag.scale);
+    f["misalignment_rad"].get(s.mag.misalignment_rad);
+    f["hard_iron_gauss"].get(s.mag.hard_iron_gauss);
+  }
+  top["magnetic_field_ned_gauss"].get(s.field_ned_gauss);
+  if (const Field f = top["drag"]; f.defined()) {
+    f.expect_map({"linear_n_per_m_s", "quadratic_n_per_m2_s2"});
+    f["linear_n_per_m_s"].get(s.drag_linear, 0.0, 100.0);
+    f["quadratic_n_per_m2_s2"].get(s.drag_quadratic, 0.0, 100.0);
+  }
+  if (const Field f = top["wind"]; f.defined()) {
+    f.expect_map({"mean_ned_m_s", "gusts"});
+    f["mean_ned_m_s"].get(s.wind_mean_ned_m_s);
+    if (const Field g = f["gusts"]; g.defined()) {
+      for (size_t i = 0; i < g.size(); ++i) {
+        const Field e = g.at(i);
+        e.expect_map({"start_s", "end_s", "velocity_ned_m_s"});
+        Gust gust;
+        gust.start_s = e["start_s"].number(0.0, s.duration_s);
+        gust.end_s = e["end_s"].number(gust.start_s, 1e9);
+        gust.velocity_ned_m_s = e["velocity_ned_m_s"].vec3();
+        s.gusts.push_back(gust);
+      }
+    }
+  }
+  if (const Field f = top["commands"]; f.defined()) {
+    for (size_t i = 0; i < f.size(); ++i) {
+      const Field e = f.at(i);
+      e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land"});
+      GcsCommand c;
+      c.at_s = e["at_s"].number(0.0, s.duration_s);
+      int actions = 0;
+      if (e["arm"].defined()) c.arm = e["arm"].boolean(), ++actions;
+      if (e["mode"].defined()) c.mode = parse_mode(e["mode"]), ++actions;
+      if (e["setpoint_ned_m"].defined()) c.setpoint_ned_m = e["setpoint_ned_m"].vec3(), ++actions;
+      if (e["yaw_deg"].defined()) {
+        if (!c.setpoint_ned_m) e["yaw_deg"].fail("goes with setpoint_ned_m");
+        c.yaw_rad = e["yaw_deg"].number(-360.0, 360.0) * kDeg;
+      }
+      if (e["land"].defined()) {
+        if (!e["land"].boolean()) e["land"].fail("can only be true");
+        c.land = true, ++actions;
+      }
+      if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land");
+      s.commands.push_back(c);
+    }
+  }
+  if (const Field f = top["rc"]; f.defined()) {
+    for (size_t i = 0; i < f.size(); ++i) {
+      const Field e = f.at(i);
+      e.expect_map({"at_s", "roll", "pitch", "yaw", "throttle"});
+      RcSticks r;
+      r.at_s = e["at_s"].number(0.0, s.duration_s);
+      if (e["roll"].defined()) r.roll = e["roll"].integer(-1000, 1000);
+      if (e["pitch"].defined()) r.pitch = e["pitch"].integer(-1000, 1000);
+      if (e["yaw"].defined()) r.yaw = e["yaw"].integer(-1000, 1000);
+      if (e["throttle"].defined()) r.throttle = e["throttle"].integer(0, 1000);
+      s.rc.push_back(r);
+    }
+  }
+  if (const Field f = top["faults"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) s.faults.push_back(parse_fault(f.at(i), s.duration_s));
+  if (const Field f = top["metrics"]; f.defined()) {
+    f.expect_map({"hold_start_s", "hold_end_s", "settle_band_m"});
+    s.hold_start_s = f["hold_start_s"].number(0.0, s.duration_s);
+    s.hold_end_s = f["hold_end_s"].number(s.hold_start_s, s.duration_s);
+    f["settle_band_m"].get(s.settle_band_m, 0.001, 10.0);
+  }
+  auto by_time = [](const auto& a, const auto& b) { return a.at_s < b.at_s; };
+  std::stable_sort(s.commands.begin(), s.commands.end(), by_time);
+  std::stable_sort(s.rc.begin(), s.rc.end(), by_time);
+  return s;
+}
+
+Scenario load_scenario(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ScenarioError(path + ": cannot open the scenario file");
+  std::stringstream text;
+  text << in.rdbuf();
+  const size_t slash = path.find_last_of('/');
+  return parse_scenario(text.str(), path, slash == std::string::npos ? std::string(".") : path.substr(0, slash));
+}
+
+}  // namespace quad::sim
