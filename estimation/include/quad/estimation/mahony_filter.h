@@ -33,6 +33,10 @@ class MahonyFilter {
   explicit MahonyFilter(const MahonyParams& params) : params_(params) {}
 
   bool initialize(const Vec3& accel_frd, const Vec3& mag_frd);
+  void reset(const Quat& q_ib, const Vec3& gyro_bias) {
+    q_ = normalized(q_ib);
+    bias_ = gyro_bias;
+  }
   void update(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt);
 
   const Quat& attitude() const { return q_; }

@@ -1,0 +1,135 @@
+#include "quad/estimation/conditioned_observer.h"
+
+#include "gravity_gate.h"
+#include "quad/estimation/vector_attitude.h"
+
+namespace quad {
+namespace est {
+
+namespace {
+constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
+}
+
+ConditionedObserver::ConditionedObserver(const ObserverParams& params) : params_(params) { cache_reference(); }
+
+void ConditionedObserver::set_params(const ObserverParams& params) {
+  params_ = params;
+  cache_reference();
+}
+
+// The inertial reference direction and the constant denominator, computed once per reference.
+void ConditionedObserver::cache_reference() {
+  const Vec3& m = params_.mag_ref_ned;
+  if (params_.innovation == Innovation::Conditioned) {
+    // thesis eq. 4.7: v_I = pi_{e3} m_I / ||pi_{e3} m_I||; pi_{e3} m = (m_N, m_E, 0).
+    const Vec3 h{m.x, m.y, 0.0f};
+    const float n = norm(h);
+    inv_mag_h_ = n > 0.0f ? 1.0f / n : 0.0f;  // eq. 4.8 denominator (errata: the inertial norm)
+    v_ref_ = h * inv_mag_h_;
+  } else {
+    // thesis eq. 4.3a: v_I = m_I / ||m_I||
+    const float n = norm(m);
+    inv_mag_h_ = n > 0.0f ? 1.0f / n : 0.0f;
+    v_ref_ = m * inv_mag_h_;
+  }
+}
+
+bool ConditionedObserver::initialize(const Vec3& accel_frd, const Vec3& mag_frd) {
+  if (params_.mag_ref_from_init) {
+    Vec3 ref;
+    if (!magnetic_reference_from_sample(accel_frd, mag_frd, ref)) return false;
+    params_.mag_ref_ned = ref;
+    cache_reference();
+  }
+  Quat q;
+  if (!attitude_from_vectors(accel_frd, mag_frd, params_.mag_ref_ned, q)) return false;
+  reset(q, Vec3{});
+  return true;
+}
+
+void ConditionedObserver::reset(const Quat& q_ib, const Vec3& gyro_bias) {
+  q_ = normalized(q_ib);
+  // eq. 4.9 requires ||b(0)|| < Delta.
+  bias_ = is_finite(gyro_bias) ? sat_delta(gyro_bias, 0.999f * params_.delta) : Vec3{};
+  rate_ = Vec3{};
+  initialized_ = true;
+}
+
+void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt) {
+  if (!is_finite(gyro) || !(dt > 0.0f) || !(dt <= kMaxDt)) {
+    ++health_.skipped;
+    return;
+  }
+  const ObserverParams& k = params_;
+  // Estimated directions in the body frame: with q = q_IB, u_hat_B = R^T u_I (the transpose of what
+  // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R.
+  const Mat3 r = to_dcm(q_);
+  const Vec3 u_hat = r.row(2);
+
+  // Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
+  // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm.
+  Vec3 u_meas;
+  bool use_accel = false;
+  const float a2 = norm_sq(accel);
+  if (near_gravity(a2, k.accel_norm_tolerance)) {
+    u_meas = accel * (-1.0f / sqrtf(a2));
+    use_accel = true;
+  }
+  if (!use_accel) ++health_.accel_rejected;
+
+  bool use_mag = false;
+  if (mag_valid) {
+    use_mag = is_finite(mag) && norm_sq(mag) > 0.0f && inv_mag_h_ > 0.0f;
+    if (!use_mag) ++health_.mag_rejected;
+  }
+
+  Vec3 sigma_r;  // innovation of the attitude, eq. 4.9 (or 4.4)
+  Vec3 sigma_b;  // innovation of the bias, eq. 4.9
+  if (use_accel) {
+    const Vec3 e_u = cross(u_meas, u_hat);
+    sigma_r += e_u * k.k1;
+    sigma_b -= e_u * k.k3;
+  }
+  if (use_mag) {
+    const Vec3 v_hat = mul_transpose(r, v_ref_);  // R^T v_I
+    if (k.innovation == Innovation::Conditioned) {
+      // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
+      // vertical stands in for u_B so the heading is still held.
+      const Vec3& axis = use_accel ? u_meas : u_hat;
+      const Vec3 v_meas = (mag - axis * dot(axis, mag)) * inv_mag_h_;
+      const Vec3 e_v = cross(v_meas, v_hat);
+      // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.
+      sigma_r += u_hat * (k.k2 * dot(u_hat, e_v));
+      sigma_b -= e_v * k.k4;
+    } else {
+      // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
+      const Vec3 v_meas = mag * (1.0f / sqrtf(norm_sq(mag)));
+      sigma_r += cross(v_meas, v_hat) * k.k2;
+    }
+  }
+  if (k.innovation == Innovation::Unconditioned) sigma_b = sigma_r * (-k.k_i);  // eq. 4.4: b' = -k_I sigma_R
+
+  // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
+  const Vec3 rate = gyro - bias_;
+  const Vec3 omega = rate + sigma_r;
+  const Quat q_next =
+      k.propagator == Propagator::Exact ? integrate_exact(q_, omega, dt) : integrate_second_order(q_, omega, dt);
+  // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
+  // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none).
+  Vec3 b_dot = sigma_b;
+  if (k.innovation == Innovation::Conditioned) b_dot += (sat_delta(bias_, k.delta) - bias_) * k.kb;
+  const Vec3 b_next = bias_ + b_dot * dt;
+
+  if (!is_finite(q_next) || !is_finite(b_next)) {
+    ++health_.state_restored;
+    return;
+  }
+  // The exact propagator preserves the norm only up to round-off: renormalise (sqrt, once per step).
+  q_ = k.propagator == Propagator::Exact ? normalized(q_next) : q_next;
+  bias_ = b_next;
+  rate_ = rate;
+  ++health_.updates;
+}
+
+}  // namespace est
+}  // namespace quad

@@ -1,0 +1,316 @@
+#include "quad/estimation/position_filter.h"
+
+namespace quad {
+namespace est {
+
+namespace {
+
+constexpr float kMaxStep = 0.5f;        // s: a longer predict step is a gap, not a sample period
+constexpr float kRebaseAfter = 1.0f;    // s: re-express the accumulated correction at a newer origin
+constexpr float kFoldThreshold = 1.0f;  // m: fold the accumulated correction into the history beyond this
+
+// Signed microseconds a - b on the wrapping 32-bit vehicle clock, in seconds.
+float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static_cast<int32_t>(a - b)) * 1e-6f; }
+
+// Q(T) = int_0^T Phi(t) diag(qp, qv, qb) Phi(t)^T dt for Phi(t) = [[1, t, -t^2/2], [0, 1, -t], [0, 0, 1]]:
+// the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12.
+AxisCovariance process_noise(float t, float qp, float qv, float qb) {
+  const float t2 = t * t, t3 = t2 * t;
+  AxisCovariance q;
+  q.pp = qp * t + qv * t3 * (1.0f / 3.0f);
+  q.pv = qv * t2 * 0.5f;
+  q.vv = qv * t;
+  if (qb > 0.0f) {
+    q.pp += qb * t3 * t2 * (1.0f / 20.0f);
+    q.pv += qb * t2 * t2 * 0.125f;
+    q.vv += qb * t3 * (1.0f / 3.0f);
+    q.pb = -qb * t3 * (1.0f / 6.0f);
+    q.vb = -qb * t2 * 0.5f;
+    q.bb = qb * t;
+  }
+  return q;
+}
+
+// P <- Phi(T) P Phi(T)^T + Q(T)   (thesis eq. 8.11a, F of eq. 8.10 extended by the bias column).
+void propagate_covariance(AxisCovariance& p, float t, bool bias, const AxisCovariance& q) {
+  if (!bias) {
+    p.pp += t * (2.0f * p.pv + t * p.vv) + q.pp;
+    p.pv += t * p.vv + q.pv;
+    p.vv += q.vv;
+    return;
+  }
+  const float h = 0.5f * t * t;
+  // A = Phi P, rows r0, r1 (r2 = P's last row), then P' = A Phi^T.
+  const float r00 = p.pp + t * p.pv - h * p.pb, r01 = p.pv + t * p.vv - h * p.vb, r02 = p.pb + t * p.vb - h * p.bb;
+  const float r11 = p.vv - t * p.vb, r12 = p.vb - t * p.bb;
+  p.pp = r00 + t * r01 - h * r02 + q.pp;
+  p.pv = r01 - t * r02 + q.pv;
+  p.pb = r02 + q.pb;
+  p.vv = r11 - t * r12 + q.vv;
+  p.vb = r12 + q.vb;
+  p.bb += q.bb;
+}
+
+}  // namespace
+
+Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd) {
+  // thesis eq. 8.7: u = g e_z + R a_B
+  return rotate(q_ib, specific_force_frd) + Vec3{0.0f, 0.0f, kGravity};
+}
+
+PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params)
+    : history_(storage), capacity_(capacity) {
+  set_params(params);
+}
+
+void PositionFilterCore::set_params(const PositionFilterParams& params) {
+  params_ = params;
+  const bool white = params.process_noise == ProcessNoise::WhiteAcceleration;
+  for (int i = 0; i < 3; ++i) {
+    qp_[i] = white ? 0.0f : params.q_pos;
+    qv_[i] = white ? params.q_accel : params.q_vel;
+  }
+  qb_ = params.z_accel_bias ? params.q_bias : 0.0f;
+  if (!params.z_accel_bias) {
+    x_[2].b = 0.0f;
+    p_[2].pb = p_[2].vb = p_[2].bb = 0.0f;
+    corr_[2].b = 0.0f;
+  }
+}
+
+void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
+  const float vel_var = sqf(params_.vel_sigma0);
+  for (int i = 0; i < 3; ++i) {
+    x_[i] = AxisState{p_ned[i], v_ned[i], 0.0f};
+    p_[i] = AxisCovariance{};
+    p_[i].pp = sqf(i == 2 ? params_.fix_sigma_z : params_.fix_sigma_xy);
+    p_[i].vv = vel_var;
+    corr_[i] = Correction{};
+  }
+  if (params_.z_accel_bias) p_[2].bb = sqf(params_.bias_sigma0);
+  t_us_ = t_us;
+  reset_us_ = t_us;
+  corr_origin_us_ = t_us;
+  clock_started_ = true;
+  initialized_ = true;
+  have_fix_ = false;
+  consecutive_rejections_ = 0;
+  clear_history();
+  push_history();
+}
+
+void PositionFilterCore::clear_history() {
+  head_ = 0;
+  count_ = 0;
+}
+
+float PositionFilterCore::correction_position(int axis, float dt) const {
+  const Correction& c = corr_[axis];
+  return c.p + dt * (c.v - 0.5f * dt * c.b);
+}
+
+// History entries hold p - (accumulated correction carried to their time); see the header.
+void PositionFilterCore::push_history() {
+  HistoryEntry& e = history_[head_];
+  e.t_us = t_us_;
+  const float dt = seconds_between(t_us_, corr_origin_us_);
+  for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - correction_position(i, dt);
+  head_ = static_cast<uint16_t>(head_ + 1 == capacity_ ? 0 : head_ + 1);
+  if (count_ < capacity_) ++count_;
+}
+
+// Re-express the accumulated correction at origin t_us: c <- Phi(t_us - origin) c.
+void PositionFilterCore::rebase_correction(uint32_t t_us) {
+  const float d = seconds_between(t_us, corr_origin_us_);
+  for (int i = 0; i < 3; ++i) {
+    Correction& c = corr_[i];
+    c.p += d * (c.v - 0.5f * d * c.b);
+    c.v -= d * c.b;
+  }
+  corr_origin_us_ = t_us;
+}
+
+// Adds the accumulated correction into every history entry and zeroes it, so that neither the
+// correction nor the stored values grow without bound (rare: O(capacity) once it exceeds a metre).
+void PositionFilterCore::fold_correction() {
+  for (uint16_t k = 0; k < count_; ++k) {
+    HistoryEntry& e = history_[k];
+    const float dt = seconds_between(e.t_us, corr_origin_us_);
+    for (int i = 0; i < 3; ++i) e.p[i] += correction_position(i, dt);
+  }
+  for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
+}
+
+void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
+  if (!clock_started_) {
+    t_us_ = t_us;
+    corr_origin_us_ = t_us;
+    clock_started_ = true;
+    return;
+  }
+  const float dt = seconds_between(t_us, t_us_);
+  if (!is_finite(u) || !(dt > 0.0f)) {
+    ++health_.predict_skipped;
+    return;
+  }
+  t_us_ = t_us;
+  if (!initialized_) {
+    corr_origin_us_ = t_us;
+    return;
+  }
+  // thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u_z - b on z).
+  const float h = 0.5f * dt * dt;
+  for (int i = 0; i < 3; ++i) {
+    AxisState& x = x_[i];
+    const float a = u[i] - x.b;
+    x.p += dt * x.v + h * a;
+    x.v += dt * a;
+    propagate_covariance(p_[i], dt, i == 2 && params_.z_accel_bias, process_noise(dt, qp_[i], qv_[i], i == 2 ? qb_ : 0.0f));
+  }
+  if (dt > kMaxStep) {
+    // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
+    for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
+    corr_origin_us_ = t_us;
+    reset_us_ = t_us;
+    clear_history();
+  } else if (seconds_between(t_us, corr_origin_us_) > kRebaseAfter) {
+    rebase_correction(t_us);
+  }
+  push_history();
+}
+
+// Position on the current estimate's time line at t_us, from the history (linear interpolation between
+// the entries around t_us). False when t_us is older than the oldest entry.
+bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3]) const {
+  if (count_ == 0) return false;
+  const uint16_t oldest = static_cast<uint16_t>((head_ + capacity_ - count_) % capacity_);
+  // Ages relative to now are non-negative and decrease from the oldest entry to the newest.
+  const float age = seconds_between(t_us_, t_us);
+  if (age > seconds_between(t_us_, history_[oldest].t_us)) return false;
+  // Binary search for the newest entry at or before t_us (logical index lo).
+  uint16_t lo = 0, hi = static_cast<uint16_t>(count_ - 1);
+  while (lo < hi) {
+    const uint16_t mid = static_cast<uint16_t>((lo + hi + 1) / 2);
+    const HistoryEntry& e = history_[(oldest + mid) % capacity_];
+    if (seconds_between(t_us_, e.t_us) >= age) {
+      lo = mid;
+    } else {
+      hi = static_cast<uint16_t>(mid - 1);
+    }
+  }
+  const HistoryEntry& a = history_[(oldest + lo) % capacity_];
+  float frac = 0.0f;
+  const HistoryEntry* b = &a;
+  if (lo + 1 < count_) {
+    b = &history_[(oldest + lo + 1) % capacity_];
+    const float span = seconds_between(b->t_us, a.t_us);
+    frac = span > 0.0f ? seconds_between(t_us, a.t_us) / span : 0.0f;
+  }
+  const float dt = seconds_between(t_us, corr_origin_us_);
+  for (int i = 0; i < 3; ++i) out[i] = a.p[i] + frac * (b->p[i] - a.p[i]) + correction_position(i, dt);
+  return true;
+}
+
+void PositionFilterCore::initialize_from_fix(const Vec3& p_ned) {
+  if (initialized_) ++health_.resets;  // the first fix initialises; later ones here are resets
+  reset(p_ned, Vec3{}, t_us_);
+}
+
+FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) {
+  if (!is_finite(y) || !clock_started_) {
+    ++health_.rejected_invalid;
+    return FixResult::RejectedInvalid;
+  }
+  if (!initialized_ || (params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections)) {
+    initialize_from_fix(y);
+    return FixResult::Initialized;
+  }
+  // A fix stamped after "now" (clock offset) is taken as current.
+  float tau = seconds_between(t_us_, capture_us);
+  if (tau < 0.0f) {
+    tau = 0.0f;
+    capture_us = t_us_;
+  }
+  if (seconds_between(capture_us, reset_us_) < 0.0f) {
+    ++health_.rejected_too_old;
+    return FixResult::RejectedTooOld;
+  }
+  if (have_fix_ && seconds_between(capture_us, last_fix_us_) < 0.0f) {
+    ++health_.rejected_out_of_order;
+    return FixResult::RejectedOutOfOrder;
+  }
+  float p_s[3];
+  if (!predicted_position_at(capture_us, p_s)) {
+    ++health_.rejected_too_old;
+    return FixResult::RejectedTooOld;
+  }
+
+  // Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
+  // -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
+  // correction carried to now is Phi(tau) K nu = D h nu / S.
+  float w[3][3];
+  float s[3];
+  float nu[3];
+  bool pass = true;
+  float nis = 0.0f;
+  const float h1 = -tau, h2 = -0.5f * tau * tau;
+  for (int i = 0; i < 3; ++i) {
+    const bool bias = i == 2 && params_.z_accel_bias;
+    const AxisCovariance q = process_noise(tau, qp_[i], qv_[i], bias ? qb_ : 0.0f);
+    const AxisCovariance& p = p_[i];
+    const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
+    const float dpb = p.pb - q.pb, dvb = p.vb - q.vb, dbb = p.bb - q.bb;
+    w[i][0] = dpp + h1 * dpv + h2 * dpb;
+    w[i][1] = dpv + h1 * dvv + h2 * dvb;
+    w[i][2] = bias ? dpb + h1 * dvb + h2 * dbb : 0.0f;
+    const float r = sqf(i == 2 ? params_.fix_sigma_z : params_.fix_sigma_xy);
+    // h^T D h is the variance of the predicted position at capture time: never below zero.
+    s[i] = maxf(w[i][0] + h1 * w[i][1] + h2 * w[i][2], 0.0f) + r;
+    nu[i] = y[i] - p_s[i];
+    // Mahalanobis gate per axis: nu^2 <= gate^2 S (no square root, no division).
+    if (nu[i] * nu[i] > sqf(params_.gate_sigma) * s[i] || !is_finite(nu[i])) pass = false;
+    nis += nu[i] * nu[i] / s[i];
+  }
+  last_nis_ = nis;
+  if (!pass) {
+    ++health_.rejected_gate;
+    ++consecutive_rejections_;
+    return FixResult::RejectedGate;
+  }
+
+  rebase_correction(t_us_);
+  bool fold = false;
+  for (int i = 0; i < 3; ++i) {
+    const float inv_s = 1.0f / s[i];
+    const float k0 = w[i][0] * inv_s, k1 = w[i][1] * inv_s, k2 = w[i][2] * inv_s;
+    // Gain at capture time, K = Phi(-tau) D h / S (reported for the steady-state check).
+    gain_p_[i] = k0 + h1 * k1 + h2 * k2;
+    gain_v_[i] = k1 - h1 * k2;
+    // thesis eq. 8.11b (errata) at capture time, carried to now.
+    AxisState& x = x_[i];
+    x.p += k0 * nu[i];
+    x.v += k1 * nu[i];
+    x.b += k2 * nu[i];
+    AxisCovariance& p = p_[i];
+    p.pp -= k0 * w[i][0];
+    p.pv -= k0 * w[i][1];
+    p.vv -= k1 * w[i][1];
+    p.pb -= k0 * w[i][2];
+    p.vb -= k1 * w[i][2];
+    p.bb -= k2 * w[i][2];
+    Correction& c = corr_[i];
+    c.p += k0 * nu[i];
+    c.v += k1 * nu[i];
+    c.b += k2 * nu[i];
+    if (absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) fold = true;
+  }
+  if (fold) fold_correction();
+  last_fix_us_ = capture_us;
+  have_fix_ = true;
+  consecutive_rejections_ = 0;
+  ++health_.fused;
+  return FixResult::Fused;
+}
+
+}  // namespace est
+}  // namespace quad

@@ -1,0 +1,49 @@
+#include "quad/estimation/vector_attitude.h"
+
+namespace quad {
+namespace est {
+
+namespace {
+
+// Orthonormal triad (north, east, down) of a frame from its "down" direction and a magnetic field
+// vector, both expressed in that frame: east = down x m, north = east x down (NED: e3 x e1 = e2).
+bool triad(const Vec3& down, const Vec3& mag, Vec3& north, Vec3& east) {
+  east = normalized(cross(down, mag), 1e-6f);
+  if (norm_sq(east) < 0.5f) return false;  // normalized() returns zero for (near) parallel vectors
+  north = cross(east, down);
+  return true;
+}
+
+bool body_down(const Vec3& accel_frd, Vec3& down) {
+  if (!is_finite(accel_frd)) return false;
+  // At rest the accelerometer reads -g R^T e_z: "down" is along -a.
+  down = normalized(-accel_frd, 1e-3f);
+  return norm_sq(down) > 0.5f;
+}
+
+}  // namespace
+
+bool attitude_from_vectors(const Vec3& accel_frd, const Vec3& mag_frd, const Vec3& mag_ref_ned, Quat& q_ib) {
+  Vec3 d_b;
+  if (!body_down(accel_frd, d_b) || !is_finite(mag_frd) || !is_finite(mag_ref_ned)) return false;
+  const Vec3 d_i{0.0f, 0.0f, 1.0f};
+  Vec3 n_b, e_b, n_i, e_i;
+  if (!triad(d_b, mag_frd, n_b, e_b) || !triad(d_i, mag_ref_ned, n_i, e_i)) return false;
+  // R_IB maps each body triad vector onto its inertial counterpart: R = sum_k t_I,k t_B,k^T.
+  const Mat3 r = outer(n_i, n_b) + outer(e_i, e_b) + outer(d_i, d_b);
+  q_ib = from_dcm(r);
+  return is_finite(q_ib);
+}
+
+bool magnetic_reference_from_sample(const Vec3& accel_frd, const Vec3& mag_frd, Vec3& mag_ref_ned) {
+  Vec3 d_b;
+  if (!body_down(accel_frd, d_b) || !is_finite(mag_frd)) return false;
+  const float down = dot(d_b, mag_frd);
+  const float horizontal = norm(mag_frd - d_b * down);
+  if (!(horizontal > 1e-6f * norm(mag_frd)) || !is_finite(horizontal)) return false;
+  mag_ref_ned = {horizontal, 0.0f, down};
+  return true;
+}
+
+}  // namespace est
+}  // namespace quad
