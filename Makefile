@@ -4,7 +4,7 @@
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 SCENARIO ?= sim/scenarios/hover.yaml
 
-.PHONY: all setup configure build test avr cortex-m4 debug test-debug flight clean
+.PHONY: all setup configure build test avr cortex-m4 debug test-debug fuzz fuzz-short flight clean
 
 all: build
 
@@ -30,6 +30,7 @@ test: setup
 	$(MAKE) --no-print-directory avr
 	$(MAKE) --no-print-directory cortex-m4
 	ctest --preset host
+	$(MAKE) --no-print-directory fuzz-short
 
 debug:
 	cmake --preset host-debug
@@ -37,6 +38,14 @@ debug:
 
 test-debug: setup debug
 	ctest --preset host-debug
+
+# libFuzzer targets: FUZZ_SECONDS per target (make fuzz), or a short run that make test includes.
+FUZZ_SECONDS ?= 300
+fuzz: setup
+	tools/fuzz.sh $(FUZZ_SECONDS)
+
+fuzz-short:
+	tools/fuzz.sh 12
 
 flight: setup
 	$(MAKE) --no-print-directory build
