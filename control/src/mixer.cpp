@@ -3,6 +3,10 @@
 namespace quad {
 namespace ctrl {
 
+namespace {
+constexpr float kRoundOff = 1e-6f;
+}  // namespace
+
 Mixer::Mixer() { set_vehicle(VehicleParams{}); }
 
 Mixer::Mixer(const VehicleParams& v) { set_vehicle(v); }
@@ -36,6 +40,32 @@ void Mixer::set_vehicle(const VehicleParams& v) {
   }
 }
 
+// The largest yaw fraction lambda in [0, 1] with 0 <= c + rp_i + lambda yaw_i <= f_max on every motor.
+// Each motor bounds lambda to an interval; returns false if their intersection with [0, 1] is empty.
+// The yaw column sums to zero and is orthogonal to roll and pitch, so lambda changes nothing else.
+bool Mixer::max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount],
+                          float& scale) const {
+  float lo = 0.0f, hi = 1.0f;
+  for (int i = 0; i < kMotorCount; ++i) {
+    const float base = collective + rp[i];
+    const float room_down = -base;          // lambda yaw_i >= -base
+    const float room_up = f_max_ - base;    // lambda yaw_i <= f_max - base
+    if (yaw[i] > 0.0f) {
+      lo = maxf(lo, room_down / yaw[i]);
+      hi = minf(hi, room_up / yaw[i]);
+    } else if (yaw[i] < 0.0f) {
+      lo = maxf(lo, room_up / yaw[i]);
+      hi = minf(hi, room_down / yaw[i]);
+    } else if (base < -kRoundOff * f_max_ || base > (1.0f + kRoundOff) * f_max_) {
+      return false;
+    }
+  }
+  // A relative slack of a few float epsilons keeps round-off from declaring a feasible demand infeasible.
+  if (lo > hi + kRoundOff) return false;
+  scale = maxf(hi, 0.0f);
+  return true;
+}
+
 MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
   MixerOutput out;
   if (!is_finite(thrust) || !is_finite(torque)) {
@@ -43,42 +73,38 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
     return out;  // all motors at zero
   }
 
-  // Per-motor thrust shares of the roll/pitch and of the yaw demand (eq. 5.8).
+  // Per-motor thrust shares of the demand (eq. 5.8): f_i = c + rp_i + lambda yaw_i, with the collective
+  // share c = T/4 and lambda = 1 when nothing saturates.
   float rp[kMotorCount];
   float yaw[kMotorCount];
-  float rp_lo = 0.0f, rp_hi = 0.0f;
   for (int i = 0; i < kMotorCount; ++i) {
     rp[i] = roll_mix_[i] * torque.x + pitch_mix_[i] * torque.y;
     yaw[i] = yaw_mix_[i] * torque.z;
-    rp_lo = i == 0 ? rp[i] : minf(rp_lo, rp[i]);
-    rp_hi = i == 0 ? rp[i] : maxf(rp_hi, rp[i]);
   }
 
-  // Priority 1: roll/pitch torque must fit between 0 and f_max on every motor.
-  const float spread = rp_hi - rp_lo;
-  if (spread > f_max_) {
-    const float s = f_max_ / spread;
-    for (int i = 0; i < kMotorCount; ++i) rp[i] *= s;
-    rp_lo *= s;
-    rp_hi *= s;
-    out.roll_pitch_limited = true;
-  }
-
-  // Priority 2: the collective share T/4, shifted as little as possible so that roll/pitch fit.
-  const float collective_wanted = 0.25f * thrust;
-  const float collective = clampf(collective_wanted, -rp_lo, f_max_ - rp_hi);
-  out.thrust_limited = collective != collective_wanted;
-
-  // Priority 3: the largest fraction of the yaw demand that fits in the room left on every motor. The
-  // yaw column sums to zero and is orthogonal to roll and pitch, so scaling it changes nothing else.
-  float yaw_scale = 1.0f;
-  for (int i = 0; i < kMotorCount; ++i) {
-    const float base = collective + rp[i];
-    if (yaw[i] > 0.0f && yaw[i] * yaw_scale > f_max_ - base) {
-      yaw_scale = maxf(0.0f, (f_max_ - base) / yaw[i]);
-    } else if (yaw[i] < 0.0f && yaw[i] * yaw_scale < -base) {
-      yaw_scale = maxf(0.0f, -base / yaw[i]);
+  float collective = 0.25f * thrust;
+  float yaw_scale = 0.0f;
+  if (!max_yaw_scale(collective, rp, yaw, yaw_scale)) {
+    // Thrust with roll/pitch does not fit for any yaw fraction in [0, 1].
+    float rp_lo = rp[0], rp_hi = rp[0];
+    for (int i = 1; i < kMotorCount; ++i) {
+      rp_lo = minf(rp_lo, rp[i]);
+      rp_hi = maxf(rp_hi, rp[i]);
     }
+    // Priority 1: roll/pitch alone must fit between 0 and f_max on every motor.
+    const float spread = rp_hi - rp_lo;
+    if (spread > f_max_) {
+      const float s = f_max_ / spread;
+      for (int i = 0; i < kMotorCount; ++i) rp[i] *= s;
+      rp_lo *= s;
+      rp_hi *= s;
+      out.roll_pitch_limited = true;
+    }
+    // Priority 2: shift the collective share as little as possible so that roll/pitch fit (without
+    // yaw); priority 3: then whatever yaw fits in the room left.
+    collective = clampf(collective, -rp_lo, f_max_ - rp_hi);
+    out.thrust_limited = true;
+    if (!max_yaw_scale(collective, rp, yaw, yaw_scale)) yaw_scale = 0.0f;
   }
   out.yaw_limited = yaw_scale < 1.0f;
 

@@ -8,14 +8,16 @@
 // which for the plus frame is exactly eq. 5.6. Its inverse for both symmetric layouts is
 //   f_i = T/4 - y_i tau_1 / sum(y^2) + x_i tau_2 / sum(x^2) + s_i tau_3 b / (4 kappa).
 //
-// SATURATION PRIORITY (each motor's thrust must stay in [0, f_max]):
-//   1. roll and pitch torque: kept whenever they fit at all (their motor spread <= f_max), else scaled
-//      down together (direction kept) until they do;
-//   2. collective thrust: kept if roll/pitch fit around it, else shifted by the least amount that makes
-//      them fit (more thrust near idle, less near full power);
-//   3. yaw torque: the largest part of the demand, 0..100 %, that fits in the room left.
-// So under saturation only yaw is given up first, the way PX4 and ArduPilot desaturate; thrust goes
-// second and the roll/pitch torque only when it alone exceeds what the motors can produce.
+// SATURATION PRIORITY (each motor's thrust must stay in [0, f_max]). A demand the motors can produce is
+// reproduced exactly. Otherwise:
+//   1. if thrust and roll/pitch torque fit with some part of the yaw demand, they are kept exactly and
+//      yaw gets the largest part, 0..100 % (same sign), that fits: yaw is given up first, the way PX4
+//      and ArduPilot desaturate;
+//   2. else roll/pitch torque is kept if its motor spread fits in [0, f_max] at all (otherwise it is
+//      scaled down, direction kept, until it does), the collective thrust is shifted by the least amount
+//      that makes roll/pitch fit without yaw (more thrust near idle, less near full power), and yaw gets
+//      the room that is left.
+// So thrust goes second, and roll/pitch torque only when it alone exceeds what the motors can produce.
 //
 // Usage:
 //   quad::ctrl::Mixer mixer(vehicle);                       // VehicleParams: frame, b, kappa, d, f_max
@@ -61,6 +63,8 @@ class Mixer {
   Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
 
  private:
+  bool max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount], float& scale) const;
+
   float b_ = 0.0f;
   float f_max_ = 0.0f;
   float inv_f_max_ = 0.0f;

@@ -1,0 +1,53 @@
+// The cheap approximations of quad/control/approx.h against the C++ library in double precision.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "quad/control/approx.h"
+
+namespace {
+
+TEST(TanhApprox, StatedAccuracyOverTheWholeLine) {
+  double worst_near = 0.0, worst_all = 0.0, worst_x = 0.0;
+  for (int i = -200000; i <= 200000; ++i) {
+    const float x = static_cast<float>(i) * 1e-4f;  // [-20, 20]
+    const double err = std::abs(static_cast<double>(quad::ctrl::tanh_approx(x)) - std::tanh(static_cast<double>(x)));
+    if (std::abs(x) <= 3.0f) worst_near = std::max(worst_near, err);
+    if (err > worst_all) {
+      worst_all = err;
+      worst_x = x;
+    }
+  }
+  std::printf("[figure] tanh_approx: max |error| %.2e for |x| <= 3, %.2e overall (at x = %.3f)\n", worst_near,
+              worst_all, worst_x);
+  EXPECT_LT(worst_near, 2e-6);
+  EXPECT_LT(worst_all, 1e-4);
+  EXPECT_EQ(quad::ctrl::tanh_approx(1e30f), 1.0f);
+  EXPECT_EQ(quad::ctrl::tanh_approx(-1e30f), -1.0f);
+}
+
+TEST(TanhApprox, OddBoundedAndMonotonicUpToRounding) {
+  float prev = -1.0f;
+  for (int i = -100000; i <= 100000; ++i) {
+    const float x = static_cast<float>(i) * 1e-4f;  // [-10, 10]
+    const float y = quad::ctrl::tanh_approx(x);
+    ASSERT_EQ(y, -quad::ctrl::tanh_approx(-x)) << x;
+    ASSERT_LE(std::abs(y), 1.0f) << x;
+    ASSERT_GE(y, prev - 4e-7f) << x;  // monotonic up to a few float rounding steps (ulp 6e-8 near 1)
+    prev = y;
+  }
+}
+
+TEST(SincosSmall, StatedAccuracyUpToPointEightRadians) {
+  double worst = 0.0;
+  for (int i = -8000; i <= 8000; ++i) {
+    const double a = i * 1e-4;
+    const quad::ctrl::SinCos sc = quad::ctrl::sincos_small(static_cast<float>(a));
+    worst = std::max({worst, std::abs(sc.s - std::sin(a)), std::abs(sc.c - std::cos(a))});
+  }
+  std::printf("[figure] sincos_small: max |error| %.2e on [-0.8, 0.8] rad\n", worst);
+  EXPECT_LT(worst, 1e-6);
+}
+
+}  // namespace

@@ -1,0 +1,198 @@
+// Motor mixing, thesis eq. 5.3-5.8, and the saturation priority (roll/pitch, then thrust, then yaw).
+// The oracle is the 4x4 matrix M of eq. 5.5/5.6 built here in double precision from the motor table of
+// vehicle.h (angle positions), not from the library.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "eigen_oracle.h"
+#include "quad/control/mixer.h"
+
+namespace {
+
+using quad::Vec3;
+using quad::ctrl::Frame;
+using quad::ctrl::Mixer;
+using quad::ctrl::MixerOutput;
+using quad::ctrl::VehicleParams;
+
+VehicleParams vehicle(Frame f) {
+  VehicleParams v;
+  v.frame = f;
+  return v;
+}
+
+// M of eq. 5.5: (T, tau_1, tau_2, tau_3) = M (w_1^2 .. w_4^2).
+Eigen::Matrix4d oracle_m(const VehicleParams& v) {
+  const double b = v.thrust_coeff, kappa = v.yaw_coeff, d = v.arm_length;
+  Eigen::Matrix4d m;
+  for (int i = 0; i < 4; ++i) {
+    const double angle = (v.frame == Frame::kX ? -M_PI / 4.0 : 0.0) - i * M_PI / 2.0;
+    const double x = d * std::cos(angle), y = d * std::sin(angle), spin = (i % 2 == 0) ? 1.0 : -1.0;
+    m.col(i) << b, -y * b, x * b, spin * kappa;
+  }
+  return m;
+}
+
+// Full-scale magnitude of each component: what the motors can produce at most.
+Eigen::Vector4d full_scale(const VehicleParams& v) {
+  const double f = v.max_motor_thrust;
+  return {4.0 * f, v.arm_length * f, v.arm_length * f, 2.0 * f * v.yaw_coeff / v.thrust_coeff};
+}
+
+Eigen::Vector4d wrench_of(const Eigen::Matrix4d& m, const MixerOutput& out) {
+  return m * Eigen::Vector4d(out.rotor_speed_sq[0], out.rotor_speed_sq[1], out.rotor_speed_sq[2], out.rotor_speed_sq[3]);
+}
+
+TEST(Mixer, PlusMatchesEquation56Exactly) {
+  const VehicleParams v = vehicle(Frame::kPlus);
+  const double b = v.thrust_coeff, kappa = v.yaw_coeff, d = v.arm_length;
+  Eigen::Matrix4d m56;
+  m56 << b, b, b, b, 0, d * b, 0, -d * b, d * b, 0, -d * b, 0, kappa, -kappa, kappa, -kappa;  // thesis eq. 5.6
+  EXPECT_LT((m56 - oracle_m(v)).norm(), 1e-12);
+  // And eq. 5.8 for one demand, entry by entry: w_f^2 = T/(4b) + tau_2/(2db) + tau_3/(4 kappa), ...
+  const Mixer mixer(v);
+  const double t = 15.0, t1 = 0.3, t2 = -0.2, t3 = 0.05;
+  const MixerOutput out = mixer.mix(static_cast<float>(t), Vec3{0.3f, -0.2f, 0.05f});
+  const double expected[4] = {t / (4 * b) + t2 / (2 * d * b) + t3 / (4 * kappa), t / (4 * b) + t1 / (2 * d * b) - t3 / (4 * kappa),
+                              t / (4 * b) - t2 / (2 * d * b) + t3 / (4 * kappa), t / (4 * b) - t1 / (2 * d * b) - t3 / (4 * kappa)};
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(out.rotor_speed_sq[i], expected[i], 1e-5 * expected[i]) << i;
+}
+
+class MixerFrames : public ::testing::TestWithParam<Frame> {};
+
+// Random feasible demands (made from motor thrusts in 1..99 % of f_max): mixing and the forward model
+// reproduce T and tau to 1e-5 relative, without any limit flag; commands are sqrt(f / f_max).
+TEST_P(MixerFrames, RoundTrip) {
+  const VehicleParams v = vehicle(GetParam());
+  const Mixer mixer(v);
+  const Eigen::Matrix4d m = oracle_m(v);
+  const Eigen::Vector4d fs = full_scale(v);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> share(0.01, 0.99);
+  double worst = 0.0, worst_lib_forward = 0.0;
+  for (int k = 0; k < 10000; ++k) {
+    Eigen::Vector4d w_sq;
+    for (int i = 0; i < 4; ++i) w_sq(i) = share(rng) * v.max_motor_thrust / v.thrust_coeff;
+    const Eigen::Vector4d demand = m * w_sq;
+    const MixerOutput out = mixer.mix(static_cast<float>(demand(0)),
+                                      Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
+    ASSERT_FALSE(out.yaw_limited || out.thrust_limited || out.roll_pitch_limited) << k << " " << out.yaw_limited << out.thrust_limited << out.roll_pitch_limited << " " << demand.transpose();
+    const Eigen::Vector4d got = wrench_of(m, out);
+    for (int j = 0; j < 4; ++j) {
+      // Relative to the component, or to 10 % of its full scale when the component is near zero.
+      worst = std::max(worst, std::abs(got(j) - demand(j)) / std::max(std::abs(demand(j)), 0.1 * fs(j)));
+    }
+    const quad::ctrl::Wrench lib = mixer.forward(out.rotor_speed_sq);
+    const Eigen::Vector4d lib4(lib.thrust, lib.torque.x, lib.torque.y, lib.torque.z);
+    worst_lib_forward = std::max(worst_lib_forward, ((lib4 - got).cwiseQuotient(fs)).cwiseAbs().maxCoeff());
+    for (int i = 0; i < 4; ++i) {
+      ASSERT_GE(out.command[i], 0.0f);
+      ASSERT_LE(out.command[i], 1.0f);
+      ASSERT_NEAR(out.command[i] * out.command[i] * v.max_motor_thrust, v.thrust_coeff * out.rotor_speed_sq[i], 1e-4);
+    }
+  }
+  std::printf("[figure] mixer round trip (%s, 10000 demands): max relative error %.2e; library eq. 5.5 vs "
+              "oracle %.2e of full scale\n",
+              GetParam() == Frame::kX ? "X" : "plus", worst, worst_lib_forward);
+  EXPECT_LT(worst, 1e-5);
+  EXPECT_LT(worst_lib_forward, 1e-6);
+}
+
+// 10 000 random demands, many beyond what the motors can do. Whenever thrust with roll/pitch alone is
+// feasible, the mixer keeps them exactly and gives up only yaw: the yaw it keeps has the demanded sign,
+// is no larger than demanded, and is the most that fits (some motor sits at 0 or f_max). When even
+// roll/pitch cannot be met, their direction is kept.
+TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
+  const VehicleParams v = vehicle(GetParam());
+  const Mixer mixer(v);
+  const Eigen::Matrix4d m = oracle_m(v);
+  const Eigen::Matrix4d m_inv = m.inverse();
+  const Eigen::Vector4d fs = full_scale(v);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int rp_feasible = 0, yaw_cut = 0, rp_cut = 0;
+  double worst_kept = 0.0;
+  for (int k = 0; k < 10000; ++k) {
+    const Eigen::Vector4d demand(fs(0) * 0.5 * (1.0 + u(rng)), 0.8 * fs(1) * u(rng), 0.8 * fs(2) * u(rng),
+                                 3.0 * fs(3) * u(rng));
+    const MixerOutput out = mixer.mix(static_cast<float>(demand(0)),
+                                      Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
+    for (int i = 0; i < 4; ++i) ASSERT_TRUE(out.command[i] >= 0.0f && out.command[i] <= 1.0f);
+    const Eigen::Vector4d got = wrench_of(m, out);
+    // Independent feasibility of thrust + roll/pitch (yaw zero).
+    const Eigen::Vector4d f0 = v.thrust_coeff * (m_inv * Eigen::Vector4d(demand(0), demand(1), demand(2), 0.0));
+    const bool feasible = f0.minCoeff() >= 0.0 && f0.maxCoeff() <= v.max_motor_thrust;
+    if (feasible) {
+      ++rp_feasible;
+      for (int j = 0; j < 3; ++j) worst_kept = std::max(worst_kept, std::abs(got(j) - demand(j)) / fs(j));
+      ASSERT_FALSE(out.thrust_limited || out.roll_pitch_limited) << k;
+      ASSERT_GE(got(3) * demand(3), -1e-9) << "yaw changed sign, sample " << k;
+      ASSERT_LE(std::abs(got(3)), std::abs(demand(3)) + 1e-6 * fs(3)) << k;
+      if (std::abs(got(3)) < std::abs(demand(3)) - 1e-5 * fs(3)) {
+        ++yaw_cut;
+        ASSERT_TRUE(out.yaw_limited);
+        double room = 1.0;
+        for (int i = 0; i < 4; ++i) room = std::min({room, double(out.command[i]), 1.0 - double(out.command[i])});
+        ASSERT_LT(room, 1e-3) << "yaw was cut although no motor was at a limit, sample " << k;
+      }
+    } else {
+      ++rp_cut;
+      const Eigen::Vector2d want(demand(1), demand(2)), have(got(1), got(2));
+      ASSERT_NEAR(want.x() * have.y() - want.y() * have.x(), 0.0, 1e-4 * want.squaredNorm()) << k;
+      ASSERT_GE(want.dot(have), 0.0) << k;
+    }
+  }
+  std::printf("[figure] mixer saturation (%s, 10000 demands): %d with thrust+roll/pitch feasible (kept to "
+              "%.2e of full scale, yaw reduced in %d), %d beyond (roll/pitch direction kept)\n",
+              GetParam() == Frame::kX ? "X" : "plus", rp_feasible, worst_kept, yaw_cut, rp_cut);
+  EXPECT_LT(worst_kept, 1e-5);
+  EXPECT_GT(yaw_cut, 1000);  // the sample really exercised the yaw limit
+  EXPECT_GT(rp_cut, 100);
+}
+
+INSTANTIATE_TEST_SUITE_P(Frames, MixerFrames, ::testing::Values(Frame::kPlus, Frame::kX),
+                         [](const ::testing::TestParamInfo<Frame>& i) { return i.param == Frame::kX ? "X" : "Plus"; });
+
+// Roll/pitch beyond the motors near idle: thrust is raised (priority 2) rather than the torque cut.
+TEST(Mixer, ThrustShiftsBeforeRollPitchIsCut) {
+  const VehicleParams v;
+  const Mixer mixer(v);
+  const float tau = 0.5f * v.arm_length * v.max_motor_thrust;  // needs 0.5 f_max of spread
+  const MixerOutput out = mixer.mix(0.0f, Vec3{tau, 0.0f, 0.0f});
+  EXPECT_TRUE(out.thrust_limited);
+  EXPECT_FALSE(out.roll_pitch_limited);
+  EXPECT_NEAR(out.achieved.torque.x, tau, 1e-5f);
+  EXPECT_GT(out.achieved.thrust, 0.0f);
+}
+
+TEST(Mixer, NonFiniteDemandStopsTheMotors) {
+  const Mixer mixer;
+  const MixerOutput out = mixer.mix(NAN, Vec3{});
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(out.command[i], 0.0f);
+  EXPECT_TRUE(out.yaw_limited && out.thrust_limited && out.roll_pitch_limited);
+}
+
+TEST(Vehicle, LayoutTableAndValidation) {
+  // The motor table of vehicle.h, spot-checked: plus front/left/back/right, X front-left first.
+  const quad::ctrl::MotorLayout left = quad::ctrl::motor_layout(Frame::kPlus, 0.26f, 1);
+  EXPECT_NEAR(left.x, 0.0f, 1e-7f);
+  EXPECT_NEAR(left.y, -0.26f, 1e-7f);
+  EXPECT_EQ(left.spin, -1.0f);
+  const quad::ctrl::MotorLayout front_left = quad::ctrl::motor_layout(Frame::kX, 1.0f, 0);
+  EXPECT_NEAR(front_left.x, 0.70710678f, 1e-6f);
+  EXPECT_NEAR(front_left.y, -0.70710678f, 1e-6f);
+  EXPECT_EQ(front_left.spin, 1.0f);
+  VehicleParams v;
+  EXPECT_EQ(quad::ctrl::validate(v), nullptr);
+  EXPECT_NEAR(v.max_rotor_speed(), 6500.0 * 2.0 * M_PI / 60.0, 1.0);  // the props' 6500 RPM
+  v.inertia.y = 0.0f;
+  EXPECT_STREQ(quad::ctrl::validate(v), "inertia");
+  v = VehicleParams{};
+  v.yaw_coeff = NAN;
+  EXPECT_STREQ(quad::ctrl::validate(v), "yaw_coeff");
+}
+
+}  // namespace
