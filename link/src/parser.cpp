@@ -8,10 +8,16 @@
 namespace quad {
 namespace mavlink {
 
-bool Parser::push(uint8_t byte) {
+// Every byte push() does not take on its inline fast path.
+bool Parser::push_checked(uint8_t byte) {
   if (ready_ > 0) {  // the caller moved on without next(): release the frame first
     drop_front(ready_);
     ready_ = 0;
+  }
+  // Noise between frames is discarded without touching the buffer.
+  if (held_ == 0 && byte != kStx) {
+    ++stats_.bytes_discarded;
+    return false;
   }
   // Cannot trigger while the invariant holds (a partial candidate is shorter than kMaxFrameLength); kept
   // so that no sequence of calls can ever write past the buffer.

@@ -64,7 +64,24 @@ class Parser {
   explicit Parser(MessageInfoLookup lookup = find_message_info) : lookup_(lookup) {}
 
   // Takes one byte. True when a frame is complete: read it with frame(), then call next() until false.
-  bool push(uint8_t byte);
+  bool push(uint8_t byte) {
+    // Inline fast path for most bytes (it halves the cost per byte on the AVR): noise between frames,
+    // and bytes of a candidate before the point where the next check becomes possible (the end of the
+    // header, then the end of the frame).
+    if (ready_ == 0 && scanned_ == held_) {
+      if (held_ == 0) {
+        if (byte != kStx) {
+          ++stats_.bytes_discarded;
+          return false;
+        }
+      } else if (held_ + 1u < (held_ < kHeaderLength ? kHeaderLength : expected_)) {
+        buffer_[held_++] = byte;
+        scanned_ = held_;
+        return false;
+      }
+    }
+    return push_checked(byte);
+  }
 
   // Releases the current frame and scans the bytes still held. True when that completes another frame.
   bool next();
@@ -98,6 +115,7 @@ class Parser {
  private:
   enum class Check : uint8_t { kNeedMore, kComplete, kReject };
 
+  bool push_checked(uint8_t byte);
   bool scan();
   Check check_prefix();
   void drop_front(size_t count);
@@ -105,15 +123,17 @@ class Parser {
   void accept();
   void track_sequence();
 
+  // The per-byte state comes first: the AVR reaches members within 63 bytes of the object's start with
+  // one displacement load, members behind the 280-byte buffer need address arithmetic on every access.
   MessageInfoLookup lookup_;
-  uint8_t buffer_[kMaxFrameLength];
-  uint16_t held_ = 0;     // bytes in buffer_
-  uint16_t scanned_ = 0;  // leading bytes of buffer_ already checked as a frame prefix
+  uint16_t held_ = 0;      // bytes in buffer_
+  uint16_t scanned_ = 0;   // leading bytes of buffer_ already checked as a frame prefix
   uint16_t expected_ = 0;  // the candidate's full length, known once its header is complete
-  uint16_t ready_ = 0;    // length of the accepted frame at the front of buffer_, 0 when none
+  uint16_t ready_ = 0;     // length of the accepted frame at the front of buffer_, 0 when none
   MessageInfo info_ = MessageInfo{0, 0};
-  Frame frame_;
   ParserStats stats_;
+  uint8_t buffer_[kMaxFrameLength];
+  Frame frame_;
   SenderStats senders_[kMaxSenders];
   uint8_t sender_count_ = 0;
 };
