@@ -1,0 +1,537 @@
+// Per-axis position filter (thesis sec. 8.2) with delayed fixes: Eigen oracles (DARE by doubling, a
+// double-precision Kalman filter that fuses every fix at its capture time offline), NEES consistency,
+// delayed-versus-on-arrival fusion, outliers, the z accelerometer bias, refusals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "eigen_oracle.h"
+#include "quad/estimation/position_filter.h"
+
+namespace {
+
+using quad::Vec3;
+using quad::est::FixResult;
+using quad::est::PositionFilter;
+using quad::est::PositionFilterParams;
+using quad::est::ProcessNoise;
+
+constexpr int kRate = 100;
+constexpr uint32_t kStepUs = 1000000 / kRate;
+using Filter = PositionFilter<quad::est::history_length(kRate)>;
+
+// ---- Independent model (double precision) --------------------------------------------------------
+
+Eigen::Matrix3d phi(double t) {
+  Eigen::Matrix3d f;
+  f << 1, t, -t * t / 2, 0, 1, -t, 0, 0, 1;
+  return f;
+}
+
+// Q(T) = int_0^T Phi(t) diag(q) Phi(t)^T dt by composite Simpson quadrature (not the filter's closed form).
+Eigen::Matrix3d q_of(double t, const Eigen::Vector3d& q) {
+  const int n = 64;
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (int i = 0; i <= n; ++i) {
+    const double s = t * i / n;
+    const double w = (i == 0 || i == n) ? 1 : (i % 2 ? 4 : 2);
+    sum += w * phi(s) * q.asDiagonal() * phi(s).transpose();
+  }
+  return sum * (t / n / 3.0);
+}
+
+Eigen::Vector3d q_spectral(const PositionFilterParams& p, int axis) {
+  const bool white = p.process_noise == ProcessNoise::WhiteAcceleration;
+  const double qb = (axis == 2 && p.z_accel_bias) ? p.q_bias : 0.0;
+  return {white ? 0.0 : p.q_pos, white ? p.q_accel : p.q_vel, qb};
+}
+
+// Solution of the filtering DARE P = F P F^T - F P H^T (H P H^T + R)^-1 H P F^T + Q by the
+// structure-preserving doubling algorithm; returns the gain K = P H^T / (H P H^T + R).
+Eigen::VectorXd dare_gain(const Eigen::MatrixXd& f, const Eigen::MatrixXd& q, double r) {
+  const int n = static_cast<int>(f.rows());
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(1, n);
+  h(0, 0) = 1;
+  Eigen::MatrixXd a = f.transpose(), g = h.transpose() * h / r, x = q;
+  const Eigen::MatrixXd eye = Eigen::MatrixXd::Identity(n, n);
+  for (int k = 0; k < 60; ++k) {
+    const Eigen::MatrixXd w = (eye + g * x).inverse();
+    const Eigen::MatrixXd a1 = a * w * a;
+    const Eigen::MatrixXd g1 = g + a * w * g * a.transpose();
+    const Eigen::MatrixXd x1 = x + a.transpose() * x * w * a;
+    const double change = (x1 - x).norm();
+    a = a1;
+    g = g1;
+    x = x1;
+    if (change < 1e-14 * x.norm()) break;
+  }
+  return x * h.transpose() / ((h * x * h.transpose())(0, 0) + r);
+}
+
+// Double-precision Kalman filter of one axis that knows every fix in advance and fuses each at its
+// capture time, splitting the predict step there: the definition of "fusing at capture time".
+struct OracleAxis {
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d p = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d q;
+  double r = 0;
+
+  void predict(double u, double t) {
+    x = phi(t) * x + Eigen::Vector3d(t * t / 2, t, 0) * u;
+    p = phi(t) * p * phi(t).transpose() + q_of(t, q);
+  }
+  void fuse(double y) {
+    const double s = p(0, 0) + r;
+    const Eigen::Vector3d k = p.col(0) / s;
+    x += k * (y - x(0));
+    p -= k * p.row(0);
+  }
+};
+
+struct Fix {
+  uint32_t capture_us;
+  uint32_t arrival_us;
+  Eigen::Vector3d y;
+};
+
+// ---- Scenario -----------------------------------------------------------------------------------
+
+// Truth driven by a smooth acceleration, IMU input with noise (and an optional bias), fixes at a
+// fixed rate with noise and a fixed delay.
+struct Scenario {
+  double seconds = 20.0;
+  double fix_rate = 30.0;
+  double delay = 0.0;        // s between capture and arrival
+  double accel_noise = 0.1;  // m/s^2 per sample on the input
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  double fix_noise = 0.02;   // m
+  unsigned seed = 1;
+};
+
+Eigen::Vector3d truth_accel(double t) {
+  return {1.0 * std::sin(0.8 * t), 0.8 * std::cos(0.6 * t), 0.3 * std::sin(1.1 * t)};
+}
+
+struct SimRun {
+  std::vector<uint32_t> t_us;           // predict times
+  std::vector<Eigen::Vector3d> u;       // input applied on (t_{k-1}, t_k]
+  std::vector<Eigen::Vector3d> p_true;  // truth at t_k
+  std::vector<Fix> fixes;               // in capture order
+};
+
+SimRun make_run(const Scenario& sc) {
+  std::mt19937 rng(sc.seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  SimRun run;
+  const double dt = 1.0 / kRate;
+  const int steps = static_cast<int>(sc.seconds * kRate);
+  Eigen::Vector3d p(0.5, -0.3, -1.5), v(0.2, 0.0, 0.0);
+  const uint32_t t0 = 4000000000u;  // close to the 32-bit wrap: the clock must wrap cleanly
+  double next_fix = 0.5;
+  for (int k = 0; k <= steps; ++k) {
+    const double t = k * dt;
+    run.t_us.push_back(t0 + static_cast<uint32_t>(k) * kStepUs);
+    run.p_true.push_back(p);
+    if (k > 0) {
+      // nothing: u for this step was pushed with the previous propagation
+    }
+    // Fixes captured within the next interval (t, t + dt]: truth at capture by exact kinematics.
+    const Eigen::Vector3d a = truth_accel(t);
+    while (next_fix <= t + dt - 1e-9 && next_fix > t - 1e-9 && k < steps) {
+      const double s = next_fix - t;
+      const Eigen::Vector3d ps = p + v * s + 0.5 * a * s * s;
+      Fix f;
+      f.capture_us = run.t_us.back() + static_cast<uint32_t>(std::lround(s * 1e6));
+      f.arrival_us = f.capture_us + static_cast<uint32_t>(std::lround(sc.delay * 1e6));
+      f.y = ps + sc.fix_noise * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      run.fixes.push_back(f);
+      next_fix += 1.0 / sc.fix_rate;
+    }
+    if (k < steps) {
+      // Acceleration held over the step (so the filter's model is exact up to the input noise).
+      p += v * dt + 0.5 * a * dt * dt;
+      v += a * dt;
+      run.u.push_back(a + sc.accel_bias + sc.accel_noise * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    }
+  }
+  return run;
+}
+
+Vec3 fvec(const Eigen::Vector3d& v) { return quad_test::from_eigen(v); }
+
+// Online run: predict at every step, each fix handed over at its arrival (stamped with its capture time,
+// or with its arrival time for the on-arrival comparison). `each` is called after every step.
+template <class F, class Each>
+void run_filter(F& kf, const SimRun& run, bool stamp_capture, Each each) {
+  size_t next = 0;
+  kf.predict(Vec3{}, run.t_us[0]);
+  kf.reset(fvec(run.p_true[0]), Vec3{0.2f, 0.0f, 0.0f}, run.t_us[0]);
+  for (size_t k = 1; k < run.t_us.size(); ++k) {
+    kf.predict(fvec(run.u[k - 1]), run.t_us[k]);
+    while (next < run.fixes.size() && static_cast<int32_t>(run.fixes[next].arrival_us - run.t_us[k]) <= 0) {
+      const Fix& f = run.fixes[next++];
+      kf.fuse_position(fvec(f.y), stamp_capture ? f.capture_us : run.t_us[k]);
+    }
+    each(k);
+  }
+}
+
+double position_rms(const PositionFilterParams& p, const SimRun& run, bool stamp_capture, double skip_s = 2.0) {
+  Filter kf(p);
+  double sum = 0;
+  int n = 0;
+  run_filter(kf, run, stamp_capture, [&](size_t k) {
+    if (k < static_cast<size_t>(skip_s * kRate)) return;
+    sum += (quad_test::to_eigen(kf.position()) - run.p_true[k]).squaredNorm();
+    ++n;
+  });
+  return std::sqrt(sum / n);
+}
+
+PositionFilterParams tuned() {
+  PositionFilterParams p;
+  p.process_noise = ProcessNoise::WhiteAcceleration;
+  p.q_accel = 0.1f * 0.1f / kRate;  // input noise 0.1 m/s^2 per sample at 100 Hz
+  p.fix_sigma_xy = p.fix_sigma_z = 0.02f;
+  return p;
+}
+
+// ---- Tests --------------------------------------------------------------------------------------
+
+TEST(PositionFilter, KinematicAccelerationIsZeroAtRest) {
+  // eq. 8.7: a level vehicle at rest reads (0, 0, -g); tilted, the same specific force rotated.
+  const quad::Quat tilted = quad::from_euler({0.3f, -0.2f, 1.0f});
+  const Vec3 rest = quad::rotate_inverse(tilted, Vec3{0.0f, 0.0f, -quad::kGravity});
+  const Vec3 u = quad::est::kinematic_acceleration(tilted, rest);
+  EXPECT_NEAR(quad::norm(u), 0.0f, 1e-5f);
+  // Thrusting up (specific force -2g along body z, level): accelerating up, i.e. -g along NED z.
+  EXPECT_NEAR(quad::est::kinematic_acceleration(quad::Quat{}, Vec3{0, 0, -2 * quad::kGravity}).z, -quad::kGravity,
+              1e-5f);
+}
+
+TEST(PositionFilter, SteadyStateGainMatchesDare) {
+  struct Case {
+    const char* name;
+    PositionFilterParams p;
+    double delay;
+  };
+  std::vector<Case> cases;
+  {
+    PositionFilterParams p;  // thesis table 8.1: Q = I2 T
+    cases.push_back({"thesis Q = I2 T", p, 0.0});
+    cases.push_back({"thesis Q = I2 T, fixes 40 ms late", p, 0.04});
+  }
+  {
+    PositionFilterParams p = tuned();
+    p.z_accel_bias = true;
+    p.q_bias = 1e-3f;
+    cases.push_back({"white acceleration + z bias", p, 0.0});
+    cases.push_back({"white acceleration + z bias, fixes 100 ms late", p, 0.1});
+  }
+  for (const Case& c : cases) {
+    // Fixes every 3rd step (33 Hz), noise-free inputs: the gain depends only on the model.
+    Filter kf(c.p);
+    const uint32_t t0 = 123;
+    kf.predict(Vec3{}, t0);
+    kf.reset(Vec3{}, Vec3{}, t0);
+    const uint32_t delay_us = static_cast<uint32_t>(std::lround(c.delay * 1e6));
+    for (int k = 1; k <= 3000; ++k) {
+      const uint32_t now = t0 + static_cast<uint32_t>(k) * kStepUs;
+      kf.predict(Vec3{}, now);
+      if (k % 3 == 0 && k * kStepUs > delay_us) ASSERT_EQ(kf.fuse_position(Vec3{}, now - delay_us), FixResult::Fused);
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      const bool bias = axis == 2 && c.p.z_accel_bias;
+      const int n = bias ? 3 : 2;
+      const double period = 3.0 / kRate;
+      const Eigen::MatrixXd f = phi(period).topLeftCorner(n, n);
+      const Eigen::MatrixXd q = q_of(period, q_spectral(c.p, axis)).topLeftCorner(n, n);
+      const double r = std::pow(axis == 2 ? c.p.fix_sigma_z : c.p.fix_sigma_xy, 2);
+      const Eigen::VectorXd k = dare_gain(f, q, r);
+      if (axis != 1) {
+        std::cout << "[figure] DARE check, " << c.name << ", axis " << axis << ": K = (" << kf.last_gain_p(axis)
+                  << ", " << kf.last_gain_v(axis) << "), DARE (" << k(0) << ", " << k(1) << ")\n";
+      }
+      EXPECT_NEAR(kf.last_gain_p(axis), k(0), 1e-4 * std::abs(k(0)) + 1e-6) << c.name << " axis " << axis;
+      EXPECT_NEAR(kf.last_gain_v(axis), k(1), 1e-3 * std::abs(k(1)) + 1e-6) << c.name << " axis " << axis;
+    }
+  }
+}
+
+TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
+  // The online filter (history buffer, closed-form covariance at capture time, accumulated correction
+  // and its folding) against the double-precision oracle that knows the fixes in advance. A biased
+  // input makes the corrections large, so the correction is folded into the history several times.
+  Scenario sc;
+  sc.seconds = 6.0;
+  sc.delay = 0.1;
+  sc.accel_bias = Eigen::Vector3d(0.8, -0.5, 0.6);
+  const SimRun run = make_run(sc);
+  PositionFilterParams p = tuned();
+  p.z_accel_bias = true;
+  p.q_bias = 1e-3f;
+  p.gate_sigma = 1e3f;  // compare the algebra, not the gate
+
+  Filter kf(p);
+  double worst_p = 0, worst_cov = 0;
+  size_t arrived = 0;
+  run_filter(kf, run, true, [&](size_t k) {
+    // Fixes that have arrived by t_k.
+    while (arrived < run.fixes.size() && static_cast<int32_t>(run.fixes[arrived].arrival_us - run.t_us[k]) <= 0) {
+      ++arrived;
+    }
+    if (k % 7 != 0) return;  // every 70 ms: enough comparisons, quadratic oracle cost kept small
+    OracleAxis o[3];
+    for (int i = 0; i < 3; ++i) {
+      o[i].q = q_spectral(p, i);
+      o[i].r = std::pow(i == 2 ? p.fix_sigma_z : p.fix_sigma_xy, 2);
+      o[i].x << run.p_true[0](i), i == 0 ? 0.2 : 0.0, 0.0;
+      o[i].p.diagonal() << o[i].r, std::pow(p.vel_sigma0, 2), i == 2 ? std::pow(p.bias_sigma0, 2) : 0.0;
+    }
+    size_t f = 0;
+    for (size_t j = 1; j <= k; ++j) {
+      double done = 0.0;  // seconds of step j already propagated
+      const double step = 1.0 / kRate;
+      while (f < arrived && static_cast<int32_t>(run.fixes[f].capture_us - run.t_us[j]) <= 0) {
+        const double s = static_cast<int32_t>(run.fixes[f].capture_us - run.t_us[j - 1]) * 1e-6;
+        for (int i = 0; i < 3; ++i) {
+          o[i].predict(run.u[j - 1](i), s - done);
+          o[i].fuse(run.fixes[f].y(i));
+        }
+        done = s;
+        ++f;
+      }
+      for (int i = 0; i < 3; ++i) o[i].predict(run.u[j - 1](i), step - done);
+    }
+    for (int i = 0; i < 3; ++i) {
+      worst_p = std::max(worst_p, std::abs(kf.position()[i] - o[i].x(0)));
+      const auto& c = kf.covariance(i);
+      worst_cov = std::max({worst_cov, std::abs(c.pp - o[i].p(0, 0)) / o[i].p(0, 0),
+                            std::abs(c.vv - o[i].p(1, 1)) / o[i].p(1, 1)});
+    }
+  });
+  std::cout << "[figure] delayed fusion vs capture-time oracle (100 ms delay, 6 s, biased input): worst position "
+            << worst_p * 1e3 << " mm, worst relative covariance " << worst_cov << "\n";
+  EXPECT_EQ(kf.health().fused, arrived);
+  EXPECT_GT(arrived, 150u);
+  EXPECT_LT(worst_p, 1e-3);
+  EXPECT_LT(worst_cov, 1e-3);
+}
+
+// Wilson-Hilferty approximation of the chi-square quantile with n degrees of freedom.
+double chi2_quantile(double z, double n) {
+  const double h = 2.0 / (9.0 * n);
+  return n * std::pow(1.0 - h + z * std::sqrt(h), 3);
+}
+
+TEST(PositionFilter, NeesIsChiSquareConsistent) {
+  // Truth drawn from the filter's own model (process noise Q(T), fix noise R): the normalised
+  // estimation error squared, averaged over the Monte Carlo runs, must sit inside its chi-square band.
+  for (const double delay : {0.0, 0.1}) {
+    PositionFilterParams p;
+    p.process_noise = ProcessNoise::ThesisDiagonal;
+    p.q_pos = 0.01f;
+    p.q_vel = 0.2f;
+    p.fix_sigma_xy = 0.03f;
+    p.fix_sigma_z = 0.05f;
+    const int runs = 50, steps = 1000, dof = 6;
+    const uint32_t delay_us = static_cast<uint32_t>(std::lround(delay * 1e6));
+    std::vector<double> nees(steps + 1, 0.0);
+    std::mt19937 rng(77);
+    std::normal_distribution<double> n(0.0, 1.0);
+    const double dt = 1.0 / kRate;
+    for (int m = 0; m < runs; ++m) {
+      Filter kf(p);
+      kf.predict(Vec3{}, 0);
+      // Initial truth drawn around the initial estimate with the initial covariance.
+      Eigen::Vector3d pos, vel;
+      for (int i = 0; i < 3; ++i) {
+        pos(i) = (i == 2 ? p.fix_sigma_z : p.fix_sigma_xy) * n(rng);
+        vel(i) = p.vel_sigma0 * n(rng);
+      }
+      kf.reset(Vec3{}, Vec3{}, 0);
+      const Eigen::Matrix2d l = q_of(dt, Eigen::Vector3d(p.q_pos, p.q_vel, 0)).topLeftCorner<2, 2>().llt().matrixL();
+      struct Pending {
+        uint32_t capture, arrival;
+        Eigen::Vector3d y;
+      };
+      std::vector<Pending> pending;
+      for (int k = 1; k <= steps; ++k) {
+        const uint32_t now = static_cast<uint32_t>(k) * kStepUs;
+        const Eigen::Vector3d u(std::sin(0.01 * k), 0.5, -0.2);
+        for (int i = 0; i < 3; ++i) {
+          const Eigen::Vector2d w = l * Eigen::Vector2d(n(rng), n(rng));
+          pos(i) += vel(i) * dt + 0.5 * u(i) * dt * dt + w(0);
+          vel(i) += u(i) * dt + w(1);
+        }
+        kf.predict(fvec(u), now);
+        if (k % 3 == 0) {  // capture at a step time, 33 Hz
+          Eigen::Vector3d y = pos;
+          for (int i = 0; i < 3; ++i) y(i) += (i == 2 ? p.fix_sigma_z : p.fix_sigma_xy) * n(rng);
+          pending.push_back({now, now + delay_us, y});
+        }
+        while (!pending.empty() && static_cast<int32_t>(pending.front().arrival - now) <= 0) {
+          EXPECT_EQ(kf.fuse_position(fvec(pending.front().y), pending.front().capture), FixResult::Fused);
+          pending.erase(pending.begin());
+        }
+        double e = 0;
+        for (int i = 0; i < 3; ++i) {
+          const auto& c = kf.covariance(i);
+          Eigen::Matrix2d pc;
+          pc << c.pp, c.pv, c.pv, c.vv;
+          const Eigen::Vector2d err(pos(i) - kf.position()[i], vel(i) - kf.velocity()[i]);
+          e += err.dot(pc.inverse() * err);
+        }
+        nees[k] += e / runs;
+      }
+    }
+    const double lo = chi2_quantile(-1.959964, dof * runs) / runs, hi = chi2_quantile(1.959964, dof * runs) / runs;
+    int inside = 0;
+    double mean = 0;
+    for (int k = 1; k <= steps; ++k) {
+      inside += (nees[k] >= lo && nees[k] <= hi);
+      mean += nees[k] / steps;
+    }
+    const double overall_lo = chi2_quantile(-1.959964, static_cast<double>(dof) * runs * steps) / (runs * steps);
+    const double overall_hi = chi2_quantile(1.959964, static_cast<double>(dof) * runs * steps) / (runs * steps);
+    std::cout << "[figure] NEES, " << runs << " runs x " << steps << " steps, fixes " << delay * 1e3
+              << " ms late: mean " << mean << " (expected " << dof << ", 95 % band of the mean [" << overall_lo * 1
+              << ", " << overall_hi << "] x steps correlation), " << 100.0 * inside / steps
+              << " % of steps inside the per-step 95 % band [" << lo << ", " << hi << "]\n";
+    EXPECT_GT(inside, 0.90 * steps);
+    EXPECT_NEAR(mean, dof, 0.3);
+  }
+}
+
+TEST(PositionFilter, FusingAtCaptureTimeBeatsFusingOnArrival) {
+  for (const double delay : {0.04, 0.1}) {
+    Scenario sc;
+    sc.delay = delay;
+    sc.seed = 5;
+    const SimRun run = make_run(sc);
+    Scenario sc0 = sc;
+    sc0.delay = 0.0;
+    const double rms_capture = position_rms(tuned(), run, true);
+    const double rms_arrival = position_rms(tuned(), run, false);
+    const double rms_none = position_rms(tuned(), make_run(sc0), true);
+    std::cout << "[figure] fixes " << delay * 1e3 << " ms late, 30 Hz, sigma 2 cm, 20 s: position RMS fused at capture "
+              << rms_capture * 1e3 << " mm, fused on arrival " << rms_arrival * 1e3 << " mm (no delay: " << rms_none * 1e3
+              << " mm)\n";
+    EXPECT_LT(rms_capture, 0.7 * rms_arrival);
+    EXPECT_LT(rms_capture, 2.0 * rms_none);
+  }
+}
+
+TEST(PositionFilter, RejectsA50cmOutlierAndKeepsTracking) {
+  Scenario sc;
+  sc.seconds = 10.0;
+  sc.delay = 0.04;
+  SimRun run = make_run(sc);
+  SimRun clean = run;
+  const size_t bad = run.fixes.size() / 2;
+  run.fixes[bad].y.x() += 0.5;
+  Filter with(tuned()), without(tuned());
+  double worst_diff = 0.0;
+  run_filter(with, run, true, [](size_t) {});
+  clean.fixes.erase(clean.fixes.begin() + static_cast<long>(bad));
+  std::vector<Eigen::Vector3d> clean_track;
+  run_filter(without, clean, true, [&](size_t) { clean_track.push_back(quad_test::to_eigen(without.position())); });
+  worst_diff = (quad_test::to_eigen(with.position()) - quad_test::to_eigen(without.position())).norm();
+  std::cout << "[figure] 0.5 m outlier among " << run.fixes.size() << " fixes (5 sigma gate): rejected "
+            << with.health().rejected_gate << "\n";
+  EXPECT_EQ(with.health().rejected_gate, 1u);
+  EXPECT_EQ(with.health().fused, without.health().fused);
+  EXPECT_LT(worst_diff, 1e-6);
+  // And with the gate opened the outlier does move the estimate (the test sees the fix).
+  PositionFilterParams open = tuned();
+  open.gate_sigma = 1e3f;
+  Filter ungated(open);
+  double moved = 0.0;
+  run_filter(ungated, run, true, [&](size_t k) {
+    moved = std::max(moved, (quad_test::to_eigen(ungated.position()) - clean_track[k - 1]).norm());
+  });
+  std::cout << "[figure] the same outlier through an open gate moves the estimate by " << moved * 1e3 << " mm\n";
+  EXPECT_GT(moved, 0.02);
+}
+
+TEST(PositionFilter, ZAccelerometerBiasStateRemovesHeightDrift) {
+  Scenario sc;
+  sc.seconds = 40.0;
+  sc.accel_bias = Eigen::Vector3d(0, 0, 0.3);
+  sc.fix_rate = 10.0;
+  sc.delay = 0.05;
+  const SimRun run = make_run(sc);
+  PositionFilterParams without = tuned();
+  PositionFilterParams with = tuned();
+  with.z_accel_bias = true;
+  Filter kf(with);
+  run_filter(kf, run, true, [](size_t) {});
+  double z_rms[2];
+  for (int m = 0; m < 2; ++m) {
+    Filter f(m == 0 ? without : with);
+    double sum = 0;
+    int n = 0;
+    run_filter(f, run, true, [&](size_t k) {
+      if (k < 10 * kRate) return;
+      sum += std::pow(f.position().z - run.p_true[k].z(), 2);
+      ++n;
+    });
+    z_rms[m] = std::sqrt(sum / n);
+  }
+  std::cout << "[figure] z accelerometer bias 0.3 m/s^2, fixes 10 Hz: estimated bias " << kf.accel_bias_z()
+            << " m/s^2 after 40 s; height RMS without the bias state " << z_rms[0] * 1e3 << " mm, with "
+            << z_rms[1] * 1e3 << " mm\n";
+  EXPECT_NEAR(kf.accel_bias_z(), 0.3, 0.03);
+  EXPECT_LT(z_rms[1], 0.7 * z_rms[0]);
+}
+
+TEST(PositionFilter, RefusesFixesItCannotPlace) {
+  PositionFilterParams p = tuned();
+  p.reset_after_rejections = 3;
+  Filter kf(p);
+  EXPECT_EQ(kf.fuse_position(Vec3{}, 0), FixResult::RejectedInvalid);  // clock not started
+  kf.predict(Vec3{}, 1000);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, 1000), FixResult::Initialized);
+  EXPECT_FLOAT_EQ(kf.position().y, 2.0f);
+  uint32_t now = 1000;
+  for (int k = 0; k < 50; ++k) kf.predict(Vec3{}, now += kStepUs);  // 0.5 s later, filter at rest
+  // 240 ms old: inside the 250 ms history; 300 ms old: too old.
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 300000), FixResult::RejectedTooOld);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 240000), FixResult::Fused);
+  // Older than the last fused fix: out of order.
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 245000), FixResult::RejectedOutOfOrder);
+  EXPECT_EQ(kf.fuse_position(Vec3{std::nanf(""), 0, 0}, now), FixResult::RejectedInvalid);
+  // Non-finite input and a clock that does not advance are skipped.
+  const Vec3 before = kf.position();
+  kf.predict(Vec3{std::nanf(""), 0, 0}, now + kStepUs);
+  kf.predict(Vec3{}, now);
+  EXPECT_EQ(kf.health().predict_skipped, 2u);
+  EXPECT_FLOAT_EQ(kf.position().x, before.x);
+  // A vision frame that jumped 3 m: rejected three times, then taken as a reset.
+  for (int k = 0; k < 3; ++k) {
+    kf.predict(Vec3{}, now += kStepUs);
+    EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::RejectedGate);
+  }
+  kf.predict(Vec3{}, now += kStepUs);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::Initialized);
+  EXPECT_FLOAT_EQ(kf.position().x, 4.0f);
+  EXPECT_EQ(kf.health().resets, 1u);
+  // Fixes captured before the reset are refused.
+  kf.predict(Vec3{}, now += kStepUs);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now - 2 * kStepUs), FixResult::RejectedTooOld);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::Fused);
+}
+
+TEST(PositionFilter, HistoryLengthCoversQuarterSecond) {
+  static_assert(quad::est::history_length(100) == 26, "100 Hz");
+  static_assert(quad::est::history_length(400) == 101, "400 Hz");
+  static_assert(quad::est::history_length(50) == 14, "50 Hz");
+  EXPECT_EQ(sizeof(quad::est::HistoryEntry), 16u);
+}
+
+}  // namespace
