@@ -65,9 +65,9 @@ class Parser {
 
   // Takes one byte. True when a frame is complete: read it with frame(), then call next() until false.
   bool push(uint8_t byte) {
-    // Inline fast path for most bytes (it halves the cost per byte on the AVR): noise between frames,
-    // and bytes of a candidate before the point where the next check becomes possible (the end of the
-    // header, then the end of the frame).
+    // Fast path for most bytes (it halves the cost per byte on the AVR): noise between frames, and bytes
+    // of a candidate before the point where the next check becomes possible (the end of the header, then
+    // the end of the frame).
     if (ready_ == 0 && scanned_ == held_) {
       if (held_ == 0) {
         if (byte != kStx) {
