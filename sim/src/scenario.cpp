@@ -216,7 +216,8 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);
   if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
-  s.model_path = resolve(base_dir, top["model"].defined() ? top["model"].text() : std::string("../models/quad_c.xml"));
+  // The model: relative to the scenario file when given, else the shipped Quad-C.
+  s.model_path = top["model"].defined() ? resolve(base_dir, top["model"].text()) : std::string(QUAD_SIM_SOURCE_DIR "/models/quad_c.xml");
 
   if (const Field f = top["initial"]; f.defined()) {
     f.expect_map({"north_east_m", "height_m", "yaw_deg"});

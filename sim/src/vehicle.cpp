@@ -53,6 +53,15 @@ void Vehicle::set_motor_efficiency(int motor, double efficiency) {
   motors_.at(static_cast<size_t>(motor)).set_efficiency(efficiency);
 }
 
+void Vehicle::settle_on_ground(double seconds) {
+  const std::array<double, 4> commands = commands_;
+  commands_.fill(0.0);
+  const int n = static_cast<int>(seconds / model_->opt.timestep + 0.5);
+  for (int i = 0; i < n; ++i) step();
+  commands_ = commands;
+  data_->time = 0.0;
+}
+
 void Vehicle::settle_motors() {
   for (size_t i = 0; i < 4; ++i) motors_[i].settle(commands_[i]);
 }

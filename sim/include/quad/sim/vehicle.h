@@ -45,6 +45,10 @@ class Vehicle {
   // height on its gear (0 = standing on the ground), yaw (rad, NED).
   void reset(const Eigen::Vector2d& north_east, double height_above_rest_m, double yaw_rad);
 
+  // Lets the vehicle settle on its gear (motors off) for `seconds`, then restarts the clock at zero, so
+  // a run begins at rest rather than with the contact still springing.
+  void settle_on_ground(double seconds);
+
   // Motor commands in [0, 1], in the mixer's order; held until changed.
   void set_commands(const std::array<double, 4>& commands) { commands_ = commands; }
   // Puts every rotor at the steady speed of its current command (a run that starts in the air).

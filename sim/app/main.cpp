@@ -1,0 +1,149 @@
+// quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
+//
+//   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
+//            [--record FILE.mp4] [--no-plots] [--quiet]
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <ctime>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "quad/sim/hil_session.h"
+#include "quad/sim/recorder.h"
+#include "quad/sim/scenario.h"
+#include "quad/sim/vehicle.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void on_signal(int) { g_stop = true; }
+
+int usage(const char* error) {
+  if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
+  std::fprintf(stderr,
+               "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
+               "                [--viewer] [--record FILE.mp4] [--no-plots] [--quiet]\n"
+               "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
+               "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
+               "  --seed N          override the scenario's random seed\n"
+               "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
+               "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
+               "                    arguments (--uart0 ... --params FILE) are appended\n"
+               "  --viewer          interactive MuJoCo window (needs a display and GLFW)\n"
+               "  --record FILE     render an MP4 offscreen (OSMesa + ffmpeg), chase camera\n"
+               "  --no-plots        skip the PNG plots\n"
+               "  --quiet           no progress line\n");
+  return 2;
+}
+
+std::string executable_dir() {
+  char buf[4096];
+  const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return ".";
+  std::string p(buf, static_cast<size_t>(n));
+  return p.substr(0, p.find_last_of('/'));
+}
+
+std::vector<std::string> split_words(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+std::string utc_stamp() {
+  const std::time_t now = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y%m%dT%H%M%SZ", std::gmtime(&now));
+  return buf;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string scenario_path, out_dir, firmware, record;
+  std::optional<long> seed;
+  bool realtime = false, viewer = false, plots = true, quiet = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* name) -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(std::string(name) + " needs a value");
+      return argv[++i];
+    };
+    try {
+      if (a == "--scenario") scenario_path = value("--scenario");
+      else if (a == "--out") out_dir = value("--out");
+      else if (a == "--seed") seed = std::stol(value("--seed"));
+      else if (a == "--firmware") firmware = value("--firmware");
+      else if (a == "--record") record = value("--record");
+      else if (a == "--realtime") realtime = true;
+      else if (a == "--viewer") viewer = true;
+      else if (a == "--no-plots") plots = false;
+      else if (a == "--quiet") quiet = true;
+      else if (a == "--help" || a == "-h") return usage(nullptr);
+      else return usage(("unknown argument " + a).c_str());
+    } catch (const std::exception& e) {
+      return usage(e.what());
+    }
+  }
+  if (scenario_path.empty()) return usage("--scenario is required");
+  if (viewer) {
+    std::fprintf(stderr,
+                 "quad_sim: --viewer needs a display and MuJoCo's GLFW viewer, which this build does not have\n"
+                 "(Debian's libmujoco-dev ships no viewer and GLFW is not in tools/packages-debian.txt).\n"
+                 "Watch a run with --record FILE.mp4 instead: it renders the same scene offscreen.\n");
+    return 2;
+  }
+
+  try {
+    quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path);
+    if (seed) scenario.seed = static_cast<uint64_t>(*seed);
+    if (out_dir.empty()) out_dir = "runs/" + scenario.name + "-" + utc_stamp();
+
+    quad::sim::SessionOptions options;
+    options.out_dir = out_dir;
+    options.realtime = realtime;
+    options.progress = !quiet;
+    options.stop = &g_stop;
+    const std::string default_fw = executable_dir() + "/quad_firmware";
+    options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw} : split_words(firmware);
+    if (firmware.empty() && access(default_fw.c_str(), X_OK) != 0) {
+      std::fprintf(stderr, "quad_sim: %s is not built (cmake --build build/host --target quad_firmware), "
+                           "or pass --firmware CMD\n", default_fw.c_str());
+      return 1;
+    }
+
+    std::unique_ptr<quad::sim::OffscreenRecorder> recorder;
+    if (!record.empty()) {
+      options.on_frame = [&](quad::sim::Vehicle& v) {
+        if (!recorder) recorder = std::make_unique<quad::sim::OffscreenRecorder>(v.model(), record);
+        recorder->frame(v);
+      };
+    }
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    std::signal(SIGPIPE, SIG_IGN);
+    std::fprintf(stderr, "quad_sim: %s (seed %llu), %s, run folder %s\n", scenario.name.c_str(),
+                 static_cast<unsigned long long>(scenario.seed), realtime ? "real time" : "lockstep", out_dir.c_str());
+    const quad::sim::SessionResult r = quad::sim::run_session(scenario, options);
+    recorder.reset();
+    if (plots) {
+      const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
+      const std::string cmd = python + " '" QUAD_SIM_SOURCE_DIR "/plots/plot_run.py' '" + out_dir + "'";
+      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "quad_sim: plotting failed (%s)\n", cmd.c_str());
+    }
+    std::fprintf(stderr, "quad_sim: %s after %.1f s simulated in %.1f s (%.1fx real time)%s; summary: %s/summary.json\n",
+                 r.complete ? "complete" : ("cut short (" + r.reason + ")").c_str(), r.sim_time_s, r.wall_time_s,
+                 r.wall_time_s > 0 ? r.sim_time_s / r.wall_time_s : 0.0, r.crashed ? ", CRASHED" : "", out_dir.c_str());
+    return r.complete ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "quad_sim: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,43 @@
+// One HIL run: the vehicle, its sensors and links, the firmware process, the scenario's schedule, the
+// outputs. The protocol is docs/hil-protocol.md; the lockstep exchange is
+//   HIL_SENSOR (t) -> firmware runs one iteration -> HIL_ACTUATOR_CONTROLS (t) -> physics t .. t + T,
+// with the motor commands taking effect after the two messages' time on the 921600-baud wire.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quad/sim/scenario.h"
+
+namespace quad::sim {
+
+// Called once per rendered frame (30 fps of simulated time) with the vehicle's MuJoCo state.
+class Vehicle;
+using FrameCallback = std::function<void(Vehicle&)>;
+
+struct SessionOptions {
+  std::string out_dir;                     // the run folder (created)
+  std::vector<std::string> firmware_argv;  // the sim appends the port and params arguments
+  bool realtime = false;                   // wall-clock pacing instead of lockstep
+  bool progress = true;                    // the progress line on stderr
+  double answer_timeout_s = 10.0;          // lockstep: how long to wait for HIL_ACTUATOR_CONTROLS (wall time)
+  double frame_rate_hz = 30.0;             // for on_frame
+  FrameCallback on_frame;                  // optional (--record)
+  const std::atomic<bool>* stop = nullptr; // set (e.g. by SIGINT) to end the run early
+};
+
+struct SessionResult {
+  bool complete = false;
+  std::string reason;  // why it ended early
+  double sim_time_s = 0.0;
+  double wall_time_s = 0.0;
+  bool crashed = false;
+};
+
+SessionResult run_session(const Scenario& scenario, const SessionOptions& options);
+
+}  // namespace quad::sim

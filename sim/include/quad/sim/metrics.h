@@ -1,0 +1,67 @@
+// Flight figures of one run: position error statistics during the hold, settling, crash detection.
+#pragma once
+
+#include <cmath>
+#include <optional>
+
+#include <Eigen/Core>
+
+namespace quad::sim {
+
+// Mean, standard deviation, RMS and maximum magnitude of one error component (Welford's update).
+class ErrorStats {
+ public:
+  void add(double e);
+  long count() const { return n_; }
+  double mean() const { return n_ ? mean_ : 0.0; }
+  double stddev() const { return n_ > 1 ? std::sqrt(m2_ / static_cast<double>(n_ - 1)) : 0.0; }
+  double rms() const { return n_ ? std::sqrt(sum_sq_ / static_cast<double>(n_)) : 0.0; }
+  double max_abs() const { return max_abs_; }
+
+ private:
+  long n_ = 0;
+  double mean_ = 0.0, m2_ = 0.0, sum_sq_ = 0.0, max_abs_ = 0.0;
+};
+
+struct FlightMetricsConfig {
+  double hold_start_s = 0.0, hold_end_s = 0.0;
+  double settle_band_m = 0.05;
+  double crash_tilt_rad = 1.05;         // 60 deg: a multirotor beyond this is not flying any more
+  double crash_impact_speed_m_s = 2.0;  // touching the ground faster than this breaks the gear
+  double ground_down_m = 0.0;           // NED z of the centre of mass standing on the gear
+};
+
+class FlightMetrics {
+ public:
+  explicit FlightMetrics(const FlightMetricsConfig& config) : c_(config) {}
+
+  // One sample (at the log rate). `setpoint_time_s` is when the active setpoint was commanded.
+  void add(double t, const Eigen::Vector3d& position_ned, const Eigen::Vector3d& velocity_ned, double tilt_rad,
+           const std::optional<Eigen::Vector3d>& setpoint_ned, double setpoint_time_s);
+
+  const ErrorStats& hold(int axis) const { return hold_[axis]; }
+  // Horizontal (north-east) error magnitude during the hold.
+  const ErrorStats& hold_horizontal() const { return hold_horizontal_; }
+  // 2-D standard deviation of the horizontal position during the hold: sqrt(var_n + var_e).
+  double horizontal_stddev() const;
+  // Time from the last setpoint command before the hold until the 3-D error stayed within the band
+  // to the end of the hold; nullopt when it never settled.
+  std::optional<double> settling_time_s() const;
+  bool crashed() const { return crashed_; }
+  double crash_time_s() const { return crash_time_s_; }
+
+ private:
+  FlightMetricsConfig c_;
+  ErrorStats hold_[3];
+  ErrorStats hold_horizontal_;
+  struct Settle {
+    double setpoint_time_s, last_outside_s, last_sample_s;
+  };
+  double setpoint_time_s_ = -1.0;
+  double last_outside_band_s_ = -1.0;
+  std::optional<Settle> settle_;
+  bool crashed_ = false;
+  double crash_time_s_ = -1.0;
+};
+
+}  // namespace quad::sim

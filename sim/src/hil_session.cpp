@@ -1,0 +1,670 @@
+#include "quad/sim/hil_session.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "quad/firmware/modes.h"
+#include "quad/link/mavlink.h"
+#include "quad/sim/firmware_process.h"
+#include "quad/sim/frames.h"
+#include "quad/sim/imu.h"
+#include "quad/sim/magnetometer.h"
+#include "quad/sim/metrics.h"
+#include "quad/sim/pty.h"
+#include "quad/sim/run_output.h"
+#include "quad/sim/serial_line.h"
+#include "quad/sim/vehicle.h"
+
+namespace quad::sim {
+namespace mav = quad::mavlink;
+
+namespace {
+
+// System and component ids (docs/hil-protocol.md).
+constexpr uint8_t kVehicleSys = 1;
+constexpr uint8_t kSimComp = 200;
+constexpr uint8_t kGcsSys = 255;
+constexpr uint8_t kVisionComp = mav::kCompIdVisualInertialOdometry;
+
+// SET_POSITION_TARGET_LOCAL_NED type_mask: use position and yaw, ignore velocity, acceleration, yaw rate.
+constexpr uint16_t kPositionAndYawOnly = 0x0008 | 0x0010 | 0x0020 | 0x0040 | 0x0080 | 0x0100 | 0x0800;
+
+using Clock = std::chrono::steady_clock;
+
+uint64_t to_usec(double t) { return static_cast<uint64_t>(std::llround(t * 1e6)); }
+
+// The firmware's view, from its telemetry.
+struct Telemetry {
+  Eigen::Vector3d position_ned = Eigen::Vector3d::Constant(NAN);
+  Eigen::Vector3d velocity_ned = Eigen::Vector3d::Constant(NAN);
+  Eigen::Quaterniond q_ib{NAN, NAN, NAN, NAN};
+  int mode = -1;
+  bool armed = false;
+  uint64_t frames = 0;
+};
+
+class Session {
+ public:
+  Session(const Scenario& s, const SessionOptions& o);
+  ~Session() {
+    if (events_) std::fclose(events_);
+  }
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+  SessionResult run();
+
+ private:
+  // Sending.
+  template <class Msg>
+  void send_uart0(const Msg& msg, mav::Sender& sender, double t);
+  template <class Msg>
+  void send_radio(const Msg& msg, mav::Sender& sender, double t);
+  template <class Msg>
+  void send_gcs(const Msg& msg, double t);
+  void send_sensors(double t);
+  void send_due_commands(double t);
+  void send_rc(double t);
+  void capture_vision(double t);
+
+  // Receiving.
+  void handle_frame(const mav::Frame& f, double t, const char* port);
+  bool wait_for_answer(double t);
+  void poll_uart0(double t);
+  void poll_uart2(double t);
+
+  // The world.
+  void apply_faults(double t);
+  void physics_period(double t_end);
+  void log_row(double t);
+  void event(double t, const std::string& text);
+  void write_summary(bool complete, const std::string& reason);
+  void progress(double t, bool final_line);
+
+  const Scenario& s_;
+  const SessionOptions& o_;
+  Vehicle vehicle_;
+  Mpu6000 imu_;
+  Hmc5883l mag_;
+  Rng vision_rng_;
+  ImuReading imu_reading_{};
+  bool mag_fresh_ = false;
+  Eigen::Vector3d field_ned_;
+
+  Pty uart0_, uart2_;
+  SerialLine uart0_out_;   // simulator -> firmware on UART0 (pacing and statistics; lockstep flushes it)
+  SerialLine radio_up_;    // ground and vision station -> firmware on UART2
+  SerialLine radio_down_;  // firmware -> ground on UART2
+  mav::Sender sensor_sender_{kVehicleSys, kSimComp};
+  mav::Sender gcs_sender_{kGcsSys, mav::kCompIdMissionPlanner};
+  mav::Sender vision_sender_{kVehicleSys, kVisionComp};
+  mav::Parser uart0_parser_, uart2_splitter_, ground_parser_;
+  std::unique_ptr<FirmwareProcess> firmware_;
+
+  // Schedules.
+  size_t next_command_ = 0;
+  double next_rc_t_ = 0.0;
+  double next_vision_t_ = 0.0;
+  double next_frame_t_ = 0.0;
+  std::deque<std::pair<double, std::vector<uint8_t>>> vision_pending_;  // release time, frame
+  std::optional<Eigen::Vector3d> setpoint_;
+  double setpoint_yaw_ = 0.0, setpoint_time_ = -1.0;
+  std::vector<bool> fault_active_;
+
+  // The exchange.
+  std::array<double, 4> pending_commands_{};
+  double pending_apply_t_ = 0.0;
+  bool have_pending_ = false;
+  std::optional<mav::HilActuatorControls> answer_;
+  uint64_t exchanges_ = 0, vision_sent_ = 0, uart0_overruns_ = 0;
+  Telemetry tele_;
+
+  // Outputs.
+  std::unique_ptr<CsvLog> log_;
+  std::FILE* events_ = nullptr;
+  FlightMetrics metrics_;
+  ErrorStats est_horizontal_, est_vertical_;
+  std::optional<double> altitude_reached_s_;
+  Clock::time_point wall_start_;
+  Clock::time_point last_progress_;
+  Clock::time_point last_summary_;
+};
+
+VehicleParams vehicle_params(const Scenario& s) {
+  VehicleParams p;
+  p.model_path = s.model_path;
+  p.motor = s.motor;
+  p.drag_linear_n_per_m_s = s.drag_linear;
+  p.drag_quadratic_n_per_m2_s2 = s.drag_quadratic;
+  return p;
+}
+
+FlightMetricsConfig metrics_config(const Scenario& s, double ground_down) {
+  FlightMetricsConfig c;
+  c.hold_start_s = s.hold_start_s;
+  c.hold_end_s = s.hold_end_s;
+  c.settle_band_m = s.settle_band_m;
+  c.ground_down_m = ground_down;
+  return c;
+}
+
+const std::vector<std::string>& log_columns() {
+  static const std::vector<std::string> c = {
+      "t", "true_n", "true_e", "true_d", "true_vn", "true_ve", "true_vd", "true_roll", "true_pitch", "true_yaw",
+      "true_p", "true_q", "true_r", "est_n", "est_e", "est_d", "est_vn", "est_ve", "est_vd", "est_roll",
+      "est_pitch", "est_yaw", "sp_n", "sp_e", "sp_d", "sp_yaw", "cmd0", "cmd1", "cmd2", "cmd3", "thrust0",
+      "thrust1", "thrust2", "thrust3", "mode", "armed", "imu_ax", "imu_ay", "imu_az", "imu_gx", "imu_gy",
+      "imu_gz", "mag_x", "mag_y", "mag_z", "wind_n", "wind_e", "wind_d", "vision_sent", "uart0_tx_frames",
+      "uart0_rx_frames", "uart0_rx_bad_crc", "radio_up_sent", "radio_up_lost", "radio_up_corrupted",
+      "radio_down_sent", "radio_down_lost", "radio_down_corrupted", "ground_rx_bad_crc"};
+  return c;
+}
+
+Session::Session(const Scenario& s, const SessionOptions& o)
+    : s_(s),
+      o_(o),
+      vehicle_(vehicle_params(s)),
+      imu_(s.imu, Rng(s.seed, "imu")),
+      mag_(s.mag, Rng(s.seed, "magnetometer")),
+      vision_rng_(s.seed, "vision"),
+      field_ned_(s.field_ned_gauss),
+      uart0_(s.uart0_baud),
+      uart2_(s.radio_baud),
+      uart0_out_(s.uart0_baud, Rng(s.seed, "uart0")),
+      radio_up_(s.radio_baud, Rng(s.seed, "radio_up")),
+      radio_down_(s.radio_baud, Rng(s.seed, "radio_down")),
+      fault_active_(s.faults.size(), false),
+      metrics_(metrics_config(s, 0.0)) {
+  vehicle_.reset(s.initial_north_east_m, s.initial_height_m, s.initial_yaw_rad);
+  if (s.initial_height_m == 0.0) vehicle_.settle_on_ground(0.5);
+  metrics_ = FlightMetrics(metrics_config(s, vehicle_.rest_down_m()));
+  radio_up_.set_radio(s.radio);
+  radio_down_.set_radio(s.radio);
+  make_directories(o.out_dir);
+  log_ = std::make_unique<CsvLog>(o.out_dir + "/log.csv", log_columns());
+  events_ = std::fopen((o.out_dir + "/events.log").c_str(), "w");
+  if (!events_) throw std::runtime_error(o.out_dir + "/events.log: cannot create");
+}
+
+template <class Msg>
+void Session::send_uart0(const Msg& msg, mav::Sender& sender, double t) {
+  uint8_t buf[mav::max_frame_length<Msg>()];
+  const size_t n = sender.encode(msg, buf, sizeof buf);
+  uart0_out_.send(buf, n, t);
+}
+
+template <class Msg>
+void Session::send_radio(const Msg& msg, mav::Sender& sender, double t) {
+  uint8_t buf[mav::max_frame_length<Msg>()];
+  const size_t n = sender.encode(msg, buf, sizeof buf);
+  radio_up_.send(buf, n, t);
+}
+
+template <class Msg>
+void Session::send_gcs(const Msg& msg, double t) {
+  if (s_.gcs_over_radio) send_radio(msg, gcs_sender_, t);
+  else send_uart0(msg, gcs_sender_, t);
+}
+
+void Session::event(double t, const std::string& text) {
+  std::fprintf(events_, "%9.3f %s\n", t, text.c_str());
+  std::fflush(events_);
+}
+
+void Session::send_due_commands(double t) {
+  while (next_command_ < s_.commands.size() && s_.commands[next_command_].at_s <= t + 1e-9) {
+    const GcsCommand& c = s_.commands[next_command_++];
+    if (c.setpoint_ned_m) {
+      mav::SetPositionTargetLocalNed sp;
+      sp.time_boot_ms = static_cast<uint32_t>(t * 1000.0);
+      sp.x = static_cast<float>(c.setpoint_ned_m->x());
+      sp.y = static_cast<float>(c.setpoint_ned_m->y());
+      sp.z = static_cast<float>(c.setpoint_ned_m->z());
+      sp.yaw = static_cast<float>(c.yaw_rad);
+      sp.type_mask = kPositionAndYawOnly;
+      sp.target_system = kVehicleSys;
+      sp.target_component = mav::kCompIdAutopilot1;
+      sp.coordinate_frame = mav::kFrameLocalNed;
+      send_gcs(sp, t);
+      setpoint_ = c.setpoint_ned_m;
+      setpoint_yaw_ = c.yaw_rad;
+      setpoint_time_ = t;
+      std::ostringstream e;
+      e << "gcs: setpoint NED (" << sp.x << ", " << sp.y << ", " << sp.z << ") yaw " << sp.yaw;
+      event(t, e.str());
+      continue;
+    }
+    mav::CommandLong cmd;
+    cmd.target_system = kVehicleSys;
+    cmd.target_component = mav::kCompIdAutopilot1;
+    std::string what;
+    if (c.arm) {
+      cmd.command = mav::kCmdComponentArmDisarm;
+      cmd.param1 = *c.arm ? 1.0f : 0.0f;
+      what = *c.arm ? "arm" : "disarm";
+    } else if (c.mode) {
+      cmd.command = mav::kCmdDoSetMode;
+      cmd.param1 = mav::kModeFlagCustomModeEnabled;
+      cmd.param2 = static_cast<float>(*c.mode);
+      what = std::string("mode ") + fw::mode_name(static_cast<fw::FlightMode>(*c.mode));
+    } else {
+      cmd.command = mav::kCmdNavLand;
+      what = "land";
+    }
+    send_gcs(cmd, t);
+    event(t, "gcs: " + what);
+  }
+}
+
+void Session::send_rc(double t) {
+  if (t + 1e-9 < next_rc_t_) return;
+  next_rc_t_ += 1.0 / s_.rc_rate_hz;
+  for (size_t i = 0; i < s_.faults.size(); ++i)
+    if (s_.faults[i].type == FaultType::kRcLoss && s_.faults[i].active(t)) return;
+  RcSticks sticks;
+  for (const RcSticks& r : s_.rc)
+    if (r.at_s <= t) sticks = r;
+  mav::ManualControl mc;
+  mc.target = kVehicleSys;
+  mc.x = static_cast<int16_t>(sticks.pitch);
+  mc.y = static_cast<int16_t>(sticks.roll);
+  mc.z = static_cast<int16_t>(sticks.throttle);
+  mc.r = static_cast<int16_t>(sticks.yaw);
+  send_uart0(mc, gcs_sender_, t);
+}
+
+void Session::send_sensors(double t) {
+  mav::HilSensor m;
+  m.time_usec = to_usec(t);
+  m.xacc = static_cast<float>(imu_reading_.specific_force_frd.x());
+  m.yacc = static_cast<float>(imu_reading_.specific_force_frd.y());
+  m.zacc = static_cast<float>(imu_reading_.specific_force_frd.z());
+  m.xgyro = static_cast<float>(imu_reading_.rate_frd.x());
+  m.ygyro = static_cast<float>(imu_reading_.rate_frd.y());
+  m.zgyro = static_cast<float>(imu_reading_.rate_frd.z());
+  m.xmag = static_cast<float>(mag_.reading().x());
+  m.ymag = static_cast<float>(mag_.reading().y());
+  m.zmag = static_cast<float>(mag_.reading().z());
+  m.fields_updated = 0x3Fu | (mag_fresh_ ? 0x1C0u : 0u);  // accel bits 0-2, gyro 3-5, mag 6-8
+  m.id = 0;
+  mag_fresh_ = false;
+  send_uart0(m, sensor_sender_, t);
+}
+
+void Session::capture_vision(double t) {
+  if (t + 1e-9 < next_vision_t_) return;
+  next_vision_t_ += 1.0 / s_.vision.rate_hz;
+  if (!s_.vision.enabled) return;
+  for (const Fault& f : s_.faults)
+    if (f.type == FaultType::kVisionDropout && f.active(t)) return;
+  const VehicleTruth truth = vehicle_.truth();
+  Eigen::Vector3d p = truth.position_ned;
+  for (int i = 0; i < 3; ++i) p[i] += vision_rng_.normal(s_.vision.noise_m);
+  // The star sits at the NED origin: seen from the vehicle, in body FRD (thesis eq. 8.5 inverted,
+  // p_B = R_IB^T (star - p_I); the firmware computes p_I = star - R_IB p_B).
+  const Eigen::Vector3d star_b = truth.q_ib.conjugate() * (-p);
+  mav::LandingTarget lt;
+  lt.time_usec = to_usec(t);
+  lt.frame = mav::kFrameBodyFrd;
+  lt.x = static_cast<float>(star_b.x());
+  lt.y = static_cast<float>(star_b.y());
+  lt.z = static_cast<float>(star_b.z());
+  lt.distance = static_cast<float>(star_b.norm());
+  lt.q[0] = 1.0f;
+  lt.position_valid = 1;
+  uint8_t buf[mav::max_frame_length<mav::LandingTarget>()];
+  const size_t n = vision_sender_.encode(lt, buf, sizeof buf);
+  vision_pending_.emplace_back(t + s_.vision.latency_s, std::vector<uint8_t>(buf, buf + n));
+}
+
+void Session::apply_faults(double t) {
+  RadioConditions radio = s_.radio;
+  Eigen::Vector3d mag_offset = Eigen::Vector3d::Zero(), gyro_step = Eigen::Vector3d::Zero();
+  std::array<double, 4> efficiency{1.0, 1.0, 1.0, 1.0};
+  for (size_t i = 0; i < s_.faults.size(); ++i) {
+    const Fault& f = s_.faults[i];
+    const bool active = f.active(t);
+    if (active != fault_active_[i]) {
+      fault_active_[i] = active;
+      static const char* kNames[] = {"vision dropout", "radio loss", "bit error rate", "radio latency",
+                                     "magnetic disturbance", "gyro bias step", "motor efficiency", "RC loss"};
+      event(t, std::string("fault: ") + kNames[static_cast<int>(f.type)] + (active ? " begins" : " ends"));
+    }
+    if (!active) continue;
+    switch (f.type) {
+      case FaultType::kRadioLoss: radio.loss = std::max(radio.loss, f.value); break;
+      case FaultType::kBitErrorRate: radio.bit_error_rate = std::max(radio.bit_error_rate, f.value); break;
+      case FaultType::kRadioLatency: radio.latency_s = f.value; break;
+      case FaultType::kMagDisturbance: mag_offset += f.vector; break;
+      case FaultType::kGyroBiasStep: gyro_step += f.vector; break;
+      case FaultType::kMotorEfficiency: efficiency[static_cast<size_t>(f.motor)] *= f.value; break;
+      case FaultType::kVisionDropout:
+      case FaultType::kRcLoss: break;  // acted on where the messages are made
+    }
+  }
+  radio_up_.set_radio(radio);
+  radio_down_.set_radio(radio);
+  field_ned_ = s_.field_ned_gauss + mag_offset;
+  imu_.set_gyro_bias_step(gyro_step);
+  for (int i = 0; i < 4; ++i) vehicle_.set_motor_efficiency(i, efficiency[static_cast<size_t>(i)]);
+}
+
+void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
+  if (f.system_id != kVehicleSys || f.component_id != mav::kCompIdAutopilot1) return;
+  ++tele_.frames;
+  switch (f.message_id) {
+    case mav::HilActuatorControls::kId: {
+      mav::HilActuatorControls m;
+      if (mav::decode(f, m)) answer_ = m;
+      break;
+    }
+    case mav::Heartbeat::kId: {
+      mav::Heartbeat m;
+      if (!mav::decode(f, m)) break;
+      const int mode = static_cast<int>(m.custom_mode);
+      const bool armed = (m.base_mode & mav::kModeFlagSafetyArmed) != 0;
+      if (mode != tele_.mode || armed != tele_.armed) {
+        const char* name = mode >= 0 && mode <= static_cast<int>(fw::FlightMode::kLanding)
+                               ? fw::mode_name(static_cast<fw::FlightMode>(mode)) : "?";
+        event(t, std::string("firmware (") + port + "): mode " + name + (armed ? ", armed" : ", disarmed"));
+      }
+      tele_.mode = mode;
+      tele_.armed = armed;
+      break;
+    }
+    case mav::LocalPositionNed::kId: {
+      mav::LocalPositionNed m;
+      if (!mav::decode(f, m)) break;
+      tele_.position_ned = {m.x, m.y, m.z};
+      tele_.velocity_ned = {m.vx, m.vy, m.vz};
+      break;
+    }
+    case mav::AttitudeQuaternion::kId: {
+      mav::AttitudeQuaternion m;
+      if (mav::decode(f, m)) tele_.q_ib = Eigen::Quaterniond(m.q1, m.q2, m.q3, m.q4);
+      break;
+    }
+    case mav::Statustext::kId: {
+      mav::Statustext m;
+      if (!mav::decode(f, m)) break;
+      const std::string text(m.text, strnlen(m.text, sizeof m.text));
+      event(t, std::string("firmware (") + port + "): " + text);
+      break;
+    }
+    case mav::CommandAck::kId: {
+      mav::CommandAck m;
+      if (!mav::decode(f, m)) break;
+      event(t, std::string("firmware (") + port + "): COMMAND_ACK " + std::to_string(m.command) + " result " +
+                   std::to_string(m.result));
+      break;
+    }
+    default: break;
+  }
+}
+
+void Session::poll_uart0(double t) {
+  uint8_t buf[4096];
+  for (size_t n; (n = uart0_.read_some(buf, sizeof buf)) > 0;)
+    uart0_parser_.feed(buf, n, [&](const mav::Frame& f) { handle_frame(f, t, "uart0"); });
+}
+
+void Session::poll_uart2(double t) {
+  // The firmware's radio output: split into frames, each crosses the radio to the ground station.
+  uint8_t buf[4096];
+  for (size_t n; (n = uart2_.read_some(buf, sizeof buf)) > 0;)
+    uart2_splitter_.feed(buf, n, [&](const mav::Frame& f) { radio_down_.send(f.bytes, f.size, t); });
+}
+
+bool Session::wait_for_answer(double t) {
+  const uint64_t want = to_usec(t);
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o_.answer_timeout_s));
+  answer_.reset();
+  // handle_frame() keeps the latest HIL_ACTUATOR_CONTROLS; anything but this step's answer is stale.
+  while (!(answer_ && answer_->time_usec == want)) {
+    const auto now = Clock::now();
+    if (now >= deadline || !firmware_->running()) return false;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count();
+    if (uart0_.wait_readable(static_cast<int>(std::min<long>(left, 100)) + 1)) poll_uart0(t);
+  }
+  return true;
+}
+
+void Session::physics_period(double t_end) {
+  const double dt = vehicle_.timestep();
+  while (vehicle_.time() < t_end - 0.5 * dt) {
+    const double t = vehicle_.time();
+    if (have_pending_ && t + 1e-9 >= pending_apply_t_) {
+      vehicle_.set_commands(pending_commands_);
+      have_pending_ = false;
+    }
+    apply_faults(t);
+    vehicle_.set_wind_ned(s_.wind_at(t));
+    vehicle_.step();
+    const VehicleTruth truth = vehicle_.truth();
+    imu_reading_ = imu_.sample(truth.specific_force_frd, truth.rate_frd, vehicle_.mean_speed_fraction());
+    if (mag_.update(t, truth.q_ib.conjugate() * field_ned_)) mag_fresh_ = true;
+    const double now = vehicle_.time();
+    capture_vision(now);
+    while (!vision_pending_.empty() && vision_pending_.front().first <= now + 1e-9) {
+      const auto& [when, bytes] = vision_pending_.front();
+      radio_up_.send(bytes.data(), bytes.size(), when);
+      ++vision_sent_;
+      vision_pending_.pop_front();
+    }
+    radio_up_.deliver_until(now, [&](const uint8_t* d, size_t n) { uart2_.write_all(d, n); });
+    radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
+      ground_parser_.feed(d, n, [&](const mav::Frame& f) { handle_frame(f, now, "radio"); });
+    });
+    if (o_.on_frame && now + 1e-9 >= next_frame_t_) {
+      next_frame_t_ += 1.0 / o_.frame_rate_hz;
+      o_.on_frame(vehicle_);
+    }
+  }
+}
+
+void Session::log_row(double t) {
+  const VehicleTruth tr = vehicle_.truth();
+  const Eigen::Vector3d e = euler_from_q_ib(tr.q_ib);
+  const Eigen::Vector3d ee = std::isnan(tele_.q_ib.w()) ? Eigen::Vector3d::Constant(NAN) : euler_from_q_ib(tele_.q_ib);
+  const Eigen::Vector3d sp = setpoint_ ? *setpoint_ : Eigen::Vector3d::Constant(NAN);
+  const Eigen::Vector3d w = s_.wind_at(t);
+  const auto& c = vehicle_.commands();
+  const auto& u0 = uart0_out_.stats();
+  const auto& ru = radio_up_.stats();
+  const auto& rd = radio_down_.stats();
+  log_->row({t, tr.position_ned.x(), tr.position_ned.y(), tr.position_ned.z(), tr.velocity_ned.x(),
+             tr.velocity_ned.y(), tr.velocity_ned.z(), e.x(), e.y(), e.z(), tr.rate_frd.x(), tr.rate_frd.y(),
+             tr.rate_frd.z(), tele_.position_ned.x(), tele_.position_ned.y(), tele_.position_ned.z(),
+             tele_.velocity_ned.x(), tele_.velocity_ned.y(), tele_.velocity_ned.z(), ee.x(), ee.y(), ee.z(), sp.x(),
+             sp.y(), sp.z(), setpoint_ ? setpoint_yaw_ : NAN, c[0], c[1], c[2], c[3], vehicle_.motor(0).thrust_n(),
+             vehicle_.motor(1).thrust_n(), vehicle_.motor(2).thrust_n(), vehicle_.motor(3).thrust_n(),
+             static_cast<double>(tele_.mode), tele_.armed ? 1.0 : 0.0, imu_reading_.specific_force_frd.x(),
+             imu_reading_.specific_force_frd.y(), imu_reading_.specific_force_frd.z(), imu_reading_.rate_frd.x(),
+             imu_reading_.rate_frd.y(), imu_reading_.rate_frd.z(), mag_.reading().x(), mag_.reading().y(),
+             mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_sent_),
+             static_cast<double>(u0.frames_sent), static_cast<double>(uart0_parser_.stats().frames_accepted),
+             static_cast<double>(uart0_parser_.stats().bad_checksum), static_cast<double>(ru.frames_sent),
+             static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted),
+             static_cast<double>(rd.frames_sent), static_cast<double>(rd.frames_lost),
+             static_cast<double>(rd.frames_corrupted), static_cast<double>(ground_parser_.stats().bad_checksum)});
+  const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
+  metrics_.add(t, tr.position_ned, tr.velocity_ned, tilt, setpoint_, setpoint_time_);
+  if (tele_.armed && !std::isnan(tele_.position_ned.x())) {
+    est_horizontal_.add((tele_.position_ned - tr.position_ned).head<2>().norm());
+    est_vertical_.add(tele_.position_ned.z() - tr.position_ned.z());
+  }
+  if (setpoint_ && !altitude_reached_s_ && std::abs(tr.position_ned.z() - setpoint_->z()) < 0.05)
+    altitude_reached_s_ = t - setpoint_time_;
+}
+
+Json stats_json(const ErrorStats& e) {
+  Json j;
+  j.add("mean", e.mean()).add("std", e.stddev()).add("rms", e.rms()).add("max_abs", e.max_abs());
+  return j;
+}
+
+void Session::write_summary(bool complete, const std::string& reason) {
+  const double wall = std::chrono::duration<double>(Clock::now() - wall_start_).count();
+  const double sim = vehicle_.time();
+  Json hold;
+  hold.add("start_s", s_.hold_start_s).add("end_s", s_.hold_end_s).add("samples", metrics_.hold(0).count());
+  hold.add("north", stats_json(metrics_.hold(0))).add("east", stats_json(metrics_.hold(1)));
+  hold.add("vertical", stats_json(metrics_.hold(2)));
+  Json horizontal;
+  horizontal.add("std_2d", metrics_.horizontal_stddev())
+      .add("rms", metrics_.hold_horizontal().rms())
+      .add("mean", metrics_.hold_horizontal().mean())
+      .add("max", metrics_.hold_horizontal().max_abs());
+  hold.add("horizontal", horizontal);
+  Json est;
+  est.add("horizontal_rms_m", est_horizontal_.rms()).add("vertical_rms_m", est_vertical_.rms())
+      .add("samples", est_horizontal_.count());
+  auto line_json = [](const LineStats& l) {
+    Json j;
+    j.add("frames_sent", static_cast<long>(l.frames_sent)).add("frames_lost", static_cast<long>(l.frames_lost))
+        .add("frames_corrupted", static_cast<long>(l.frames_corrupted)).add("bytes_sent", static_cast<long>(l.bytes_sent));
+    return j;
+  };
+  Json links;
+  Json uart0_in;
+  uart0_in.add("frames_received", static_cast<long>(uart0_parser_.stats().frames_accepted))
+      .add("bad_checksum", static_cast<long>(uart0_parser_.stats().bad_checksum))
+      .add("sequence_lost", static_cast<long>(uart0_parser_.stats().sequence_lost));
+  Json ground_in;
+  ground_in.add("frames_received", static_cast<long>(ground_parser_.stats().frames_accepted))
+      .add("bad_checksum", static_cast<long>(ground_parser_.stats().bad_checksum))
+      .add("sequence_lost", static_cast<long>(ground_parser_.stats().sequence_lost));
+  links.add("uart0_to_firmware", line_json(uart0_out_.stats())).add("uart0_from_firmware", uart0_in);
+  links.add("radio_uplink", line_json(radio_up_.stats())).add("radio_downlink", line_json(radio_down_.stats()));
+  links.add("ground_station_received", ground_in).add("uart0_overruns", static_cast<long>(uart0_overruns_));
+  Json j;
+  j.add("scenario", s_.name).add("scenario_file", s_.path).add("seed", static_cast<long>(s_.seed));
+  j.add("complete", complete);
+  if (!complete) j.add("cut_short", reason);
+  j.add("mode", o_.realtime ? "realtime" : "lockstep").add("sim_time_s", sim).add("wall_time_s", wall);
+  j.add("real_time_factor", wall > 0 ? sim / wall : 0.0).add("lockstep_exchanges", static_cast<long>(exchanges_));
+  j.add("hold", hold);
+  if (auto st = metrics_.settling_time_s()) j.add("settling_time_s", *st);
+  else j.add_null("settling_time_s");
+  if (altitude_reached_s_) j.add("altitude_reached_s", *altitude_reached_s_);
+  else j.add_null("altitude_reached_s");
+  j.add("crashed", metrics_.crashed());
+  if (metrics_.crashed()) j.add("crash_time_s", metrics_.crash_time_s());
+  j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_sent_)).add("links", links);
+  write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
+}
+
+void Session::progress(double t, bool final_line) {
+  if (!o_.progress) return;
+  const auto now = Clock::now();
+  if (!final_line && now - last_progress_ < std::chrono::milliseconds(250)) return;
+  last_progress_ = now;
+  const double wall = std::chrono::duration<double>(now - wall_start_).count();
+  const VehicleTruth tr = vehicle_.truth();
+  char err[32] = "     -";
+  if (setpoint_) std::snprintf(err, sizeof err, "%6.3f", (tr.position_ned - *setpoint_).norm());
+  const char* mode = tele_.mode >= 0 && tele_.mode <= 3 ? fw::mode_name(static_cast<fw::FlightMode>(tele_.mode)) : "-";
+  std::fprintf(stderr, "\r  t %6.1f / %.0f s | %6.1fx real time | error %s m | height %5.2f m | %-8s%s", t,
+               s_.duration_s, wall > 0 ? t / wall : 0.0, err, -(tr.position_ned.z() - vehicle_.rest_down_m()), mode,
+               final_line ? "\n" : "");
+  std::fflush(stderr);
+}
+
+SessionResult Session::run() {
+  std::vector<std::string> argv = o_.firmware_argv;
+  for (const std::string& a : {std::string("--uart0"), uart0_.slave_path(), std::string("--uart0-baud"),
+                               std::to_string(s_.uart0_baud), std::string("--uart2"), uart2_.slave_path(),
+                               std::string("--uart2-baud"), std::to_string(s_.radio_baud), std::string("--params"),
+                               o_.out_dir + "/firmware_params.bin"})
+    argv.push_back(a);
+  {
+    std::string cmd;
+    for (const auto& a : argv) cmd += (cmd.empty() ? "" : " ") + a;
+    event(0.0, "start: " + cmd);
+  }
+  firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");
+  wall_start_ = last_summary_ = Clock::now();
+  write_summary(false, "running");
+
+  const double period = 1.0 / s_.control_rate_hz;
+  const long periods = std::lround(s_.duration_s * s_.control_rate_hz);
+  // The exchange's own time on the wire: HIL_SENSOR out, HIL_ACTUATOR_CONTROLS back.
+  const double exchange_s = (mav::max_frame_length<mav::HilSensor>() + mav::max_frame_length<mav::HilActuatorControls>()) *
+                            10.0 / s_.uart0_baud;
+  SessionResult result;
+  std::string reason;
+  for (long k = 0; k < periods; ++k) {
+    const double t = k * period;
+    if (o_.stop && o_.stop->load()) {
+      reason = "interrupted";
+      break;
+    }
+    send_due_commands(t);
+    send_rc(t);
+    send_sensors(t);
+    if (uart0_out_.busy_until() > t + period) ++uart0_overruns_;
+    if (o_.realtime) {
+      // Wall-clock pacing: bytes leave at their serial times, the latest answer is used.
+      const double wall_t = std::chrono::duration<double>(Clock::now() - wall_start_).count();
+      if (wall_t < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - wall_t));
+      uart0_out_.deliver_until(t + period, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
+      answer_.reset();
+      poll_uart0(t);
+      if (answer_) {
+        for (size_t i = 0; i < 4; ++i) pending_commands_[i] = answer_->controls[i];
+        pending_apply_t_ = t;
+        have_pending_ = true;
+        ++exchanges_;
+      }
+      if (!firmware_->running()) {
+        reason = "the firmware " + firmware_->status();
+        break;
+      }
+    } else {
+      // Lockstep: everything queued for UART0 goes now; the firmware answers this step before we move.
+      uart0_out_.deliver_until(1e18, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
+      if (!wait_for_answer(t)) {
+        reason = firmware_->running()
+                     ? "the firmware did not answer HIL_SENSOR at t = " + std::to_string(t) + " s within " +
+                           std::to_string(o_.answer_timeout_s) + " s"
+                     : "the firmware " + firmware_->status() + " (see firmware.log)";
+        break;
+      }
+      ++exchanges_;
+      for (size_t i = 0; i < 4; ++i) pending_commands_[i] = answer_->controls[i];
+      pending_apply_t_ = t + exchange_s;
+      have_pending_ = true;
+    }
+    poll_uart2(t);
+    physics_period(t + period);
+    log_row(vehicle_.time());
+    progress(vehicle_.time(), false);
+    if (Clock::now() - last_summary_ > std::chrono::seconds(2)) {
+      last_summary_ = Clock::now();
+      write_summary(false, "running");
+    }
+  }
+  result.complete = reason.empty();
+  result.reason = reason;
+  result.sim_time_s = vehicle_.time();
+  result.wall_time_s = std::chrono::duration<double>(Clock::now() - wall_start_).count();
+  result.crashed = metrics_.crashed();
+  progress(vehicle_.time(), true);
+  write_summary(result.complete, reason);
+  if (!reason.empty()) event(vehicle_.time(), "cut short: " + reason);
+  firmware_.reset();
+  return result;
+}
+
+}  // namespace
+
+SessionResult run_session(const Scenario& scenario, const SessionOptions& options) {
+  Session session(scenario, options);
+  return session.run();
+}
+
+}  // namespace quad::sim
