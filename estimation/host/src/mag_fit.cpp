@@ -98,6 +98,10 @@ MagFitResult fit_magnetometer(const std::vector<Eigen::Vector3d>& samples, const
     return refuse(r, summary.str() + ": the samples do not cover enough directions (coverage below " +
                          std::to_string(options.min_coverage) + "); turn the vehicle about every axis");
   }
+  if (r.condition > options.max_condition) {
+    return refuse(r, summary.str() + ": the fit is ill-conditioned (condition above " +
+                         std::to_string(options.max_condition) + "); turn the vehicle about every axis");
+  }
   if (r.residual_rms > options.max_residual) {
     return refuse(r, summary.str() + ": residual above " + std::to_string(options.max_residual));
   }

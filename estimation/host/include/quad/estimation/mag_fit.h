@@ -23,7 +23,10 @@ struct MagFitOptions {
   int min_samples = 50;
   // Coverage: the smallest eigenvalue of the mean outer product of the corrected unit directions. A
   // uniform sphere gives 1/3 on every axis; a single planar turn gives 0 on its axis.
-  double min_coverage = 0.05;
+  double min_coverage = 0.15;
+  // Conditioning of the centred, scaled design matrix of eq. 7.16: ~3 for samples over the whole sphere;
+  // a narrow band of attitudes fits its own samples well (small residual) with a wrong offset.
+  double max_condition = 30.0;
   double max_residual = 0.05;    // RMS of |W (m - b)| / field_norm - 1 above which the fit is refused
 };
 
