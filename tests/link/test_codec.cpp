@@ -268,3 +268,23 @@ TEST(Sender, SequenceAdvancesPerWrittenFrameAndWraps) {
   EXPECT_EQ(sender.encode(mav::Heartbeat{}, buffer, 5), 0u);
   EXPECT_EQ(sender.next_sequence(), before);
 }
+
+TEST(Text, CopyPadsTruncatesAndComparesWithoutATerminator) {
+  mav::ParamSet set;
+  std::memset(set.param_id, 'x', sizeof set.param_id);
+  EXPECT_TRUE(mav::copy_text(set.param_id, "ATT_KP"));
+  EXPECT_EQ(std::string(set.param_id, 6), "ATT_KP");
+  for (size_t i = 6; i < sizeof set.param_id; ++i) EXPECT_EQ(set.param_id[i], '\0') << i;
+  EXPECT_EQ(mav::text_length(set.param_id), 6u);
+  EXPECT_TRUE(mav::text_equals(set.param_id, "ATT_KP"));
+  EXPECT_FALSE(mav::text_equals(set.param_id, "ATT_K"));
+  EXPECT_FALSE(mav::text_equals(set.param_id, "ATT_KPX"));
+
+  // A 16-character name fills the field with no terminator; 17 characters do not fit.
+  EXPECT_TRUE(mav::copy_text(set.param_id, "ABCDEFGHIJKLMNOP"));
+  EXPECT_EQ(mav::text_length(set.param_id), 16u);
+  EXPECT_TRUE(mav::text_equals(set.param_id, "ABCDEFGHIJKLMNOP"));
+  EXPECT_FALSE(mav::text_equals(set.param_id, "ABCDEFGHIJKLMNOPQ"));
+  EXPECT_FALSE(mav::copy_text(set.param_id, "ABCDEFGHIJKLMNOPQ"));
+  EXPECT_EQ(std::string(set.param_id, 16), "ABCDEFGHIJKLMNOP");
+}

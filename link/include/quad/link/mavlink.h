@@ -21,6 +21,8 @@
 //   });
 //   parser.stats().bad_checksum, parser.find_sender(1, 200)->lost, ...
 //
+// Text fields (param_id, text): mav::copy_text(msg.param_id, "ATT_KP"), mav::text_equals(msg.param_id, "ATT_KP").
+//
 // See docs/mavlink.md for the wire details and what the parser counts.
 #ifndef QUAD_LINK_MAVLINK_H
 #define QUAD_LINK_MAVLINK_H
@@ -30,6 +32,7 @@
 #include "quad/link/frame.h"
 #include "quad/link/messages.h"
 #include "quad/link/parser.h"
+#include "quad/link/text.h"
 #include "quad/link/wire.h"
 
 #endif  // QUAD_LINK_MAVLINK_H

@@ -62,6 +62,8 @@ class Parser {
   static constexpr uint8_t kMaxSenders = 4;
 
   explicit Parser(MessageInfoLookup lookup = find_message_info) : lookup_(lookup) {}
+  Parser(const Parser&) = delete;  // frame() views the parser's own buffer
+  Parser& operator=(const Parser&) = delete;
 
   // Takes one byte. True when a frame is complete: read it with frame(), then call next() until false.
   bool push(uint8_t byte) {
