@@ -120,6 +120,7 @@ class Session {
   double pending_apply_t_ = 0.0;
   bool have_pending_ = false;
   std::optional<mav::HilActuatorControls> answer_;
+  std::vector<uint8_t> last_sensor_frame_;  // resent while the firmware is still starting
   uint64_t exchanges_ = 0, vision_sent_ = 0, uart0_overruns_ = 0;
   Telemetry tele_;
 
@@ -292,7 +293,10 @@ void Session::send_sensors(double t) {
   m.fields_updated = 0x3Fu | (mag_fresh_ ? 0x1C0u : 0u);  // accel bits 0-2, gyro 3-5, mag 6-8
   m.id = 0;
   mag_fresh_ = false;
-  send_uart0(m, sensor_sender_, t);
+  uint8_t buf[mav::max_frame_length<mav::HilSensor>()];
+  const size_t n = sensor_sender_.encode(m, buf, sizeof buf);
+  last_sensor_frame_.assign(buf, buf + n);
+  uart0_out_.send(buf, n, t);
 }
 
 void Session::capture_vision(double t) {
@@ -423,10 +427,18 @@ bool Session::wait_for_answer(double t) {
   const uint64_t want = to_usec(t);
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o_.answer_timeout_s));
   answer_.reset();
+  // A starting firmware may open (and flush) its port after our first HIL_SENSOR was written: until the
+  // first answer, the message is repeated every 250 ms. Later a repeat would cost the firmware an
+  // extra iteration, so it is never repeated once the exchange runs.
+  auto next_resend = Clock::now() + std::chrono::milliseconds(250);
   // handle_frame() keeps the latest HIL_ACTUATOR_CONTROLS; anything but this step's answer is stale.
   while (!(answer_ && answer_->time_usec == want)) {
     const auto now = Clock::now();
     if (now >= deadline || !firmware_->running()) return false;
+    if (exchanges_ == 0 && now >= next_resend) {
+      uart0_.write_all(last_sensor_frame_.data(), last_sensor_frame_.size());
+      next_resend = now + std::chrono::milliseconds(250);
+    }
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count();
     if (uart0_.wait_readable(static_cast<int>(std::min<long>(left, 100)) + 1)) poll_uart0(t);
   }
@@ -575,11 +587,18 @@ void Session::progress(double t, bool final_line) {
 }
 
 SessionResult Session::run() {
+  std::string params = "# firmware parameters of this run (quad_sim, scenario " + s_.name + ")\n";
+  for (const auto& [name, value] : s_.firmware_params) {
+    char line[96];
+    std::snprintf(line, sizeof line, "%s %.9g\n", name.c_str(), value);
+    params += line;
+  }
+  write_file_atomically(o_.out_dir + "/firmware_params.txt", params);
   std::vector<std::string> argv = o_.firmware_argv;
   for (const std::string& a : {std::string("--uart0"), uart0_.slave_path(), std::string("--uart0-baud"),
                                std::to_string(s_.uart0_baud), std::string("--uart2"), uart2_.slave_path(),
                                std::string("--uart2-baud"), std::to_string(s_.radio_baud), std::string("--params"),
-                               o_.out_dir + "/firmware_params.bin"})
+                               o_.out_dir + "/firmware_params.txt"})
     argv.push_back(a);
   {
     std::string cmd;

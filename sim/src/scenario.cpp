@@ -212,7 +212,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
                   "vision", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
-                  "rc", "faults", "metrics"});
+                  "rc", "faults", "metrics", "firmware_params"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);
   if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
@@ -328,6 +328,13 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   }
   if (const Field f = top["faults"]; f.defined())
     for (size_t i = 0; i < f.size(); ++i) s.faults.push_back(parse_fault(f.at(i), s.duration_s));
+  if (const Field f = top["firmware_params"]; f.defined()) {
+    if (!root["firmware_params"].IsMap()) f.fail("must be a mapping of parameter names to values");
+    for (const auto& kv : root["firmware_params"]) {
+      const std::string k = kv.first.as<std::string>();
+      s.firmware_params.emplace_back(k, f[k.c_str()].number());  // names are checked by the firmware
+    }
+  }
   if (const Field f = top["metrics"]; f.defined()) {
     f.expect_map({"hold_start_s", "hold_end_s", "settle_band_m"});
     s.hold_start_s = f["hold_start_s"].number(0.0, s.duration_s);

@@ -101,6 +101,9 @@ struct Scenario {
   std::vector<RcSticks> rc;          // sorted by time
   std::vector<Fault> faults;
 
+  // Firmware parameters for this run (NAME value), written to the run folder and passed as --params.
+  std::vector<std::pair<std::string, double>> firmware_params;
+
   // Metrics window (the hold) and the settling band.
   double hold_start_s = 0.0, hold_end_s = 0.0;
   double settle_band_m = 0.05;
