@@ -89,7 +89,6 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
   }
   if (params_.z_accel_bias) p_[2].bb = sqf(params_.bias_sigma0);
   t_us_ = t_us;
-  reset_us_ = t_us;
   corr_origin_us_ = t_us;
   clock_started_ = true;
   initialized_ = true;
@@ -117,6 +116,12 @@ void PositionFilterCore::push_history() {
   for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - correction_position(i, dt);
   head_ = static_cast<uint16_t>(head_ + 1 == capacity_ ? 0 : head_ + 1);
   if (count_ < capacity_) ++count_;
+  // Once the last fused fix is older than the whole history, no fix can be out of order with it; forget
+  // it before the 32-bit clock difference could wrap (after 35 min without fixes).
+  if (have_fix_) {
+    const HistoryEntry& oldest = history_[(head_ + capacity_ - count_) % capacity_];
+    if (seconds_between(oldest.t_us, last_fix_us_) > 0.0f) have_fix_ = false;
+  }
 }
 
 // Re-express the accumulated correction at origin t_us: c <- Phi(t_us - origin) c.
@@ -171,7 +176,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
     corr_origin_us_ = t_us;
-    reset_us_ = t_us;
+    have_fix_ = false;
     clear_history();
   } else if (seconds_between(t_us, corr_origin_us_) > kRebaseAfter) {
     rebase_correction(t_us);
@@ -221,7 +226,11 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     ++health_.rejected_invalid;
     return FixResult::RejectedInvalid;
   }
-  if (!initialized_ || (params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections)) {
+  const float lost = sqf(params_.reset_position_sigma);
+  const bool diverged = p_[0].pp > lost || p_[1].pp > lost || p_[2].pp > lost || !is_finite(p_[2].pp);
+  const bool rejected_too_often =
+      params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
+  if (!initialized_ || diverged || rejected_too_often) {
     initialize_from_fix(y);
     return FixResult::Initialized;
   }
@@ -231,10 +240,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     tau = 0.0f;
     capture_us = t_us_;
   }
-  if (seconds_between(capture_us, reset_us_) < 0.0f) {
-    ++health_.rejected_too_old;
-    return FixResult::RejectedTooOld;
-  }
+  // (Fixes from before a reset or a gap find no history entry: the history starts there.)
   if (have_fix_ && seconds_between(capture_us, last_fix_us_) < 0.0f) {
     ++health_.rejected_out_of_order;
     return FixResult::RejectedOutOfOrder;

@@ -527,6 +527,34 @@ TEST(PositionFilter, RefusesFixesItCannotPlace) {
   EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::Fused);
 }
 
+TEST(PositionFilter, RunsForHoursAcrossTheClockWrapAndVisionOutages) {
+  // 80 min at 100 Hz on the wrapping microsecond clock, with a 40 min vision outage in the middle:
+  // signed clock differences must never be taken across more than the history (a stale "last fix" or
+  // reset time 2^31 us back would otherwise make every later fix look out of order or too old).
+  PositionFilterParams p = tuned();
+  p.z_accel_bias = true;
+  Filter kf(p);
+  uint32_t now = 4294000000u;
+  kf.predict(Vec3{}, now);
+  kf.reset(Vec3{}, Vec3{}, now);
+  uint32_t offered = 0;
+  const int steps = 80 * 60 * kRate, outage_end = 50 * 60 * kRate;
+  for (int k = 1; k <= steps; ++k) {
+    kf.predict(Vec3{}, now += kStepUs);
+    const bool outage = k > 10 * 60 * kRate && k < outage_end;
+    if (k % 10 == 0 && !outage) {
+      ++offered;
+      // After the outage the dead-reckoned state is lost: the first fix resets, the rest fuse.
+      const FixResult expected = k == outage_end ? FixResult::Initialized : FixResult::Fused;
+      ASSERT_EQ(kf.fuse_position(Vec3{0.01f, 0.0f, 0.0f}, now - 50000), expected) << "step " << k;
+    }
+  }
+  EXPECT_EQ(kf.health().fused, offered - 1);
+  EXPECT_EQ(kf.health().resets, 1u);
+  EXPECT_NEAR(kf.position().x, 0.01f, 0.005f);
+  EXPECT_LT(kf.covariance(0).pp, 1e-3f);
+}
+
 TEST(PositionFilter, HistoryLengthCoversQuarterSecond) {
   static_assert(quad::est::history_length(100) == 26, "100 Hz");
   static_assert(quad::est::history_length(400) == 101, "400 Hz");

@@ -59,11 +59,15 @@ struct PositionFilterParams {
   float vel_sigma0 = 1.0f;     // initial velocity standard deviation, m/s
   float gate_sigma = 5.0f;     // a fix is rejected if any axis' innovation exceeds gate_sigma * sqrt(S)
   uint16_t reset_after_rejections = 20;  // consecutive rejections that make the next fix a reset (0: never)
+  // A fix arriving while any axis' position standard deviation exceeds this (dead reckoning through a
+  // vision outage) resets the filter to it: the state is lost, and a covariance that has grown for
+  // minutes is beyond float precision in the delayed-fusion algebra.
+  float reset_position_sigma = 5.0f;
 };
 
 enum class FixResult : uint8_t {
   Fused,          // used at its capture time
-  Initialized,    // first fix (or reset after repeated rejections): position set to the fix
+  Initialized,    // first fix, or a reset (repeated rejections, or lost after an outage): position set to the fix
   RejectedGate,   // innovation outside the Mahalanobis gate
   RejectedTooOld, // captured before the oldest history entry or before the last reset
   RejectedOutOfOrder,  // captured before the last fused fix
@@ -154,8 +158,7 @@ class PositionFilterCore {
   float gain_v_[3] = {0.0f, 0.0f, 0.0f};
   float last_nis_ = 0.0f;
   uint32_t t_us_ = 0;
-  uint32_t reset_us_ = 0;       // fixes captured before this are refused
-  uint32_t last_fix_us_ = 0;    // capture time of the last fused fix
+  uint32_t last_fix_us_ = 0;    // capture time of the last fused fix (valid while have_fix_)
   bool clock_started_ = false;
   bool initialized_ = false;
   bool have_fix_ = false;
