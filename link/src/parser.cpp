@@ -8,7 +8,7 @@
 namespace quad {
 namespace mavlink {
 
-// Every byte push() does not take on its inline fast path.
+// The bytes push()'s fast path leaves: a frame to release, a start byte, a byte that completes a check.
 bool Parser::push_checked(uint8_t byte) {
   if (ready_ > 0) {  // the caller moved on without next(): release the frame first
     drop_front(ready_);

@@ -18,7 +18,7 @@
 // verifying layer on top).
 //
 // Sequence numbers are tracked per sender (system id, component id) for link-loss statistics: a jump from
-// s to s + k counts k - 1 lost frames. Up to kMaxSenders senders are tracked; frames of further senders
+// s to s + k counts k - 1 lost frames (modulo 256, so a sender restarting its count shows as a gap). Up to kMaxSenders senders are tracked; frames of further senders
 // are still accepted and counted in untracked_sender_frames.
 //
 // Usage:
