@@ -4,7 +4,19 @@ namespace quad {
 namespace ctrl {
 
 namespace {
+
 constexpr float kRoundOff = 1e-6f;
+
+// -1, 0 or +1: zero when |x| is negligible against the scale (the plus frame's zero arms).
+int8_t sign_of(float x, float scale) {
+  if (absf(x) < 1e-6f * scale) return 0;
+  return x > 0.0f ? 1 : -1;
+}
+
+// sign * g and x + sign * g without a multiplication (float multiplications are software on the AVR).
+float signed_term(int8_t sign, float g) { return sign > 0 ? g : (sign < 0 ? -g : 0.0f); }
+float add_signed(float x, int8_t sign, float g) { return sign > 0 ? x + g : (sign < 0 ? x - g : x); }
+
 }  // namespace
 
 Mixer::Mixer() { set_vehicle(VehicleParams{}); }
@@ -32,37 +44,45 @@ void Mixer::set_vehicle(const VehicleParams& v) {
   // Inverse, thesis eq. 5.8: the four columns of the forward map (thrust, roll, pitch, yaw) are
   // mutually orthogonal for both layouts, so each row of M^-1 is a column divided by its squared norm.
   // For the plus frame this gives exactly the entries (4b)^-1, (2db)^-1, (4 kappa)^-1 of eq. 5.8
-  // (here in thrust units: f_i = b w_bar_i).
+  // (here in thrust units: f_i = b w_bar_i). Within a column the nonzero entries differ only in sign.
+  roll_gain_ = pitch_gain_ = yaw_gain_ = 0.0f;
   for (int i = 0; i < kMotorCount; ++i) {
-    roll_mix_[i] = roll_arm_[i] / roll_sq;
-    pitch_mix_[i] = pitch_arm_[i] / pitch_sq;
-    yaw_mix_[i] = yaw_arm_[i] / yaw_sq;
+    roll_gain_ = maxf(roll_gain_, absf(roll_arm_[i]) / roll_sq);
+    pitch_gain_ = maxf(pitch_gain_, absf(pitch_arm_[i]) / pitch_sq);
+    yaw_gain_ = maxf(yaw_gain_, absf(yaw_arm_[i]) / yaw_sq);
+  }
+  for (int i = 0; i < kMotorCount; ++i) {
+    roll_sign_[i] = sign_of(roll_arm_[i], v.arm_length);
+    pitch_sign_[i] = sign_of(pitch_arm_[i], v.arm_length);
+    yaw_sign_[i] = sign_of(yaw_arm_[i], yaw_per_thrust);
   }
 }
 
-// The largest yaw fraction lambda in [0, 1] with 0 <= c + rp_i + lambda yaw_i <= f_max on every motor.
-// Each motor bounds lambda to an interval; returns false if their intersection with [0, 1] is empty.
-// The yaw column sums to zero and is orthogonal to roll and pitch, so lambda changes nothing else.
+// The largest yaw fraction lambda in [0, 1] with 0 <= c + rp_i + lambda yaw_i <= f_max on every motor;
+// false if there is none. Only a motor that is out of range at lambda = 1 can bound lambda below 1, so
+// only those cost a division; the others are checked at the result. The yaw column sums to zero and is
+// orthogonal to roll and pitch, so lambda changes neither thrust nor roll/pitch torque.
 bool Mixer::max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount],
-                          float& scale) const {
-  float lo = 0.0f, hi = 1.0f;
+                          float& scale, float f[kMotorCount]) const {
+  float hi = 1.0f;
   for (int i = 0; i < kMotorCount; ++i) {
     const float base = collective + rp[i];
-    const float room_down = -base;          // lambda yaw_i >= -base
-    const float room_up = f_max_ - base;    // lambda yaw_i <= f_max - base
-    if (yaw[i] > 0.0f) {
-      lo = maxf(lo, room_down / yaw[i]);
-      hi = minf(hi, room_up / yaw[i]);
-    } else if (yaw[i] < 0.0f) {
-      lo = maxf(lo, room_up / yaw[i]);
-      hi = minf(hi, room_down / yaw[i]);
-    } else if (base < -kRoundOff * f_max_ || base > (1.0f + kRoundOff) * f_max_) {
-      return false;
+    const float full = base + yaw[i];
+    if (full > f_max_ && yaw[i] > 0.0f) {
+      hi = minf(hi, (f_max_ - base) / yaw[i]);
+    } else if (full < 0.0f && yaw[i] < 0.0f) {
+      hi = minf(hi, -base / yaw[i]);
     }
   }
+  hi = maxf(hi, 0.0f);
   // A relative slack of a few float epsilons keeps round-off from declaring a feasible demand infeasible.
-  if (lo > hi + kRoundOff) return false;
-  scale = maxf(hi, 0.0f);
+  const float slack = kRoundOff * f_max_;
+  for (int i = 0; i < kMotorCount; ++i) {
+    const float fi = collective + rp[i] + hi * yaw[i];
+    if (fi < -slack || fi > f_max_ + slack) return false;
+    f[i] = clampf(fi, 0.0f, f_max_);  // the clamp only absorbs that round-off
+  }
+  scale = hi;
   return true;
 }
 
@@ -75,46 +95,65 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
 
   // Per-motor thrust shares of the demand (eq. 5.8): f_i = c + rp_i + lambda yaw_i, with the collective
   // share c = T/4 and lambda = 1 when nothing saturates.
+  const float roll = roll_gain_ * torque.x;
+  const float pitch = pitch_gain_ * torque.y;
+  const float yaw_share = yaw_gain_ * torque.z;
   float rp[kMotorCount];
   float yaw[kMotorCount];
+  float f[kMotorCount];
+  const float wanted = 0.25f * thrust;
+  bool fits = true;  // the common case, decided without a division
   for (int i = 0; i < kMotorCount; ++i) {
-    rp[i] = roll_mix_[i] * torque.x + pitch_mix_[i] * torque.y;
-    yaw[i] = yaw_mix_[i] * torque.z;
+    rp[i] = add_signed(signed_term(roll_sign_[i], roll), pitch_sign_[i], pitch);
+    yaw[i] = signed_term(yaw_sign_[i], yaw_share);
+    f[i] = wanted + rp[i] + yaw[i];
+    fits = fits && f[i] >= 0.0f && f[i] <= f_max_;
   }
 
-  float collective = 0.25f * thrust;
-  float yaw_scale = 0.0f;
-  if (!max_yaw_scale(collective, rp, yaw, yaw_scale)) {
-    // Thrust with roll/pitch does not fit for any yaw fraction in [0, 1].
-    float rp_lo = rp[0], rp_hi = rp[0];
-    for (int i = 1; i < kMotorCount; ++i) {
-      rp_lo = minf(rp_lo, rp[i]);
-      rp_hi = maxf(rp_hi, rp[i]);
+  if (!fits) {
+    float collective = wanted;
+    float rp_scale = 1.0f;
+    float yaw_scale = 1.0f;
+    if (!max_yaw_scale(collective, rp, yaw, yaw_scale, f)) {
+      // Thrust with roll/pitch does not fit for any yaw fraction in [0, 1].
+      float rp_lo = rp[0], rp_hi = rp[0];
+      for (int i = 1; i < kMotorCount; ++i) {
+        rp_lo = minf(rp_lo, rp[i]);
+        rp_hi = maxf(rp_hi, rp[i]);
+      }
+      // Priority 1: roll/pitch alone must fit between 0 and f_max on every motor.
+      const float spread = rp_hi - rp_lo;
+      if (spread > f_max_) {
+        rp_scale = f_max_ / spread;
+        for (int i = 0; i < kMotorCount; ++i) rp[i] *= rp_scale;
+        rp_lo *= rp_scale;
+        rp_hi *= rp_scale;
+        out.roll_pitch_limited = true;
+      }
+      // Priority 2: shift the collective share as little as possible so that roll/pitch fit (without
+      // yaw); priority 3: then whatever yaw fits in the room left.
+      collective = clampf(wanted, -rp_lo, f_max_ - rp_hi);
+      out.thrust_limited = collective != wanted;
+      if (!max_yaw_scale(collective, rp, yaw, yaw_scale, f)) {
+        // Only round-off can get here (roll/pitch were made to fit around the collective): no yaw.
+        yaw_scale = 0.0f;
+        for (int i = 0; i < kMotorCount; ++i) f[i] = clampf(collective + rp[i], 0.0f, f_max_);
+      }
     }
-    // Priority 1: roll/pitch alone must fit between 0 and f_max on every motor.
-    const float spread = rp_hi - rp_lo;
-    if (spread > f_max_) {
-      const float s = f_max_ / spread;
-      for (int i = 0; i < kMotorCount; ++i) rp[i] *= s;
-      rp_lo *= s;
-      rp_hi *= s;
-      out.roll_pitch_limited = true;
-    }
-    // Priority 2: shift the collective share as little as possible so that roll/pitch fit (without
-    // yaw); priority 3: then whatever yaw fits in the room left.
-    collective = clampf(collective, -rp_lo, f_max_ - rp_hi);
-    out.thrust_limited = true;
-    if (!max_yaw_scale(collective, rp, yaw, yaw_scale)) yaw_scale = 0.0f;
+    out.yaw_limited = yaw_scale < 1.0f;
+    // By the orthogonality of the columns, what the motors now produce (eq. 5.5) is the demand with the
+    // collective shifted and the torque axes scaled (tested against the forward model).
+    thrust = 4.0f * collective;
+    out.achieved.torque = Vec3{torque.x * rp_scale, torque.y * rp_scale, torque.z * yaw_scale};
+  } else {
+    out.achieved.torque = torque;
   }
-  out.yaw_limited = yaw_scale < 1.0f;
+  out.achieved.thrust = thrust;
 
   for (int i = 0; i < kMotorCount; ++i) {
-    // Clamp only absorbs round-off here: every term was chosen to fit.
-    const float f = clampf(collective + rp[i] + yaw_scale * yaw[i], 0.0f, f_max_);
-    out.rotor_speed_sq[i] = f * inv_b_;           // w_bar_i of eq. 5.7
-    out.command[i] = sqrtf(f * inv_f_max_);      // u_i = w_i / w_max (vehicle.h motor model)
+    out.rotor_speed_sq[i] = f[i] * inv_b_;         // w_bar_i of eq. 5.7
+    out.command[i] = sqrtf(f[i] * inv_f_max_);     // u_i = w_i / w_max (vehicle.h motor model)
   }
-  out.achieved = forward(out.rotor_speed_sq);
   return out;
 }
 

@@ -7,14 +7,18 @@ namespace {
 
 // Speed towards a target `dist` metres away that can still brake to rest at `accel` (the square-root
 // law v = sqrt(2 a d)), blended into a linear law v = k d near the target where the two have the same
-// slope (d <= a / k^2), so the velocity command is continuous and differentiable.
-float approach_speed(float dist, float accel, float k) {
-  const float linear_dist = accel / (k * k);
+// slope (d <= a / k^2 = linear_dist), so the velocity command is continuous and differentiable.
+float approach_speed(float dist, float accel, float k, float linear_dist) {
   if (dist <= linear_dist) return k * dist;
   return sqrtf(2.0f * accel * (dist - 0.5f * linear_dist));
 }
 
 }  // namespace
+
+void SetpointShaper::set_params(const ShaperParams& p) {
+  params_ = p;
+  linear_dist_ = p.max_accel / (p.final_gain * p.final_gain);
+}
 
 void SetpointShaper::reset(const Vec3& p) {
   p_ = p;
@@ -29,11 +33,15 @@ void SetpointShaper::update(float dt, PositionSetpoint& sp) {
     const float dist = norm(to_target);
     Vec3 v_cmd;
     if (dist > 1e-6f) {
-      const float speed = minf(params_.max_speed, approach_speed(dist, params_.max_accel, params_.final_gain));
+      const float speed = minf(params_.max_speed, approach_speed(dist, params_.max_accel, params_.final_gain, linear_dist_));
       v_cmd = to_target * (speed / dist);
     }
     // The acceleration that reaches v_cmd in this step, no larger than max_accel.
-    a = sat_delta((v_cmd - v_) * (1.0f / dt), params_.max_accel);
+    if (dt != dt_) {
+      dt_ = dt;
+      inv_dt_ = 1.0f / dt;
+    }
+    a = sat_delta((v_cmd - v_) * inv_dt_, params_.max_accel);
     const Vec3 v_next = v_ + a * dt;
     p_ += (v_ + v_next) * (0.5f * dt);  // exact for constant acceleration over the step
     v_ = v_next;

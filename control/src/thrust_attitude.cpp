@@ -77,10 +77,12 @@ AttitudeCommand ThrustAttitude::update(const Vec3& mu_d, float yaw_d) {
   // With k = 1/sqrt(2 N (N + a_z)) these are q0 = (N + a_z) k and q = (-h_y, h_x, 0) k: one square root
   // and one division, and a unit quaternion by construction. a_z > 0 keeps N + a_z > N > 0.
   const float k = 1.0f / sqrtf(2.0f * n * (n + a_z));
-  const Quat tilt{(n + a_z) * k, -h_y * k, h_x * k, 0.0f};
+  const float tw = (n + a_z) * k, tx = -h_y * k, ty = h_x * k;  // Q_tilt = (tw, tx, ty, 0)
 
-  // errata "8.37 yaw": the heading is a rotation about the desired body z axis, applied first.
-  cmd.q_d = tilt * yaw_quat(yaw_d);
+  // errata "8.37 yaw": Q_d = Q_tilt (x) Q_yaw, the heading a rotation about the desired body z axis.
+  // With Q_yaw = (c, 0, 0, s) the Hamilton product (eq. 3.11) reduces to eight multiplications.
+  const Quat yaw = yaw_quat(yaw_d);
+  cmd.q_d = Quat{tw * yaw.w, tx * yaw.w + ty * yaw.z, ty * yaw.w - tx * yaw.z, tw * yaw.z};
   cmd.mu_applied = Vec3{-h_x, -h_y, kGravity - a_z};
   cmd.limited = limited;
   return cmd;

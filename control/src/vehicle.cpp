@@ -10,18 +10,16 @@ constexpr float kInvSqrt2 = 0.70710678118654752f;
 MotorLayout motor_layout(Frame frame, float arm, int index) {
   const int i = index < 0 ? 0 : (index > 3 ? 3 : index);
   // Counter-clockwise seen from above, starting at the front (plus) or front-left (X) arm; the spin
-  // alternates CCW, CW, CCW, CW so opposite rotors turn the same way (thesis eq. 5.4c).
-  static const float kPlusX[kMotorCount] = {1.0f, 0.0f, -1.0f, 0.0f};
-  static const float kPlusY[kMotorCount] = {0.0f, -1.0f, 0.0f, 1.0f};
-  static const float kXX[kMotorCount] = {kInvSqrt2, -kInvSqrt2, -kInvSqrt2, kInvSqrt2};
-  static const float kXY[kMotorCount] = {-kInvSqrt2, -kInvSqrt2, kInvSqrt2, kInvSqrt2};
+  // alternates CCW, CW, CCW, CW so opposite rotors turn the same way (thesis eq. 5.4c). Computed rather
+  // than read from tables: on the AVR constant tables would sit in SRAM.
   MotorLayout m;
   if (frame == Frame::kX) {
-    m.x = arm * kXX[i];
-    m.y = arm * kXY[i];
+    const float s = arm * kInvSqrt2;
+    m.x = (i == 0 || i == 3) ? s : -s;  // front-left, front-right
+    m.y = (i >= 2) ? s : -s;            // back-right, front-right
   } else {
-    m.x = arm * kPlusX[i];
-    m.y = arm * kPlusY[i];
+    m.x = i == 0 ? arm : (i == 2 ? -arm : 0.0f);
+    m.y = i == 3 ? arm : (i == 1 ? -arm : 0.0f);
   }
   m.spin = (i % 2 == 0) ? 1.0f : -1.0f;
   return m;

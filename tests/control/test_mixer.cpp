@@ -114,7 +114,7 @@ TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
   std::mt19937 rng(12);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   int rp_feasible = 0, yaw_cut = 0, rp_cut = 0;
-  double worst_kept = 0.0;
+  double worst_kept = 0.0, worst_reported = 0.0;
   for (int k = 0; k < 10000; ++k) {
     const Eigen::Vector4d demand(fs(0) * 0.5 * (1.0 + u(rng)), 0.8 * fs(1) * u(rng), 0.8 * fs(2) * u(rng),
                                  3.0 * fs(3) * u(rng));
@@ -122,6 +122,8 @@ TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
                                       Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
     for (int i = 0; i < 4; ++i) ASSERT_TRUE(out.command[i] >= 0.0f && out.command[i] <= 1.0f);
     const Eigen::Vector4d got = wrench_of(m, out);
+    const Eigen::Vector4d reported(out.achieved.thrust, out.achieved.torque.x, out.achieved.torque.y, out.achieved.torque.z);
+    worst_reported = std::max(worst_reported, ((reported - got).cwiseQuotient(fs)).cwiseAbs().maxCoeff());
     // Independent feasibility of thrust + roll/pitch (yaw zero).
     const Eigen::Vector4d f0 = v.thrust_coeff * (m_inv * Eigen::Vector4d(demand(0), demand(1), demand(2), 0.0));
     const bool feasible = f0.minCoeff() >= 0.0 && f0.maxCoeff() <= v.max_motor_thrust;
@@ -149,6 +151,7 @@ TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
               "%.2e of full scale, yaw reduced in %d), %d beyond (roll/pitch direction kept)\n",
               GetParam() == Frame::kX ? "X" : "plus", rp_feasible, worst_kept, yaw_cut, rp_cut);
   EXPECT_LT(worst_kept, 1e-5);
+  EXPECT_LT(worst_reported, 1e-5) << "MixerOutput::achieved disagrees with eq. 5.5 of the rotor speeds";
   EXPECT_GT(yaw_cut, 1000);  // the sample really exercised the yaw limit
   EXPECT_GT(rp_cut, 100);
 }

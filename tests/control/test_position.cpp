@@ -49,7 +49,8 @@ TEST(PositionController, PushesBackTowardsTheSetpointAndDamps) {
   EXPECT_GT(mu_v.z, 0.0f);
 }
 
-// Against eq. 8.20 evaluated in double with std::tanh, for random states; and the a-priori bound
+// Against eq. 8.20 evaluated in double with std::tanh (within the stated tanh_approx accuracy), for
+// random states; and the a-priori bound
 // |mu_i - a_d,i| < k_p,i + k_v,i however large the errors.
 TEST(PositionController, MatchesEquation820AndIsBounded) {
   std::mt19937 rng(4);
@@ -70,7 +71,7 @@ TEST(PositionController, MatchesEquation820AndIsBounded) {
     for (int i = 0; i < 3; ++i) {
       const double expected = double(sp.a_d[i]) - double(g.kp[i]) * std::tanh(double(p[i]) - double(sp.p_d[i])) -
                               double(g.kv[i]) * std::tanh(double(v[i]) - double(sp.v_d[i]));
-      ASSERT_NEAR(mu[i], expected, 1e-4 * (g.kp[i] + g.kv[i]) + 1e-5);
+      ASSERT_NEAR(mu[i], expected, 1.4e-3 * (g.kp[i] + g.kv[i]) + 1e-5);  // tanh_approx: 1.4e-3
       ASSERT_LE(std::abs(mu[i] - sp.a_d[i]), g.kp[i] + g.kv[i] + 1e-5f);
     }
   }

@@ -51,10 +51,10 @@ struct ManualParams {
 
 class ManualControl {
  public:
-  ManualControl() = default;
-  explicit ManualControl(const ManualParams& p) : params_(p) {}
+  ManualControl() { set_params(ManualParams{}); }
+  explicit ManualControl(const ManualParams& p) { set_params(p); }
 
-  void set_params(const ManualParams& p) { params_ = p; }
+  void set_params(const ManualParams& p);
   const ManualParams& params() const { return params_; }
 
   // Sets the held heading (rad), e.g. to the estimated yaw when manual flight starts.
@@ -68,6 +68,7 @@ class ManualControl {
 
  private:
   ManualParams params_;
+  float stick_scale_ = 0.0f;  // 1 / (500 us - dead band), precomputed: no division in the loop
   float yaw_half_c_ = 1.0f;  // (cos, sin) of half the held heading
   float yaw_half_s_ = 0.0f;
   AttitudeCommand command_;

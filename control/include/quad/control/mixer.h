@@ -24,6 +24,8 @@
 //   quad::ctrl::MixerOutput out = mixer.mix(thrust, tau);   // out.command[0..3] in [0, 1]
 #pragma once
 
+#include <stdint.h>
+
 #include "quad/control/vehicle.h"
 #include "quad/math/math.h"
 
@@ -40,7 +42,7 @@ struct Wrench {
 struct MixerOutput {
   float rotor_speed_sq[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};  // w_bar_i, (rad/s)^2 (eq. 5.7)
   float command[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};         // u_i = w_i / w_max in [0, 1]
-  Wrench achieved;              // what the saturated rotor speeds produce (eq. 5.5)
+  Wrench achieved;              // what the rotor speeds produce (eq. 5.5); the demand itself when no limit acted
   bool yaw_limited = false;     // priority 3 gave up some yaw
   bool thrust_limited = false;  // priority 2 shifted the thrust
   bool roll_pitch_limited = false;  // priority 1 scaled roll/pitch torque
@@ -63,19 +65,25 @@ class Mixer {
   Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
 
  private:
-  bool max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount], float& scale) const;
+  bool max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount], float& scale,
+                     float f[kMotorCount]) const;
 
   float b_ = 0.0f;
   float f_max_ = 0.0f;
   float inv_f_max_ = 0.0f;
   float inv_b_ = 0.0f;
-  // Per motor: forward factors (roll -y_i, pitch x_i, yaw s_i kappa/b) and the inverse ones.
+  // Forward factors per motor (eq. 5.5): roll -y_i, pitch x_i, yaw s_i kappa/b (metres).
   float roll_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
   float pitch_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
   float yaw_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
-  float roll_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
-  float pitch_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
-  float yaw_mix_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  // Inverse (eq. 5.8): every nonzero entry of a column of M^-1 has the same magnitude, so a column is a
+  // gain and a sign per motor (-1, 0, +1), and mixing needs three multiplications, not twelve.
+  float roll_gain_ = 0.0f;
+  float pitch_gain_ = 0.0f;
+  float yaw_gain_ = 0.0f;
+  int8_t roll_sign_[kMotorCount] = {0, 0, 0, 0};
+  int8_t pitch_sign_[kMotorCount] = {0, 0, 0, 0};
+  int8_t yaw_sign_[kMotorCount] = {0, 0, 0, 0};
 };
 
 }  // namespace ctrl

@@ -30,10 +30,10 @@ struct ShaperParams {
 
 class SetpointShaper {
  public:
-  SetpointShaper() = default;
-  explicit SetpointShaper(const ShaperParams& p) : params_(p) {}
+  SetpointShaper() { set_params(ShaperParams{}); }
+  explicit SetpointShaper(const ShaperParams& p) { set_params(p); }
 
-  void set_params(const ShaperParams& p) { params_ = p; }
+  void set_params(const ShaperParams& p);
   const ShaperParams& params() const { return params_; }
 
   // Puts the reference at p, at rest, with the target there too.
@@ -50,6 +50,9 @@ class SetpointShaper {
 
  private:
   ShaperParams params_;
+  float linear_dist_ = 0.0f;  // max_accel / k^2: below it the approach speed is linear in the distance
+  float dt_ = 0.0f;           // the last step and its inverse, so a constant rate costs no division
+  float inv_dt_ = 0.0f;
   Vec3 target_;
   Vec3 p_;
   Vec3 v_;
