@@ -1,6 +1,6 @@
 // Cycle cost of the link codec on the ATmega2560 (APM 2.5), run on simavr by tools/avr_cycles: what one
 // HIL step costs the flight board (parse and decode HIL_SENSOR, encode HIL_ACTUATOR_CONTROLS), and the
-// cost per byte of noise. Built with avr-g++ and the avr-apm25 preset's flags by tests/link/CMakeLists.txt.
+// cost per byte of noise; and the AVR's CRC against references. Built with avr-g++ and the avr-apm25 preset's flags by tests/link/CMakeLists.txt.
 #include "cycle_probe.h"
 #include "quad/link/mavlink.h"
 
@@ -66,8 +66,20 @@ int main() {
     for (uint8_t b : g_noise) g_parser.feed(b, [&](const mav::Frame&) { ++frames; });
   });
 
+  // The AVR computes the CRC with avr-libc's assembly: check it against references made elsewhere, the
+  // CRC-16/MCRF4XX check value and a HEARTBEAT frame serialised by node-mavlink.
+  static const uint8_t kDigits[] = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
+  static const uint8_t kNodeHeartbeat[] = {0xfd, 0x09, 0x00, 0x00, 0x07, 0x01, 0x01, 0x00, 0x00, 0x00, 0x04,
+                                           0x03, 0x02, 0x01, 0x02, 0x00, 0x81, 0x04, 0x03, 0x31, 0xbb};
+  const bool crc_ok = mav::crc_accumulate(kDigits, sizeof kDigits, mav::kCrcInit) == 0x6F91;
+  mav::Heartbeat heartbeat;
+  for (uint8_t b : kNodeHeartbeat) {
+    g_parser.feed(b, [&](const mav::Frame& f) { frames += mav::decode(f, heartbeat) ? 1 : 0; });
+  }
+
   // A lost or wrongly decoded frame makes the ctest fail (FAIL_REGULAR_EXPRESSION "ERROR").
-  const bool ok = frames == 2 && decoded.zacc == sample.zacc && decoded.fields_updated == 0x1FF;
+  const bool ok = crc_ok && frames == 3 && decoded.zacc == sample.zacc && decoded.fields_updated == 0x1FF &&
+                  heartbeat.custom_mode == 0x01020304 && heartbeat.base_mode == 0x81;
   measure(ok ? "frames_ok" : "ERROR_frame_lost_or_wrong", [] {});
   quad_probe::done();
   for (;;) {
