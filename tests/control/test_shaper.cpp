@@ -51,7 +51,7 @@ TEST(SetpointShaper, MoveRespectsLimitsAndArrivesWithoutOvershoot) {
   EXPECT_LE(max_accel, prm.max_accel * (1.0f + 1e-5f));
   EXPECT_LT(max_past, 1e-4f);
   EXPECT_LT(max_off_line, 1e-4f);
-  EXPECT_LT(t, t_ideal + 3.0f);  // the exponential finish costs a little time, not a lot
+  EXPECT_LT(t, t_ideal + 1.5f);  // the exponential finish costs a little time, not a lot
   EXPECT_GT(t, t_ideal - 0.05f);
 }
 

@@ -25,7 +25,7 @@ namespace ctrl {
 struct ShaperParams {
   float max_speed = 1.0f;   // m/s
   float max_accel = 1.0f;   // m/s^2
-  float final_gain = 2.0f;  // k, 1/s: the exponential time constant of the last few centimetres is 1/k
+  float final_gain = 4.0f;  // k, 1/s: the exponential time constant of the last few centimetres is 1/k
 };
 
 class SetpointShaper {
