@@ -1,0 +1,69 @@
+// Simulator speed (Google Benchmark; not a test). The figure of issue 6: lockstep with the host
+// firmware, 1 kHz physics, 100 Hz control, no rendering, as a real-time factor (counter "rtf").
+//
+//   build/<tree>/tests/bench_sim --benchmark_filter=Lockstep
+#include <benchmark/benchmark.h>
+
+#include <unistd.h>
+
+#include <string>
+
+#include "quad/sim/hil_session.h"
+#include "quad/sim/imu.h"
+#include "quad/sim/scenario.h"
+#include "quad/sim/vehicle.h"
+
+namespace quad::sim {
+namespace {
+
+void lockstep(benchmark::State& state, const std::string& firmware) {
+  if (access(firmware.c_str(), X_OK) != 0) {
+    state.SkipWithError(("not built: " + firmware).c_str());
+    return;
+  }
+  Scenario s = load_scenario(QUAD_SIM_SOURCE_DIR "/scenarios/hover.yaml");
+  double sim = 0.0, wall = 0.0;
+  for (auto _ : state) {
+    SessionOptions o;
+    o.out_dir = std::string(P_tmpdir) + "/quad_sim_bench_" + std::to_string(getpid());
+    o.firmware_argv = {firmware};
+    o.progress = false;
+    const SessionResult r = run_session(s, o);
+    if (!r.complete) state.SkipWithError(r.reason.c_str());
+    sim += r.sim_time_s;
+    wall += r.wall_time_s;
+  }
+  state.counters["rtf"] = sim / wall;  // simulated seconds per wall-clock second
+  state.counters["sim_s"] = sim;
+}
+
+void BM_LockstepHoverWithFirmware(benchmark::State& state) { lockstep(state, QUAD_SIM_FIRMWARE); }
+BENCHMARK(BM_LockstepHoverWithFirmware)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
+
+// The same loop against the stand-in firmware (answers at once): the simulator's own share.
+void BM_LockstepHoverWithStandIn(benchmark::State& state) { lockstep(state, QUAD_SIM_FAKE_FIRMWARE); }
+BENCHMARK(BM_LockstepHoverWithStandIn)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
+
+// One physics step with the motor models and the IMU sample (the 1 kHz inner loop).
+void BM_PhysicsStepWithImu(benchmark::State& state) {
+  VehicleParams p;
+  p.model_path = QUAD_SIM_SOURCE_DIR "/models/quad_c.xml";
+  Vehicle v(p);
+  v.reset({0.0, 0.0}, 2.0, 0.0);
+  v.set_commands({0.63, 0.63, 0.63, 0.63});
+  v.settle_motors();
+  Mpu6000 imu(ImuParams{}, Rng(1, "imu"));
+  for (auto _ : state) {
+    v.step();
+    const VehicleTruth t = v.truth();
+    benchmark::DoNotOptimize(imu.sample(t.specific_force_frd, t.rate_frd, v.mean_speed_fraction()));
+    if (v.time() > 5.0) v.reset({0.0, 0.0}, 2.0, 0.0), v.settle_motors();
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_PhysicsStepWithImu);
+
+}  // namespace
+}  // namespace quad::sim
+
+BENCHMARK_MAIN();
