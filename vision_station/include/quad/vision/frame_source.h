@@ -1,0 +1,49 @@
+// Where stereo frame pairs come from. Each source is one class behind FrameSource; `make_frame_source`
+// parses the command-line spec:
+//   files:DIR                  image pairs in DIR (pairs.csv with columns left,right, or left*/right* names)
+//   v4l2:/dev/videoA,/dev/videoB  two capture devices
+//   video:LEFT.mp4,RIGHT.mp4   two video files
+//   sim:ENDPOINT               the simulator's rendered cameras (closed-loop issue; a new FrameSource class)
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace quad::vision {
+
+struct StereoFrame {
+  cv::Mat left, right;          // CV_8UC1
+  int64_t capture_time_us = 0;  // station monotonic clock (steady_clock), or the source's own clock
+  uint64_t sequence = 0;
+  std::string label;            // e.g. the file names, for messages
+};
+
+enum class ReadStatus {
+  kFrame,    // a new pair
+  kNoFrame,  // nothing new within the timeout (camera stalled): the caller reports "no fix"
+  kEnd,      // finite source exhausted
+};
+
+struct FrameSourceError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual ReadStatus read(StereoFrame& frame, std::chrono::milliseconds timeout) = 0;
+  // One line for the status output when something is wrong (e.g. "left camera: no frames for 2.1 s").
+  virtual std::string health() const { return {}; }
+};
+
+// Throws FrameSourceError with a message naming the problem (unknown scheme, missing files...).
+std::unique_ptr<FrameSource> make_frame_source(const std::string& spec);
+
+int64_t monotonic_us();
+
+}  // namespace quad::vision

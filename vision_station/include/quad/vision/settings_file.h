@@ -1,0 +1,24 @@
+// Locator settings from an OpenCV FileStorage YAML: any subset of the keys below overrides the defaults;
+// an unknown key or a non-numeric value is an error naming the file and key.
+//   background_cell_px background_window_px min_threshold_ratio max_threshold_ratio morphology_kernel_px
+//   edge_margin_px min_area_px raw_area_prefilter min_aspect ideal_vertex_count vertex_count_tolerance
+//   polygon_epsilon min_hu_distance max_hu_distance inner_ratio min_solidity max_solidity
+//   max_row_difference_px min_range_m max_range_m centroid_sigma_px track_roi roi_growth roi_margin_px
+//   undistort_iterations
+//   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
+#pragma once
+
+#include <string>
+
+#include "quad/vision/stereo_locator.h"
+
+namespace quad::vision {
+
+struct StationSettings {
+  LocatorSettings locator;
+  CameraMount mount = thesis_camera_mount();
+};
+
+StationSettings load_station_settings(const std::string& path);  // throws std::runtime_error
+
+}  // namespace quad::vision

@@ -1,0 +1,65 @@
+#include "quad/vision/settings_file.h"
+
+#include <stdexcept>
+#include <variant>
+#include <vector>
+
+namespace quad::vision {
+
+StationSettings load_station_settings(const std::string& path) {
+  cv::FileStorage fs;
+  try {
+    fs.open(path, cv::FileStorage::READ);
+  } catch (const cv::Exception&) {
+    throw std::runtime_error(path + ": not a readable OpenCV YAML file");
+  }
+  if (!fs.isOpened()) throw std::runtime_error(path + ": cannot open settings file");
+  StationSettings s;
+  DetectorSettings& d = s.locator.detector;
+  LocatorSettings& l = s.locator;
+  using Field = std::variant<int*, double*, bool*>;
+  const std::vector<std::pair<const char*, Field>> fields{
+      {"background_cell_px", &d.background_cell_px}, {"background_window_px", &d.background_window_px},
+      {"min_threshold_ratio", &d.min_threshold_ratio}, {"max_threshold_ratio", &d.max_threshold_ratio},
+      {"morphology_kernel_px", &d.morphology_kernel_px}, {"edge_margin_px", &d.edge_margin_px},
+      {"min_area_px", &d.min_area_px}, {"raw_area_prefilter", &d.raw_area_prefilter},
+      {"min_aspect", &d.min_aspect}, {"ideal_vertex_count", &d.ideal_vertex_count},
+      {"vertex_count_tolerance", &d.vertex_count_tolerance}, {"polygon_epsilon", &d.polygon_epsilon},
+      {"min_hu_distance", &d.min_hu_distance}, {"max_hu_distance", &d.max_hu_distance},
+      {"inner_ratio", &d.inner_ratio}, {"min_solidity", &d.min_solidity}, {"max_solidity", &d.max_solidity},
+      {"max_row_difference_px", &l.max_row_difference_px}, {"min_range_m", &l.min_range_m},
+      {"max_range_m", &l.max_range_m}, {"centroid_sigma_px", &l.centroid_sigma_px}, {"track_roi", &l.track_roi},
+      {"roi_growth", &l.roi_growth}, {"roi_margin_px", &l.roi_margin_px},
+      {"undistort_iterations", &l.undistort_iterations}};
+  for (const cv::FileNode& node : fs.root()) {
+    const std::string key = node.name();
+    if (key == "camera_to_body_R" || key == "camera_to_body_t") {
+      cv::Mat m;
+      node >> m;
+      if (key == "camera_to_body_R" && m.total() == 9) {
+        m.convertTo(m, CV_64F);
+        s.mount.R_BC = cv::Matx33d(m.reshape(1, 3));
+      } else if (key == "camera_to_body_t" && m.total() == 3) {
+        m.convertTo(m, CV_64F);
+        s.mount.t_BC = cv::Vec3d(m.reshape(1, 3));
+      } else {
+        throw std::runtime_error(path + ": key '" + key + "' must be a " + (key.back() == 'R' ? "3x3" : "3x1") + " matrix");
+      }
+      continue;
+    }
+    bool known = false;
+    for (const auto& [name, field] : fields) {
+      if (key != name) continue;
+      known = true;
+      if (!node.isReal() && !node.isInt()) throw std::runtime_error(path + ": key '" + key + "' must be a number");
+      const double value = static_cast<double>(node);
+      if (auto p = std::get_if<int*>(&field)) **p = static_cast<int>(value);
+      if (auto p = std::get_if<double*>(&field)) **p = value;
+      if (auto p = std::get_if<bool*>(&field)) **p = value != 0.0;
+    }
+    if (!known) throw std::runtime_error(path + ": unknown setting '" + key + "'");
+  }
+  return s;
+}
+
+}  // namespace quad::vision
