@@ -77,7 +77,7 @@ int main() {
     g_parser.feed(b, [&](const mav::Frame& f) { frames += mav::decode(f, heartbeat) ? 1 : 0; });
   }
 
-  // A lost or wrongly decoded frame makes the ctest fail (FAIL_REGULAR_EXPRESSION "ERROR").
+  // A lost or wrongly decoded frame makes the ctest fail (FAIL_REGULAR_EXPRESSION "ERROR_").
   const bool ok = crc_ok && frames == 3 && decoded.zacc == sample.zacc && decoded.fields_updated == 0x1FF &&
                   heartbeat.custom_mode == 0x01020304 && heartbeat.base_mode == 0x81;
   measure(ok ? "frames_ok" : "ERROR_frame_lost_or_wrong", [] {});
