@@ -146,6 +146,19 @@ void PositionFilterCore::fold_correction() {
   for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
 }
 
+// thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u_z - b on z).
+void PositionFilterCore::propagate(const Vec3& u, float dt) {
+  const float h = 0.5f * dt * dt;
+  for (int i = 0; i < 3; ++i) {
+    AxisState& x = x_[i];
+    const float a = u[i] - x.b;
+    x.p += dt * x.v + h * a;
+    x.v += dt * a;
+    const bool bias = i == 2 && params_.z_accel_bias;
+    propagate_covariance(p_[i], dt, bias, process_noise(dt, qp_[i], qv_[i], bias ? qb_ : 0.0f));
+  }
+}
+
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   if (!clock_started_) {
     t_us_ = t_us;
@@ -163,15 +176,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     corr_origin_us_ = t_us;
     return;
   }
-  // thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u_z - b on z).
-  const float h = 0.5f * dt * dt;
-  for (int i = 0; i < 3; ++i) {
-    AxisState& x = x_[i];
-    const float a = u[i] - x.b;
-    x.p += dt * x.v + h * a;
-    x.v += dt * a;
-    propagate_covariance(p_[i], dt, i == 2 && params_.z_accel_bias, process_noise(dt, qp_[i], qv_[i], i == 2 ? qb_ : 0.0f));
-  }
+  propagate(u, dt);
   if (dt > kMaxStep) {
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
@@ -216,9 +221,19 @@ bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3]) cons
   return true;
 }
 
-void PositionFilterCore::initialize_from_fix(const Vec3& p_ned) {
+// The state is set at the fix's capture time (velocity unknown: zero with vel_sigma0) and carried to
+// now without input, so that fixes captured between this one and now still find a history.
+void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture_us) {
   if (initialized_) ++health_.resets;  // the first fix initialises; later ones here are resets
-  reset(p_ned, Vec3{}, t_us_);
+  const uint32_t now = t_us_;
+  const float tau = seconds_between(now, capture_us);
+  if (!(tau > 0.0f) || tau > kMaxStep) capture_us = now;
+  reset(p_ned, Vec3{}, capture_us);
+  if (capture_us != now) {
+    propagate(Vec3{}, seconds_between(now, capture_us));
+    t_us_ = now;
+    push_history();
+  }
 }
 
 FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) {
@@ -231,7 +246,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   const bool rejected_too_often =
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
-    initialize_from_fix(y);
+    initialize_from_fix(y, capture_us);
     return FixResult::Initialized;
   }
   // A fix stamped after "now" (clock offset) is taken as current.

@@ -144,7 +144,8 @@ class PositionFilterCore {
   void fold_correction();
   bool predicted_position_at(uint32_t t_us, float out[3]) const;
   float correction_position(int axis, float dt) const;
-  void initialize_from_fix(const Vec3& p_ned);
+  void initialize_from_fix(const Vec3& p_ned, uint32_t capture_us);
+  void propagate(const Vec3& u, float dt);
 
   PositionFilterParams params_;
   float qp_[3] = {0.0f, 0.0f, 0.0f};  // spectral densities per axis: q_p, q_v, q_b

@@ -1,0 +1,209 @@
+// estimation_replay: replays a CSV sensor log through the flight core's estimators (see README.md).
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "replay.h"
+
+namespace {
+
+using quad::replay::AttitudeFilter;
+using quad::replay::ReplayOptions;
+
+const char* kUsage = R"(usage: estimation_replay [options] LOG.csv   (LOG "-" reads standard input)
+
+Input: CSV with a header row; columns t gx gy gz ax ay az mx my mz, optionally vis_t vis_x vis_y vis_z.
+Output: CSV t,qw,qx,qy,qz,roll,pitch,yaw,bgx,bgy,bgz,px,py,pz,vx,vy,vz.
+
+  -o FILE                 write the estimates to FILE (default: standard output)
+  --filter NAME           conditioned (default, thesis eq. 4.9), unconditioned (eq. 4.4), mahony, linear
+  --propagator NAME       second-order (default) or exact (thesis eq. 4.14)
+  --k1 --k2 --k3 --k4 --kb --delta X   conditioned observer gains (thesis table 8.1 by default)
+  --ki X                  integral gain of the unconditioned observer
+  --kp X, --mahony-ki X   Mahony gains (1, 0.03)
+  --tau X                 linear complementary filter time constant, s (1)
+  --accel-tolerance X     use the accelerometer only while | |a|/g - 1 | < X (0.2)
+  --mag-ref N,E,D         Earth field in NED in the magnetometer's units (default: learned from the
+                          first sample, heading relative to magnetic north)
+  --noise-model NAME      thesis (default, eq. 8.12) or white (white acceleration)
+  --q-pos X --q-vel X     thesis process noise spectral densities (1, 1: table 8.1)
+  --q-accel X             white-acceleration spectral density (1)
+  --fix-sigma-xy X --fix-sigma-z X   vision fix standard deviations, m (0.05)
+  --gate X                innovation gate in standard deviations (5)
+  --z-bias                estimate an accelerometer bias along NED z
+  --fuse-on-arrival       stamp each fix with its row time instead of vis_t (for comparison)
+  -h, --help              this text
+)";
+
+[[noreturn]] void usage_error(const std::string& what) {
+  std::cerr << "estimation_replay: " << what << "\n(run with --help for the options)\n";
+  std::exit(2);
+}
+
+float number(const std::string& option, const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v)) usage_error(option + ": not a number: '" + text + "'");
+  return static_cast<float>(v);
+}
+
+quad::Vec3 triple(const std::string& option, const std::string& text) {
+  std::stringstream ss(text);
+  std::string a, b, c, extra;
+  if (!std::getline(ss, a, ',') || !std::getline(ss, b, ',') || !std::getline(ss, c, ',') || std::getline(ss, extra)) {
+    usage_error(option + ": expected three comma-separated numbers, got '" + text + "'");
+  }
+  return {number(option, a), number(option, b), number(option, c)};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ReplayOptions o;
+  std::string input, output;
+  bool mag_ref_given = false;
+  quad::Vec3 mag_ref;
+
+  using Setter = std::function<void(const std::string&, const std::string&)>;
+  const std::map<std::string, Setter> with_value = {
+      {"-o", [&](auto&, auto& v) { output = v; }},
+      {"--filter",
+       [&](auto& k, auto& v) {
+         static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::Conditioned},
+                                                                     {"unconditioned", AttitudeFilter::Unconditioned},
+                                                                     {"mahony", AttitudeFilter::Mahony},
+                                                                     {"linear", AttitudeFilter::Linear}};
+         const auto it = names.find(v);
+         if (it == names.end()) usage_error(k + ": unknown filter '" + v + "'");
+         o.filter = it->second;
+       }},
+      {"--propagator",
+       [&](auto& k, auto& v) {
+         if (v == "exact") o.observer.propagator = quad::est::Propagator::Exact;
+         else if (v == "second-order") o.observer.propagator = quad::est::Propagator::SecondOrder;
+         else usage_error(k + ": unknown propagator '" + v + "'");
+       }},
+      {"--k1", [&](auto& k, auto& v) { o.observer.k1 = number(k, v); }},
+      {"--k2", [&](auto& k, auto& v) { o.observer.k2 = number(k, v); }},
+      {"--k3", [&](auto& k, auto& v) { o.observer.k3 = number(k, v); }},
+      {"--k4", [&](auto& k, auto& v) { o.observer.k4 = number(k, v); }},
+      {"--kb", [&](auto& k, auto& v) { o.observer.kb = number(k, v); }},
+      {"--delta", [&](auto& k, auto& v) { o.observer.delta = number(k, v); }},
+      {"--ki", [&](auto& k, auto& v) { o.observer.k_i = number(k, v); }},
+      {"--kp", [&](auto& k, auto& v) { o.mahony.kp = number(k, v); }},
+      {"--mahony-ki", [&](auto& k, auto& v) { o.mahony.ki = number(k, v); }},
+      {"--tau", [&](auto& k, auto& v) { o.linear.tau = number(k, v); }},
+      {"--accel-tolerance",
+       [&](auto& k, auto& v) {
+         const float x = number(k, v);
+         o.observer.accel_norm_tolerance = o.mahony.accel_norm_tolerance = o.linear.accel_norm_tolerance = x;
+       }},
+      {"--mag-ref",
+       [&](auto& k, auto& v) {
+         mag_ref = triple(k, v);
+         mag_ref_given = true;
+       }},
+      {"--noise-model",
+       [&](auto& k, auto& v) {
+         if (v == "thesis") o.position.process_noise = quad::est::ProcessNoise::ThesisDiagonal;
+         else if (v == "white") o.position.process_noise = quad::est::ProcessNoise::WhiteAcceleration;
+         else usage_error(k + ": unknown noise model '" + v + "'");
+       }},
+      {"--q-pos", [&](auto& k, auto& v) { o.position.q_pos = number(k, v); }},
+      {"--q-vel", [&](auto& k, auto& v) { o.position.q_vel = number(k, v); }},
+      {"--q-accel", [&](auto& k, auto& v) { o.position.q_accel = number(k, v); }},
+      {"--fix-sigma-xy", [&](auto& k, auto& v) { o.position.fix_sigma_xy = number(k, v); }},
+      {"--fix-sigma-z", [&](auto& k, auto& v) { o.position.fix_sigma_z = number(k, v); }},
+      {"--gate", [&](auto& k, auto& v) { o.position.gate_sigma = number(k, v); }},
+  };
+
+  for (int i = 1; i < argc; ++i) {
+    std::string arg = argv[i], value;
+    if (arg == "-h" || arg == "--help") {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (arg == "--z-bias") {
+      o.position.z_accel_bias = true;
+      continue;
+    }
+    if (arg == "--fuse-on-arrival") {
+      o.fuse_on_arrival = true;
+      continue;
+    }
+    const auto eq = arg.find('=');
+    const bool inline_value = arg.rfind("--", 0) == 0 && eq != std::string::npos;
+    if (inline_value) {
+      value = arg.substr(eq + 1);
+      arg = arg.substr(0, eq);
+    }
+    const auto it = with_value.find(arg);
+    if (it != with_value.end()) {
+      if (!inline_value) {
+        if (i + 1 >= argc) usage_error(arg + " needs a value");
+        value = argv[++i];
+      }
+      it->second(arg, value);
+    } else if (arg.size() > 1 && arg[0] == '-') {
+      usage_error("unknown option '" + arg + "'");
+    } else if (input.empty()) {
+      input = arg;
+    } else {
+      usage_error("more than one input file ('" + input + "', '" + arg + "')");
+    }
+  }
+  if (input.empty()) usage_error("no input log");
+  if (mag_ref_given) {
+    o.observer.mag_ref_ned = o.mahony.mag_ref_ned = o.linear.mag_ref_ned = mag_ref;
+    o.observer.mag_ref_from_init = o.mahony.mag_ref_from_init = false;
+  } else {
+    o.linear.mag_ref_ned = quad::Vec3{1.0f, 0.0f, 0.0f};  // no declination: heading from magnetic north
+  }
+
+  std::vector<quad::replay::LogRow> rows;
+  try {
+    if (input == "-") {
+      rows = quad::replay::read_log(std::cin, "<stdin>");
+    } else {
+      std::ifstream in(input);
+      if (!in) {
+        std::cerr << "estimation_replay: cannot open '" << input << "'\n";
+        return 1;
+      }
+      rows = quad::replay::read_log(in, input);
+    }
+  } catch (const quad::replay::LogError& e) {
+    std::cerr << "estimation_replay: " << e.what() << "\n";
+    return 1;
+  }
+
+  std::ofstream file;
+  if (!output.empty()) {
+    file.open(output);
+    if (!file) {
+      std::cerr << "estimation_replay: cannot write '" << output << "'\n";
+      return 1;
+    }
+  }
+  std::ostream& out = output.empty() ? std::cout : file;
+  const auto s = quad::replay::replay(rows, o, out);
+  out.flush();
+  if (!out) {
+    std::cerr << "estimation_replay: write error\n";
+    return 1;
+  }
+  std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
+            << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
+            << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
+  if (o.filter == AttitudeFilter::Conditioned || o.filter == AttitudeFilter::Unconditioned) {
+    std::cerr << "; observer: " << s.observer.skipped << " samples skipped, " << s.observer.accel_rejected
+              << " accelerometer and " << s.observer.mag_rejected << " magnetometer samples not used";
+  }
+  std::cerr << "\n";
+  return 0;
+}

@@ -1,0 +1,126 @@
+#include "replay.h"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace quad::replay {
+
+namespace {
+
+Vec3 vec(const double v[3]) { return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])}; }
+
+uint32_t to_us(double t) { return static_cast<uint32_t>(static_cast<int64_t>(std::llround(t * 1e6))); }
+
+// The four attitude filters behind one interface (host code: a switch keeps the core free of virtuals).
+class Attitude {
+ public:
+  explicit Attitude(const ReplayOptions& o) : kind_(o.filter), mahony_(o.mahony), linear_(o.linear) {
+    est::ObserverParams p = o.observer;
+    p.innovation = kind_ == AttitudeFilter::Unconditioned ? est::Innovation::Unconditioned : est::Innovation::Conditioned;
+    observer_.set_params(p);
+  }
+
+  bool initialize(const Vec3& a, const Vec3& m) {
+    switch (kind_) {
+      case AttitudeFilter::Mahony: return mahony_.initialize(a, m);
+      case AttitudeFilter::Linear: return linear_.initialize(a, m);
+      default: return observer_.initialize(a, m);
+    }
+  }
+  void update(const Vec3& g, const Vec3& a, const Vec3& m, bool mag_valid, float dt) {
+    switch (kind_) {
+      case AttitudeFilter::Mahony: mahony_.update(g, a, m, mag_valid, dt); break;
+      case AttitudeFilter::Linear: linear_.update(g, a, m, mag_valid, dt); break;
+      default: observer_.update(g, a, m, mag_valid, dt); break;
+    }
+  }
+  Quat attitude() const {
+    switch (kind_) {
+      case AttitudeFilter::Mahony: return mahony_.attitude();
+      case AttitudeFilter::Linear: return linear_.attitude();
+      default: return observer_.attitude();
+    }
+  }
+  Vec3 gyro_bias() const {
+    switch (kind_) {
+      case AttitudeFilter::Mahony: return mahony_.gyro_bias();
+      case AttitudeFilter::Linear: return Vec3{};  // the linear filter has no bias estimate
+      default: return observer_.gyro_bias();
+    }
+  }
+  const est::ObserverHealth& health() const { return observer_.health(); }
+  bool uses_observer() const { return kind_ == AttitudeFilter::Conditioned || kind_ == AttitudeFilter::Unconditioned; }
+
+ private:
+  AttitudeFilter kind_;
+  est::ConditionedObserver observer_;
+  est::MahonyFilter mahony_;
+  est::LinearComplementaryFilter linear_;
+};
+
+void put(std::string& line, double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, ",%.9g", v);
+  line += buf;
+}
+
+}  // namespace
+
+ReplaySummary replay(const std::vector<LogRow>& rows, const ReplayOptions& options, std::ostream& out) {
+  Attitude attitude(options);
+  // History for 250 ms at up to 1 kHz: logs of any rate up to the firmware's fastest loop.
+  est::PositionFilter<est::history_length(1000)> position(options.position);
+  ReplaySummary summary;
+  bool initialized = false;
+  Vec3 last_mag;
+  double t_prev = 0.0;
+  out << kOutputHeader << "\n";
+  for (const LogRow& r : rows) {
+    const Vec3 g = vec(r.gyro), a = vec(r.accel);
+    const bool mag_new = r.mag.has_value();
+    const Vec3 m = mag_new ? Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
+                                  static_cast<float>((*r.mag)[2])}
+                           : last_mag;
+    if (mag_new) last_mag = m;
+    if (!initialized) {
+      initialized = mag_new && attitude.initialize(a, m);
+    } else {
+      attitude.update(g, a, m, mag_new, static_cast<float>(r.t - t_prev));
+    }
+    t_prev = r.t;
+
+    const uint32_t now = to_us(r.t);
+    const Quat q = attitude.attitude();
+    position.predict(initialized ? est::kinematic_acceleration(q, a) : Vec3{}, now);
+    if (r.fix && initialized) {
+      ++summary.fixes;
+      position.fuse_position(vec(r.fix->p), options.fuse_on_arrival ? now : to_us(r.fix->t));
+    }
+
+    std::string line;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", r.t);
+    line += buf;
+    if (initialized) {
+      const Euler e = to_euler(q);
+      const Vec3 b = attitude.gyro_bias();
+      for (double v : {q.w, q.x, q.y, q.z, e.roll, e.pitch, e.yaw, b.x, b.y, b.z}) put(line, v);
+    } else {
+      line += ",,,,,,,,,,";
+    }
+    if (position.initialized()) {
+      const Vec3 p = position.position(), v = position.velocity();
+      for (double x : {p.x, p.y, p.z, v.x, v.y, v.z}) put(line, x);
+    } else {
+      line += ",,,,,,";
+    }
+    out << line << "\n";
+    ++summary.rows;
+  }
+  summary.position = position.health();
+  if (attitude.uses_observer()) summary.observer = attitude.health();
+  return summary;
+}
+
+}  // namespace quad::replay
