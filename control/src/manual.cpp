@@ -1,6 +1,7 @@
 #include "quad/control/manual.h"
 
 #include "quad/control/approx.h"
+#include "angle.h"
 
 namespace quad {
 namespace ctrl {
@@ -37,7 +38,7 @@ void ManualControl::set_params(const ManualParams& p) {
 }
 
 void ManualControl::reset(float yaw) {
-  const float half = 0.5f * wrap_pi(is_finite(yaw) ? yaw : 0.0f);
+  const float half = 0.5f * wrap_heading(yaw);
   yaw_half_c_ = cosf(half);
   yaw_half_s_ = sinf(half);
   command_ = AttitudeCommand{};

@@ -1,5 +1,7 @@
 #include "quad/control/thrust_attitude.h"
 
+#include "angle.h"
+
 namespace quad {
 namespace ctrl {
 
@@ -26,7 +28,7 @@ void ThrustAttitude::set_params(const ThrustAttitudeParams& p) {
 
 Quat ThrustAttitude::yaw_quat(float yaw_d) {
   if (yaw_d != cached_yaw_) {
-    const float half = 0.5f * wrap_pi(yaw_d);
+    const float half = 0.5f * wrap_heading(yaw_d);
     cached_yaw_quat_ = Quat{cosf(half), 0.0f, 0.0f, sinf(half)};
     cached_yaw_ = yaw_d;
   }

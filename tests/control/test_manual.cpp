@@ -72,6 +72,16 @@ TEST(Manual, YawStickIsARateIntegratedIntoHeading) {
   EXPECT_NEAR(quad::norm(manual.command().q_d), 1.0f, 1e-5f);
 }
 
+TEST(Manual, ResetWrapsAnyHeading) {
+  ManualControl manual;
+  manual.reset(-100.0f);
+  EXPECT_NEAR(manual.heading(), std::remainder(-100.0, 2.0 * M_PI), 1e-4);
+  manual.reset(1e10f);  // absurd but finite: must terminate with a valid heading
+  EXPECT_LE(std::abs(manual.heading()), M_PI + 1e-6);
+  manual.reset(NAN);
+  EXPECT_EQ(manual.heading(), 0.0f);
+}
+
 TEST(Manual, ThrottleToThrust) {
   ManualParams p;
   ManualControl manual(p);

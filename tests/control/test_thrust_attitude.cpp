@@ -143,6 +143,16 @@ TEST(ThrustAttitude, YawTurnsTheHeadingOnly) {
   EXPECT_NEAR(quad::to_euler(t.q_d).yaw, 1.0f, 1.5f * quad::kDegToRad);
 }
 
+// A heading far outside (-pi, pi] (a counter that kept integrating) is wrapped, not looped over: exact
+// for moderate multiples of 2 pi; for absurd values (float spacing 1024 rad at 1e10) finite and unit.
+TEST(ThrustAttitude, HugeHeadingIsWrapped) {
+  ThrustAttitude ta;
+  EXPECT_NEAR(quad::to_euler(ta.update(Vec3{}, 100.0f).q_d).yaw, std::remainder(100.0, 2.0 * M_PI), 1e-4);
+  const AttitudeCommand cmd = ta.update(Vec3{}, 1e10f);
+  EXPECT_TRUE(quad::is_finite(cmd.q_d));
+  EXPECT_NEAR(quad::norm(cmd.q_d), 1.0f, 1e-6f);
+}
+
 // Signs: a setpoint to the north pitches the nose down (negative pitch in FRD), one to the east rolls
 // right side down, one above raises the thrust.
 TEST(ThrustAttitude, SetpointNorthPitchesNoseDown) {
