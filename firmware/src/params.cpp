@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "quad/firmware/flash.h"
+#include "quad/link/crc.h"
 #include "quad/math/scalar.h"
 
 namespace quad {
@@ -35,22 +36,11 @@ constexpr uint16_t kHeaderSize = sizeof(Header);
 constexpr uint16_t kValuesOffset = kHeaderSize;
 constexpr uint16_t kCrcOffset = kValuesOffset + kParamCount * sizeof(float);
 
-// CRC-16/MCRF4XX (the X.25 CRC MAVLink also uses), bytewise without a table to save flash and RAM.
-uint16_t crc_accumulate(uint16_t crc, const uint8_t* data, uint16_t n) {
-  for (uint16_t i = 0; i < n; ++i) {
-    uint8_t tmp = static_cast<uint8_t>(data[i] ^ (crc & 0xFFu));
-    tmp = static_cast<uint8_t>(tmp ^ (tmp << 4));
-    crc = static_cast<uint16_t>((crc >> 8) ^ (static_cast<uint16_t>(tmp) << 8) ^ (static_cast<uint16_t>(tmp) << 3) ^
-                                (tmp >> 4));
-  }
-  return crc;
-}
-
 uint16_t values_crc(const Params& params) {
-  uint16_t crc = 0xFFFF;
+  uint16_t crc = mavlink::kCrcInit;
   for (uint8_t i = 0; i < kParamCount; ++i) {
     const float v = params.get(i);
-    crc = crc_accumulate(crc, reinterpret_cast<const uint8_t*>(&v), sizeof v);
+    crc = mavlink::crc_accumulate(reinterpret_cast<const uint8_t*>(&v), sizeof v, crc);
   }
   return crc;
 }

@@ -17,7 +17,8 @@ namespace {
 
 struct PortState {
   int fd = -1;
-  bool hung_up = false;
+  bool hangup_seen = false;  // poll() reported POLLHUP; bytes may still wait to be read
+  bool hung_up = false;      // ... and they have been read: the port is gone
   uint32_t dropped = 0;
 };
 
@@ -80,7 +81,8 @@ bool open_port(const PortConfig& config, const char* name, PortState* port, std:
     ::close(fd);
     return false;
   }
-  tcflush(fd, TCIOFLUSH);
+  // No flush: bytes a simulator wrote to its pseudo-terminal before we opened it are the start of
+  // the session (the parser resynchronises on anything else).
   port->fd = fd;
   port->hung_up = false;
   port->dropped = 0;
@@ -166,17 +168,25 @@ uint32_t micros() {
 
 void idle(uint32_t max_wait_us) {
   pollfd fds[kPortCount];
+  host::PortState* polled[kPortCount];
   nfds_t n = 0;
-  for (const auto& port : host::g_state.ports) {
-    if (port.fd >= 0 && !port.hung_up) fds[n++] = pollfd{port.fd, POLLIN, 0};
+  for (auto& port : host::g_state.ports) {
+    if (port.fd < 0 || port.hung_up) continue;
+    polled[n] = &port;
+    fds[n++] = pollfd{port.fd, POLLIN, 0};
   }
-  const int timeout_ms = static_cast<int>((max_wait_us + 999u) / 1000u);
   if (n == 0) {
     timespec wait{static_cast<time_t>(max_wait_us / 1000000u), static_cast<long>(max_wait_us % 1000000u) * 1000};
     nanosleep(&wait, nullptr);
     return;
   }
-  poll(fds, n, timeout_ms);
+  const int timeout_ms = static_cast<int>((max_wait_us + 999u) / 1000u);
+  if (poll(fds, n, timeout_ms) <= 0) return;
+  // A hung-up terminal (the pseudo-terminal's master closed, the adapter unplugged) reports POLLHUP;
+  // its reads return 0 forever, which raw mode (VMIN = 0) cannot tell from "no data".
+  for (nfds_t i = 0; i < n; ++i) {
+    if ((fds[i].revents & (POLLHUP | POLLERR | POLLNVAL)) != 0) polled[i]->hangup_seen = true;
+  }
 }
 
 uint16_t serial_read(Port port, uint8_t* dst, uint16_t capacity) {
@@ -184,8 +194,11 @@ uint16_t serial_read(Port port, uint8_t* dst, uint16_t capacity) {
   if (state.fd < 0 || state.hung_up || capacity == 0) return 0;
   const ssize_t n = ::read(state.fd, dst, capacity);
   if (n > 0) return static_cast<uint16_t>(n);
-  // EIO on a pseudo-terminal slave means the master closed; 0 on a tty means hang-up.
-  if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) state.hung_up = true;
+  // In raw mode with VMIN = 0 a read of 0 bytes only means "nothing waiting"; hang-ups are seen by
+  // idle() (POLLHUP) or here as an error such as EIO.
+  if ((n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) || (n == 0 && state.hangup_seen)) {
+    state.hung_up = true;
+  }
   return 0;
 }
 

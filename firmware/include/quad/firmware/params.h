@@ -11,63 +11,76 @@ namespace quad {
 namespace fw {
 
 // X(id, "NAME", default, min, max)
-#define QUAD_PARAM_TABLE(X)                                                                  \
-  /* scheduler */                                                                            \
-  X(kLoopHz, "SYS_LOOP_HZ", 100.0f, 50.0f, 1000.0f)                                          \
-  /* boot calibration: the vehicle must stay still for CAL_TIME seconds */                   \
-  X(kCalTime, "CAL_TIME", 2.0f, 0.2f, 30.0f)                                                 \
-  X(kCalGyroStill, "CAL_GYRO_STILL", 0.05f, 0.001f, 1.0f)                                    \
-  X(kCalAccStill, "CAL_ACC_STILL", 0.5f, 0.01f, 5.0f)                                        \
-  /* conditioned attitude observer, thesis table 8.1 */                                      \
-  X(kObsK1, "OBS_K1", 1.0f, 0.0f, 100.0f)                                                    \
-  X(kObsK2, "OBS_K2", 0.2f, 0.0f, 100.0f)                                                    \
-  X(kObsK3, "OBS_K3", 0.03125f, 0.0f, 10.0f)                                                 \
-  X(kObsK4, "OBS_K4", 0.00625f, 0.0f, 10.0f)                                                 \
-  X(kObsKb, "OBS_KB", 16.0f, 0.0f, 1000.0f)                                                  \
-  X(kObsDelta, "OBS_DELTA", 0.03f, 0.0f, 1.0f)                                               \
-  /* position Kalman filter (thesis eq. 8.12: Q = diag(s_p^2 T, s_v^2 T), table 8.1 Q = I T) */ \
-  X(kKfQPos, "KF_Q_POS", 1.0f, 0.0f, 100.0f)                                                 \
-  X(kKfQVel, "KF_Q_VEL", 1.0f, 0.0f, 100.0f)                                                 \
-  X(kKfRPos, "KF_R_POS", 0.0025f, 1e-6f, 10.0f)                                              \
-  X(kKfGate, "KF_GATE", 25.0f, 0.0f, 1000.0f)                                                \
-  /* vision: star position in NED (m) and the oldest fix still fused (s) */                  \
-  X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                        \
-  X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                        \
-  X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                        \
-  X(kVisMaxAge, "VIS_MAX_AGE", 0.3f, 0.0f, 1.0f)                                             \
-  /* attitude PD, thesis eq. 8.39 and table 8.1 */                                           \
-  X(kAttAlpha, "ATT_ALPHA", 3.0f, 0.0f, 100.0f)                                              \
-  X(kAttGammaXY, "ATT_GAMMA_XY", 0.625f, 0.0f, 100.0f)                                       \
-  X(kAttGammaZ, "ATT_GAMMA_Z", 0.5f, 0.0f, 100.0f)                                           \
-  /* position control, thesis eq. 8.20 and table 8.1 */                                      \
-  X(kPosKpXY, "POS_KP_XY", 3.625f, 0.0f, 100.0f)                                             \
-  X(kPosKpZ, "POS_KP_Z", 3.625f, 0.0f, 100.0f)                                               \
-  X(kPosKvXY, "POS_KV_XY", 11.875f, 0.0f, 100.0f)                                            \
-  X(kPosKvZ, "POS_KV_Z", 3.5f, 0.0f, 100.0f)                                                 \
-  X(kPosTiltMax, "POS_TILT_MAX", 0.5f, 0.05f, 1.2f)                                          \
-  /* airframe (3DR Quad-C, plus configuration; docs/firmware.md) */                          \
-  X(kVehMass, "VEH_MASS", 1.4f, 0.1f, 20.0f)                                                 \
-  X(kVehArm, "VEH_ARM", 0.26f, 0.05f, 2.0f)                                                  \
-  X(kVehThrMax, "VEH_THR_MAX", 8.63f, 0.5f, 100.0f)                                          \
-  X(kVehYawK, "VEH_YAW_K", 0.016f, 0.0f, 1.0f)                                               \
-  X(kVehIdle, "VEH_IDLE", 0.05f, 0.0f, 0.3f)                                                 \
-  /* manual flight from the RC sticks, thesis sec. 6.1.4 */                                  \
-  X(kManTiltMax, "MAN_TILT_MAX", 0.35f, 0.05f, 1.0f)                                         \
-  X(kManYawRate, "MAN_YAW_RATE", 1.57f, 0.1f, 6.0f)                                          \
-  X(kManThrMax, "MAN_THR_MAX", 0.8f, 0.1f, 1.0f)                                             \
-  /* arming, landing and failsafes */                                                        \
-  X(kArmThrMax, "ARM_THR_MAX", 0.1f, 0.0f, 0.5f)                                             \
-  X(kLandSpeed, "LAND_SPEED", 0.5f, 0.1f, 3.0f)                                              \
-  X(kLandVzMax, "LAND_VZ_MAX", 0.25f, 0.05f, 1.0f)                                           \
-  X(kLandThrFrac, "LAND_THR_FRAC", 0.7f, 0.1f, 1.0f)                                         \
-  X(kLandTime, "LAND_TIME", 1.0f, 0.1f, 10.0f)                                               \
-  X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                     \
-  X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                        \
-  X(kFsRcEnable, "FS_RC_ENABLE", 1.0f, 0.0f, 1.0f)                                           \
-  /* telemetry rates (Hz; 0 turns a stream off) */                                           \
-  X(kTelHbHz, "TEL_HB_HZ", 1.0f, 0.0f, 50.0f)                                                \
-  X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                            \
-  X(kTelPosHz, "TEL_POS_HZ", 10.0f, 0.0f, 500.0f)                                            \
+#define QUAD_PARAM_TABLE(X)                                                                      \
+  /* scheduler: the control loop rate (HIL: the rate the simulator sends HIL_SENSOR at) */       \
+  X(kLoopHz, "SYS_LOOP_HZ", 100.0f, 50.0f, 1000.0f)                                              \
+  /* boot calibration: the vehicle must stay still for CAL_TIME seconds */                       \
+  X(kCalTime, "CAL_TIME", 2.0f, 0.2f, 30.0f)                                                     \
+  X(kCalGyroStill, "CAL_GYRO_STILL", 0.05f, 0.001f, 1.0f)                                        \
+  X(kCalAccStill, "CAL_ACC_STILL", 0.5f, 0.01f, 5.0f)                                            \
+  /* conditioned attitude observer, thesis table 8.1 */                                          \
+  X(kObsK1, "OBS_K1", 1.0f, 0.0f, 100.0f)                                                        \
+  X(kObsK2, "OBS_K2", 0.2f, 0.0f, 100.0f)                                                        \
+  X(kObsK3, "OBS_K3", 0.03125f, 0.0f, 10.0f)                                                     \
+  X(kObsK4, "OBS_K4", 0.00625f, 0.0f, 10.0f)                                                     \
+  X(kObsKb, "OBS_KB", 16.0f, 0.0f, 1000.0f)                                                      \
+  X(kObsDelta, "OBS_DELTA", 0.03f, 0.0f, 1.0f)                                                   \
+  X(kObsAccTol, "OBS_ACC_TOL", 0.2f, 0.01f, 1.0f)                                                \
+  /* position Kalman filter, thesis eq. 8.12; table 8.1: Q = I T. KF_Q_MODEL 1: white accel. */  \
+  X(kKfQModel, "KF_Q_MODEL", 0.0f, 0.0f, 1.0f)                                                   \
+  X(kKfQPos, "KF_Q_POS", 1.0f, 0.0f, 100.0f)                                                     \
+  X(kKfQVel, "KF_Q_VEL", 1.0f, 0.0f, 100.0f)                                                     \
+  X(kKfQAcc, "KF_Q_ACC", 1.0f, 0.0f, 100.0f)                                                     \
+  X(kKfFixSigXY, "KF_FIX_SIG_XY", 0.05f, 0.001f, 10.0f)                                          \
+  X(kKfFixSigZ, "KF_FIX_SIG_Z", 0.05f, 0.001f, 10.0f)                                            \
+  X(kKfGateSig, "KF_GATE_SIG", 5.0f, 1.0f, 100.0f)                                               \
+  X(kKfZBias, "KF_Z_BIAS", 0.0f, 0.0f, 1.0f)                                                     \
+  /* vision: the star's NED position (m) */                                                      \
+  X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
+  X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
+  X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                            \
+  /* attitude PD, thesis eq. 8.39 and table 8.1 */                                               \
+  X(kAttAlpha, "ATT_ALPHA", 3.0f, 0.001f, 100.0f)                                                \
+  X(kAttGammaXY, "ATT_GAMMA_XY", 0.625f, 0.001f, 100.0f)                                         \
+  X(kAttGammaZ, "ATT_GAMMA_Z", 0.5f, 0.001f, 100.0f)                                             \
+  /* position control, thesis eq. 8.20 and table 8.1 */                                          \
+  X(kPosKpXY, "POS_KP_XY", 3.625f, 0.001f, 100.0f)                                               \
+  X(kPosKpZ, "POS_KP_Z", 3.625f, 0.001f, 100.0f)                                                 \
+  X(kPosKvXY, "POS_KV_XY", 11.875f, 0.001f, 100.0f)                                              \
+  X(kPosKvZ, "POS_KV_Z", 3.5f, 0.001f, 100.0f)                                                   \
+  X(kPosTiltMax, "POS_TILT_MAX", 0.6109f, 0.05f, 1.3f)                                           \
+  /* setpoint shaping in AUTO */                                                                 \
+  X(kShpSpeed, "SHP_SPEED", 1.0f, 0.05f, 10.0f)                                                  \
+  X(kShpAccel, "SHP_ACCEL", 1.0f, 0.05f, 10.0f)                                                  \
+  X(kShpGain, "SHP_GAIN", 2.0f, 0.1f, 20.0f)                                                     \
+  /* airframe: 3DR Quad-C, plus configuration (control/vehicle.h, docs/control.md) */            \
+  X(kVehFrame, "VEH_FRAME", 0.0f, 0.0f, 1.0f)                                                    \
+  X(kVehMass, "VEH_MASS", 1.4f, 0.1f, 20.0f)                                                     \
+  X(kVehIxx, "VEH_IXX", 0.015f, 1e-4f, 10.0f)                                                    \
+  X(kVehIyy, "VEH_IYY", 0.015f, 1e-4f, 10.0f)                                                    \
+  X(kVehIzz, "VEH_IZZ", 0.027f, 1e-4f, 10.0f)                                                    \
+  X(kVehArm, "VEH_ARM", 0.26f, 0.05f, 2.0f)                                                      \
+  X(kVehMotThrMax, "VEH_MOT_THR_MAX", 8.63f, 0.5f, 100.0f)                                       \
+  X(kVehThrCoef, "VEH_THR_COEF", 1.863e-5f, 1e-8f, 1e-2f)                                        \
+  X(kVehYawK, "VEH_YAW_K", 0.016f, 0.0f, 1.0f)                                                   \
+  /* manual flight from the RC sticks, thesis sec. 6.1.4 */                                      \
+  X(kManTiltMax, "MAN_TILT_MAX", 0.5236f, 0.05f, 0.785f)                                         \
+  X(kManYawRate, "MAN_YAW_RATE", 1.5708f, 0.1f, 6.0f)                                            \
+  X(kManThrMax, "MAN_THR_MAX", 1.0f, 0.1f, 1.0f)                                                 \
+  X(kManDeadband, "MAN_DEADBAND", 20.0f, 0.0f, 200.0f)                                           \
+  /* arming, landing and failsafes */                                                            \
+  X(kArmThrMax, "ARM_THR_MAX", 0.1f, 0.0f, 0.5f)                                                 \
+  X(kLandSpeed, "LAND_SPEED", 0.5f, 0.1f, 3.0f)                                                  \
+  X(kLandVzMax, "LAND_VZ_MAX", 0.25f, 0.05f, 1.0f)                                               \
+  X(kLandThrFrac, "LAND_THR_FRAC", 0.7f, 0.1f, 1.0f)                                             \
+  X(kLandTime, "LAND_TIME", 1.0f, 0.1f, 10.0f)                                                   \
+  X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                         \
+  X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                            \
+  X(kFsRcEnable, "FS_RC_ENABLE", 1.0f, 0.0f, 1.0f)                                               \
+  /* telemetry rates (Hz; 0 turns a stream off) */                                               \
+  X(kTelHbHz, "TEL_HB_HZ", 1.0f, 0.0f, 50.0f)                                                    \
+  X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                                \
+  X(kTelPosHz, "TEL_POS_HZ", 10.0f, 0.0f, 500.0f)                                                \
   X(kTelSysHz, "TEL_SYS_HZ", 1.0f, 0.0f, 50.0f)
 
 enum ParamId : uint8_t {

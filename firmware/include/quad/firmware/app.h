@@ -1,0 +1,196 @@
+// The flight application: everything between the sensors and the motors, and the MAVLink link to
+// the simulator, the ground station and the vision station.
+//
+// It references no HAL symbol. A per-target runner owns the loop: it hands the application the bytes
+// each serial port received (receive()) and, on boards with sensors, each IMU sample (step()); the
+// application writes its frames through AppIo::write and leaves its motor commands in motors(). In HIL
+// the sample arrives as HIL_SENSOR inside receive(): the application then runs one iteration on the
+// simulator's clock and answers with HIL_ACTUATOR_CONTROLS (docs/hil-protocol.md).
+//
+// One control iteration (thesis fig. 8.1):
+//   boot calibration (until the vehicle was still for CAL_TIME) ->
+//   conditioned observer (attitude, gyro bias; thesis ch. 4) -> attitude history (vision delay) ->
+//   Kalman predict with u = g e_z + R a_B (thesis eq. 8.7, at ~100 Hz) ->
+//   flight-mode machine and failsafes -> position / manual / landing control (thesis eq. 8.20-8.40) ->
+//   motor commands -> telemetry.
+// Vision fixes are fused when they arrive, at their capture time (eq. 8.5 with the errata sign).
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/control/cascade.h"
+#include "quad/control/manual.h"
+#include "quad/control/setpoint_shaper.h"
+#include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/position_filter.h"
+#include "quad/firmware/calibration.h"
+#include "quad/firmware/modes.h"
+#include "quad/firmware/params.h"
+#include "quad/firmware/scheduler.h"
+#include "quad/firmware/vision.h"
+#include "quad/hal/hal.h"
+#include "quad/link/mavlink.h"
+
+namespace quad {
+namespace fw {
+
+// System and component ids (docs/hil-protocol.md).
+constexpr uint8_t kVehicleSystemId = 1;
+constexpr uint8_t kVehicleComponentId = 1;
+
+// The position filter predicts at about this rate whatever the control loop rate; its history covers
+// 300 ms of vision delay at that rate.
+constexpr float kPositionRateHz = 100.0f;
+constexpr int kPositionHistory = est::history_length(100, 300);
+
+// MAVLink's MAV_CMD_COMPONENT_ARM_DISARM param2 that forces a disarm in flight.
+constexpr float kForceDisarmMagic = 21196.0f;
+
+struct AppIo {
+  // Parameter storage (hal::storage_read/write on a board).
+  StorageIo storage;
+  // Queues bytes on a serial port (hal::serial_write); frames that do not fit are dropped.
+  uint16_t (*write)(uint8_t port, const uint8_t* data, uint16_t length);
+  // Free-running microsecond clock used only to measure the execution time of an iteration.
+  uint32_t (*micros)();
+};
+
+// Counters reported in SYS_STATUS and used by the tests.
+struct AppCounters {
+  uint32_t iterations = 0;
+  uint32_t hil_sensor_frames = 0;
+  uint32_t fixes_received = 0;
+  uint32_t fixes_fused = 0;
+  uint32_t fixes_rejected = 0;   // by the filter (gate, too old, out of order) or no attitude at capture
+  uint32_t fixes_invalid = 0;    // wrong frame, position_valid 0, non-finite
+  uint32_t tx_dropped_bytes = 0; // bytes the ports did not take
+  uint32_t commands = 0;
+};
+
+class FlightApp {
+ public:
+  FlightApp();
+
+  // Loads the parameters (defaults and a STATUSTEXT when the store is bad) and configures everything.
+  // hil: sensors come from HIL_SENSOR and the motor commands go out as HIL_ACTUATOR_CONTROLS.
+  void init(const AppIo& io, bool hil);
+
+  // Sets a parameter for this run without storing it (the host's --params file). Returns nullptr when
+  // taken, else why not.
+  const char* override_param(uint8_t index, float value);
+
+  // Bytes received on a port at vehicle time now_us (board clock; ignored in HIL, where the simulator's
+  // clock rules).
+  void receive(uint8_t port, const uint8_t* data, uint16_t length, uint32_t now_us);
+
+  // One control iteration with a sample taken at t_us (board mode; HIL calls it from HIL_SENSOR).
+  void step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag);
+
+  // An RC frame from the receiver (board mode; in HIL MANUAL_CONTROL arrives through receive()).
+  void rc_input(const ctrl::RcSticks& sticks, uint32_t t_us);
+
+  // Motor commands of the last iteration, 0..1 each, all 0 when disarmed.
+  const float (&motors() const)[hal::kMotorCount] { return motors_; }
+
+  FlightMode mode() const { return modes_.mode(); }
+  bool calibrated() const { return calibration_.done(); }
+  const Params& params() const { return params_; }
+  StoreStatus store_status() const { return store_status_; }
+  const AppCounters& counters() const { return counters_; }
+  const LoopTimer& loop_timer() const { return loop_timer_; }
+  LoopTimer& loop_timer() { return loop_timer_; }
+  Vec3 position() const { return filter_.position(); }
+  Vec3 velocity() const { return filter_.velocity(); }
+  Quat attitude() const { return observer_.attitude(); }
+  const mavlink::Parser& parser(uint8_t port) const { return parsers_[port]; }
+  uint32_t now_us() const { return now_us_; }
+
+ private:
+  // Configuration from the parameters; false (and nothing changed) when a component refuses them, with
+  // the name of the offending field in *error.
+  bool apply_params(const Params& candidate, const char** error);
+
+  void on_frame(uint8_t port, const mavlink::Frame& frame);
+  void on_hil_sensor(const mavlink::HilSensor& msg);
+  void on_command(uint8_t port, const mavlink::CommandLong& cmd);
+  void on_param_set(uint8_t port, const mavlink::ParamSet& msg);
+  void on_param_read(uint8_t port, const mavlink::ParamRequestRead& msg);
+  void on_setpoint(const mavlink::SetPositionTargetLocalNed& msg);
+  void on_manual_control(const mavlink::ManualControl& msg);
+  void on_fix(const Vec3& p_ned, uint32_t capture_us);
+  void on_timesync(uint8_t port, const mavlink::Timesync& msg);
+
+  void estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt);
+  ModeInputs mode_inputs() const;
+  void handle_transition(const Transition& t);
+  void enter_mode(FlightMode from, FlightMode to);
+  void control(float dt);
+  void detect_landing(float dt);
+  void telemetry();
+
+  void send_statustext(uint8_t severity, const char* text, const char* detail = nullptr);
+  void send_param(uint8_t port, uint8_t index);
+  void send_ack(uint8_t port, uint16_t command, uint8_t result);
+  void send_actuators(uint64_t time_usec);
+  uint8_t base_mode() const;
+  template <class Msg>
+  void send(uint8_t port, const Msg& msg);
+  template <class Msg>
+  void broadcast(const Msg& msg);
+
+  AppIo io_{};
+  bool hil_ = false;
+  Params params_;
+  StoreStatus store_status_ = StoreStatus::kEmpty;
+  bool store_in_sync_ = false;
+
+  mavlink::Parser parsers_[hal::kPortCount];
+  mavlink::Sender senders_[hal::kPortCount];
+
+  LoopTimer loop_timer_;
+  RateDivider position_rate_;
+  RateDivider heartbeat_rate_;
+  RateDivider attitude_rate_;
+  RateDivider position_tel_rate_;
+  RateDivider status_rate_;
+
+  BootCalibration calibration_;
+  CalibrationResult bias_;
+  est::ConditionedObserver observer_;
+  est::PositionFilter<kPositionHistory> filter_;
+  AttitudeHistory history_;
+  Vec3 accel_sum_;       // kinematic acceleration summed between position-filter predictions
+  uint8_t accel_count_ = 0;
+  Vec3 star_ned_;
+
+  ModeMachine modes_;
+  ctrl::Cascade cascade_;
+  ctrl::ManualControl manual_;
+  ctrl::SetpointShaper shaper_;
+  ctrl::PositionSetpoint setpoint_;
+  ctrl::RcSticks sticks_;
+  float land_speed_ = 0.5f;
+  float land_vz_max_ = 0.25f;
+  float land_thrust_max_ = 0.0f;  // N
+  float land_time_s_ = 1.0f;
+  float landed_for_s_ = 0.0f;
+  bool landed_ = true;
+  float motors_[hal::kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  float last_thrust_ = 0.0f;
+
+  uint32_t now_us_ = 0;
+  uint64_t hil_time_usec_ = 0;
+  bool clock_started_ = false;
+  bool sensors_ok_ = false;
+  bool rc_seen_ = false;
+  uint32_t rc_time_us_ = 0;
+  bool vision_seen_ = false;
+  uint32_t vision_time_us_ = 0;
+
+  int16_t param_stream_next_ = -1;  // next index of a PARAM_REQUEST_LIST being answered, -1 when idle
+  uint8_t param_stream_port_ = 0;
+  AppCounters counters_;
+};
+
+}  // namespace fw
+}  // namespace quad

@@ -1,0 +1,717 @@
+#include "quad/firmware/app.h"
+
+#include <string.h>
+
+namespace quad {
+namespace fw {
+namespace mav = ::quad::mavlink;
+
+namespace {
+
+// MAV_SYS_STATUS_SENSOR bits reported in SYS_STATUS.
+constexpr uint32_t kSensorGyro = 1u << 0;
+constexpr uint32_t kSensorAccel = 1u << 1;
+constexpr uint32_t kSensorMag = 1u << 2;
+constexpr uint32_t kSensorVision = 1u << 7;
+constexpr uint32_t kSensorRc = 1u << 16;
+constexpr uint32_t kSensorAhrs = 1u << 21;
+
+// HIL_SENSOR.fields_updated: bits 6..8 flag a new magnetometer sample.
+constexpr uint32_t kHilMagFields = 0x1C0u;
+
+// SET_POSITION_TARGET_LOCAL_NED.type_mask bits.
+constexpr uint16_t kIgnorePosition = 0x7u;
+constexpr uint16_t kIgnoreYaw = 1u << 10;
+
+constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
+
+float yaw_of(const Quat& q) { return to_euler(q).yaw; }
+
+// MANUAL_CONTROL axis (-1000..1000) to a 1000..2000 us pulse.
+uint16_t axis_to_pulse(int16_t v, bool reverse) {
+  int32_t p = 1500 + (reverse ? -v : v) / 2;
+  if (p < 1000) p = 1000;
+  if (p > 2000) p = 2000;
+  return static_cast<uint16_t>(p);
+}
+
+void copy_name(char (&dst)[16], const char* src) {
+  memset(dst, 0, sizeof dst);
+  for (uint8_t i = 0; i < 16 && src[i] != '\0'; ++i) dst[i] = src[i];
+}
+
+}  // namespace
+
+FlightApp::FlightApp()
+    : senders_{mav::Sender(kVehicleSystemId, kVehicleComponentId), mav::Sender(kVehicleSystemId, kVehicleComponentId)} {}
+
+void FlightApp::init(const AppIo& io, bool hil) {
+  io_ = io;
+  hil_ = hil;
+  store_status_ = params_load(io_.storage, params_);
+  store_in_sync_ = store_status_ == StoreStatus::kLoaded;
+  const char* error = nullptr;
+  if (!apply_params(params_, &error)) {
+    // Values that pass their ranges but not a component's own checks (a combination): defaults.
+    params_.reset_to_defaults();
+    store_in_sync_ = false;
+    apply_params(params_, &error);
+    send_statustext(mav::kSeverityError, "params rejected, defaults: ", error);
+  }
+  if (store_status_ != StoreStatus::kLoaded) send_statustext(mav::kSeverityWarning, store_status_text(store_status_));
+  calibration_.restart();
+  send_statustext(mav::kSeverityInfo, "calibrating: keep the vehicle still");
+}
+
+bool FlightApp::apply_params(const Params& p, const char** error) {
+  ctrl::CascadeParams cp;
+  cp.vehicle.frame = p.get(kVehFrame) >= 0.5f ? ctrl::Frame::kX : ctrl::Frame::kPlus;
+  cp.vehicle.mass = p.get(kVehMass);
+  cp.vehicle.inertia = Vec3{p.get(kVehIxx), p.get(kVehIyy), p.get(kVehIzz)};
+  cp.vehicle.arm_length = p.get(kVehArm);
+  cp.vehicle.max_motor_thrust = p.get(kVehMotThrMax);
+  cp.vehicle.thrust_coeff = p.get(kVehThrCoef);
+  cp.vehicle.yaw_coeff = p.get(kVehYawK) * p.get(kVehThrCoef);
+  cp.position.kp = Vec3{p.get(kPosKpXY), p.get(kPosKpXY), p.get(kPosKpZ)};
+  cp.position.kv = Vec3{p.get(kPosKvXY), p.get(kPosKvXY), p.get(kPosKvZ)};
+  cp.attitude.alpha = p.get(kAttAlpha);
+  cp.attitude.gamma = Vec3{p.get(kAttGammaXY), p.get(kAttGammaXY), p.get(kAttGammaZ)};
+  cp.max_tilt = p.get(kPosTiltMax);
+
+  ctrl::ManualParams mp;
+  mp.max_angle = p.get(kManTiltMax);
+  mp.max_yaw_rate = p.get(kManYawRate);
+  mp.max_thrust = p.get(kManThrMax) * cp.vehicle.max_total_thrust();
+  mp.dead_band = static_cast<uint16_t>(p.get(kManDeadband));
+
+  ctrl::ShaperParams sp;
+  sp.max_speed = p.get(kShpSpeed);
+  sp.max_accel = p.get(kShpAccel);
+  sp.final_gain = p.get(kShpGain);
+
+  const char* bad = ctrl::validate(mp);
+  if (bad == nullptr) bad = ctrl::validate(sp);
+  if (bad == nullptr) {
+    // Cascade::configure() keeps the old parameters when it refuses the new ones.
+    const ctrl::ParamError e = cascade_.configure(cp);
+    if (!e.ok()) bad = e.field;
+  }
+  if (bad != nullptr) {
+    *error = bad;
+    return false;
+  }
+  manual_.set_params(mp);
+  shaper_.set_params(sp);
+
+  est::ObserverParams op;
+  op.k1 = p.get(kObsK1);
+  op.k2 = p.get(kObsK2);
+  op.k3 = p.get(kObsK3);
+  op.k4 = p.get(kObsK4);
+  op.kb = p.get(kObsKb);
+  op.delta = p.get(kObsDelta);
+  op.accel_norm_tolerance = p.get(kObsAccTol);
+  op.mag_ref_from_init = true;
+  observer_.set_params(op);
+
+  est::PositionFilterParams fp;
+  fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
+  fp.q_pos = p.get(kKfQPos);
+  fp.q_vel = p.get(kKfQVel);
+  fp.q_accel = p.get(kKfQAcc);
+  fp.fix_sigma_xy = p.get(kKfFixSigXY);
+  fp.fix_sigma_z = p.get(kKfFixSigZ);
+  fp.gate_sigma = p.get(kKfGateSig);
+  fp.z_accel_bias = p.get(kKfZBias) >= 0.5f;
+  filter_.set_params(fp);
+
+  star_ned_ = Vec3{p.get(kVisStarN), p.get(kVisStarE), p.get(kVisStarD)};
+
+  ModeConfig mc;
+  mc.vision_timeout_s = p.get(kFsVisTimeout);
+  mc.rc_timeout_s = p.get(kFsRcTimeout);
+  mc.rc_required = p.get(kFsRcEnable) >= 0.5f;
+  mc.arm_throttle_max = p.get(kArmThrMax);
+  modes_.configure(mc);
+
+  CalibrationConfig cc;
+  cc.duration_s = p.get(kCalTime);
+  cc.gyro_still = p.get(kCalGyroStill);
+  cc.accel_still = p.get(kCalAccStill);
+  calibration_.configure(cc);
+
+  const float loop_hz = p.get(kLoopHz);
+  loop_timer_.set_rate_hz(loop_hz);
+  position_rate_.configure(kPositionRateHz, loop_hz);
+  heartbeat_rate_.configure(p.get(kTelHbHz), loop_hz);
+  attitude_rate_.configure(p.get(kTelAttHz), loop_hz);
+  position_tel_rate_.configure(p.get(kTelPosHz), loop_hz);
+  status_rate_.configure(p.get(kTelSysHz), loop_hz);
+  // The attitude history spans at least 0.3 s of vision delay at any loop rate.
+  const float records_per_s = static_cast<float>(AttitudeHistory::kCapacity - 2) / 0.3f;
+  history_.set_decimation(static_cast<uint8_t>(loop_hz / records_per_s) + 1u);
+
+  land_speed_ = p.get(kLandSpeed);
+  land_vz_max_ = p.get(kLandVzMax);
+  land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
+  land_time_s_ = p.get(kLandTime);
+  return true;
+}
+
+const char* FlightApp::override_param(uint8_t index, float value) {
+  Params candidate = params_;
+  switch (candidate.set(index, value)) {
+    case ParamError::kNone: break;
+    case ParamError::kUnknownName: return "no such parameter";
+    case ParamError::kNotFinite: return "not a finite number";
+    case ParamError::kOutOfRange: return "outside the parameter's range";
+  }
+  const char* error = nullptr;
+  if (!apply_params(candidate, &error)) return error;
+  params_ = candidate;
+  return nullptr;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Receiving
+
+void FlightApp::receive(uint8_t port, const uint8_t* data, uint16_t length, uint32_t now_us) {
+  if (port >= hal::kPortCount) return;
+  if (!hil_) now_us_ = now_us;
+  parsers_[port].feed(data, length, [this, port](const mav::Frame& frame) { on_frame(port, frame); });
+}
+
+void FlightApp::on_frame(uint8_t port, const mav::Frame& frame) {
+  switch (frame.message_id) {
+    case mav::HilSensor::kId: {
+      mav::HilSensor msg;
+      if (hil_ && mav::decode(frame, msg)) on_hil_sensor(msg);
+      break;
+    }
+    case mav::CommandLong::kId: {
+      mav::CommandLong msg;
+      if (mav::decode(frame, msg)) on_command(port, msg);
+      break;
+    }
+    case mav::ManualControl::kId: {
+      mav::ManualControl msg;
+      if (mav::decode(frame, msg)) on_manual_control(msg);
+      break;
+    }
+    case mav::SetPositionTargetLocalNed::kId: {
+      mav::SetPositionTargetLocalNed msg;
+      if (mav::decode(frame, msg) && (msg.target_system == kVehicleSystemId || msg.target_system == 0)) on_setpoint(msg);
+      break;
+    }
+    case mav::LandingTarget::kId: {
+      mav::LandingTarget msg;
+      if (!mav::decode(frame, msg)) break;
+      ++counters_.fixes_received;
+      if (msg.frame != mav::kFrameBodyFrd || msg.position_valid != 1) {
+        ++counters_.fixes_invalid;
+        break;
+      }
+      const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
+      Quat q_capture;
+      if (!history_.lookup(capture_us, q_capture)) {
+        ++counters_.fixes_rejected;
+        break;
+      }
+      // thesis eq. 8.5 with the errata sign, the attitude taken at the capture time.
+      on_fix(vehicle_position_from_star(star_ned_, q_capture, Vec3{msg.x, msg.y, msg.z}), capture_us);
+      break;
+    }
+    case mav::VisionPositionEstimate::kId: {
+      mav::VisionPositionEstimate msg;
+      if (!mav::decode(frame, msg)) break;
+      ++counters_.fixes_received;
+      on_fix(Vec3{msg.x, msg.y, msg.z}, static_cast<uint32_t>(msg.usec));
+      break;
+    }
+    case mav::ParamRequestList::kId: {
+      mav::ParamRequestList msg;
+      if (mav::decode(frame, msg) && (msg.target_system == kVehicleSystemId || msg.target_system == 0)) {
+        param_stream_next_ = 0;
+        param_stream_port_ = port;
+      }
+      break;
+    }
+    case mav::ParamRequestRead::kId: {
+      mav::ParamRequestRead msg;
+      if (mav::decode(frame, msg) && (msg.target_system == kVehicleSystemId || msg.target_system == 0)) {
+        on_param_read(port, msg);
+      }
+      break;
+    }
+    case mav::ParamSet::kId: {
+      mav::ParamSet msg;
+      if (mav::decode(frame, msg) && (msg.target_system == kVehicleSystemId || msg.target_system == 0)) {
+        on_param_set(port, msg);
+      }
+      break;
+    }
+    case mav::Timesync::kId: {
+      mav::Timesync msg;
+      if (mav::decode(frame, msg)) on_timesync(port, msg);
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+void FlightApp::on_hil_sensor(const mav::HilSensor& msg) {
+  ++counters_.hil_sensor_frames;
+  if (clock_started_ && msg.time_usec == hil_time_usec_) {
+    // The simulator repeated a step whose answer it missed: answer again, do not step twice.
+    send_actuators(msg.time_usec);
+    return;
+  }
+  hil_time_usec_ = msg.time_usec;
+  hal::ImuSample imu;
+  imu.accel = Vec3{msg.xacc, msg.yacc, msg.zacc};
+  imu.gyro = Vec3{msg.xgyro, msg.ygyro, msg.zgyro};
+  hal::MagSample mag;
+  mag.field = Vec3{msg.xmag, msg.ymag, msg.zmag};
+  const bool mag_new = (msg.fields_updated & kHilMagFields) != 0;
+  step(static_cast<uint32_t>(msg.time_usec), imu, mag_new ? &mag : nullptr);
+  send_actuators(msg.time_usec);
+}
+
+void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
+  if (!is_finite(p_ned)) {
+    ++counters_.fixes_invalid;
+    return;
+  }
+  const est::FixResult r = filter_.fuse_position(p_ned, capture_us);
+  if (r == est::FixResult::Fused || r == est::FixResult::Initialized) {
+    ++counters_.fixes_fused;
+    // Freshness counts from arrival on the vehicle clock: a fix delayed by the link is still news.
+    vision_seen_ = true;
+    vision_time_us_ = now_us_;
+  } else {
+    ++counters_.fixes_rejected;
+  }
+}
+
+void FlightApp::on_manual_control(const mav::ManualControl& msg) {
+  // docs/hil-protocol.md: x pitch (forward +), y roll (right +), z throttle 0..1000, r yaw (right +).
+  // A forward stick is a pulse below 1500 on the pitch channel (nose down, control/manual.h).
+  ctrl::RcSticks sticks;
+  sticks.roll = axis_to_pulse(msg.y, false);
+  sticks.pitch = axis_to_pulse(msg.x, true);
+  sticks.yaw = axis_to_pulse(msg.r, false);
+  int32_t throttle = 1000 + (msg.z < 0 ? 0 : msg.z);
+  sticks.throttle = static_cast<uint16_t>(throttle > 2000 ? 2000 : throttle);
+  rc_input(sticks, now_us_);
+}
+
+void FlightApp::rc_input(const ctrl::RcSticks& sticks, uint32_t t_us) {
+  sticks_ = sticks;
+  rc_seen_ = true;
+  rc_time_us_ = t_us;
+}
+
+void FlightApp::on_setpoint(const mav::SetPositionTargetLocalNed& msg) {
+  if (msg.coordinate_frame != mav::kFrameLocalNed || (msg.type_mask & kIgnorePosition) != 0) return;
+  const Vec3 target{msg.x, msg.y, msg.z};
+  if (!is_finite(target)) return;
+  shaper_.set_target(target);
+  if ((msg.type_mask & kIgnoreYaw) == 0 && is_finite(msg.yaw)) setpoint_.yaw_d = wrap_pi(msg.yaw);
+}
+
+void FlightApp::on_timesync(uint8_t port, const mav::Timesync& msg) {
+  if (msg.tc1 != 0) return;  // an answer to someone else's request
+  // TIMESYNC answer: our clock in tc1 (ns), the request's ts1 echoed, so the peer can map its capture
+  // times onto the vehicle clock.
+  mav::Timesync reply;
+  reply.tc1 = static_cast<int64_t>(hil_ ? hil_time_usec_ : now_us_) * 1000;
+  reply.ts1 = msg.ts1;
+  send(port, reply);
+}
+
+void FlightApp::on_command(uint8_t port, const mav::CommandLong& cmd) {
+  if (cmd.target_system != kVehicleSystemId && cmd.target_system != 0) return;
+  ++counters_.commands;
+  const ModeInputs in = mode_inputs();
+  Command c;
+  switch (cmd.command) {
+    case mav::kCmdComponentArmDisarm:
+      c = cmd.param1 >= 0.5f ? Command::kArm : (cmd.param2 == kForceDisarmMagic ? Command::kForceDisarm : Command::kDisarm);
+      break;
+    case mav::kCmdNavLand:
+      c = Command::kLand;
+      break;
+    case mav::kCmdDoSetMode:
+      switch (static_cast<int>(cmd.param2)) {
+        case static_cast<int>(FlightMode::kDisarmed): c = Command::kDisarm; break;
+        case static_cast<int>(FlightMode::kManual): c = Command::kManual; break;
+        case static_cast<int>(FlightMode::kAuto): c = Command::kAuto; break;
+        case static_cast<int>(FlightMode::kLanding): c = Command::kLand; break;
+        default:
+          send_ack(port, cmd.command, mav::kResultDenied);
+          send_statustext(mav::kSeverityWarning, "unknown custom mode");
+          return;
+      }
+      break;
+    default:
+      send_ack(port, cmd.command, mav::kResultUnsupported);
+      return;
+  }
+  const Transition t = modes_.command(c, in);
+  send_ack(port, cmd.command, t.accepted ? mav::kResultAccepted : mav::kResultDenied);
+  handle_transition(t);
+}
+
+void FlightApp::on_param_read(uint8_t port, const mav::ParamRequestRead& msg) {
+  int16_t index = msg.param_index;
+  if (index < 0) index = param_find(msg.param_id);
+  if (index < 0 || index >= kParamCount) return;  // MAVLink: unknown parameters get no answer
+  send_param(port, static_cast<uint8_t>(index));
+}
+
+void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
+  const int16_t index = param_find(msg.param_id);
+  if (index < 0) {
+    char name[kParamNameLength + 1];
+    memcpy(name, msg.param_id, kParamNameLength);
+    name[kParamNameLength] = '\0';
+    send_statustext(mav::kSeverityWarning, "no such param: ", name);
+    return;
+  }
+  const uint8_t i = static_cast<uint8_t>(index);
+  Params candidate = params_;
+  const ParamError e = candidate.set(i, msg.param_value);
+  const char* error = nullptr;
+  if (e != ParamError::kNone) {
+    send_statustext(mav::kSeverityWarning, e == ParamError::kNotFinite ? "param not finite: " : "param out of range: ",
+                    param_info(i).name);
+  } else if (!apply_params(candidate, &error)) {
+    send_statustext(mav::kSeverityWarning, "param refused: ", error);
+  } else {
+    params_ = candidate;
+    const bool saved = store_in_sync_ ? params_save_one(io_.storage, params_, i) : params_save_all(io_.storage, params_);
+    store_in_sync_ = saved;
+    if (!saved) send_statustext(mav::kSeverityError, "param storage write failed");
+  }
+  // Always answer with the value now in force, so the sender sees whether its value was taken.
+  send_param(port, i);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The control iteration
+
+void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag) {
+  const uint32_t begin = io_.micros();
+  loop_timer_.begin(begin);
+  const float nominal_dt = static_cast<float>(loop_timer_.period_us()) * 1e-6f;
+  float dt = clock_started_ ? static_cast<float>(static_cast<int32_t>(t_us - now_us_)) * 1e-6f : nominal_dt;
+  // A gap or a clock step: integrate one nominal period rather than a jump.
+  if (!(dt > 0.0f) || dt > 5.0f * nominal_dt) dt = nominal_dt;
+  clock_started_ = true;
+  now_us_ = t_us;
+  ++counters_.iterations;
+
+  sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && norm_sq(imu.accel) > sqf(0.3f * kGravity);
+  if (!calibration_.done()) {
+    if (calibration_.add(t_us, imu.gyro, imu.accel, mag != nullptr ? &mag->field : nullptr)) {
+      bias_ = calibration_.result();
+      if (!bias_.mag_valid || !observer_.initialize(bias_.accel_mean, bias_.mag_mean)) {
+        // No magnetometer: level from gravity, heading zero (thesis eq. 3.20 inverse for roll/pitch).
+        const Vec3& a = bias_.accel_mean;
+        Euler e;
+        e.roll = atan2f(-a.y, -a.z);
+        e.pitch = atan2f(a.x, sqrtf(a.y * a.y + a.z * a.z));
+        observer_.reset(from_euler(e), bias_.gyro_bias);
+      } else {
+        observer_.reset(observer_.attitude(), bias_.gyro_bias);
+      }
+      send_statustext(mav::kSeverityInfo, "calibrated, ready to arm");
+    }
+  } else {
+    estimate(imu.gyro, imu.accel - bias_.accel_bias, mag, dt);
+  }
+
+  handle_transition(modes_.update(mode_inputs()));
+  control(dt);
+  detect_landing(dt);
+  telemetry();
+
+  if (param_stream_next_ >= 0) {
+    send_param(param_stream_port_, static_cast<uint8_t>(param_stream_next_));
+    if (++param_stream_next_ >= kParamCount) param_stream_next_ = -1;
+  }
+  loop_timer_.end(io_.micros());
+}
+
+void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt) {
+  const Vec3 no_mag;
+  observer_.update(gyro, accel, mag != nullptr ? mag->field : no_mag, mag != nullptr, dt);
+  const Quat& q = observer_.attitude();
+  history_.push(now_us_, q);
+  // thesis eq. 8.7: u = g e_z + R a_B, averaged over the iterations between two predictions.
+  accel_sum_ += est::kinematic_acceleration(q, accel);
+  ++accel_count_;
+  if (position_rate_.tick()) {
+    filter_.predict(accel_sum_ * (1.0f / static_cast<float>(accel_count_)), now_us_);
+    accel_sum_ = Vec3{};
+    accel_count_ = 0;
+  }
+}
+
+ModeInputs FlightApp::mode_inputs() const {
+  ModeInputs in;
+  in.now_us = now_us_;
+  in.estimator_converged = calibration_.done() && observer_.initialized();
+  const Vec3 v = filter_.velocity();
+  in.estimator_healthy = in.estimator_converged && is_finite(observer_.attitude()) && is_finite(filter_.position()) &&
+                         is_finite(v) && norm_sq(v) < sqf(kMaxHealthySpeed);
+  in.sensors_healthy = sensors_ok_;
+  in.rc_seen = rc_seen_;
+  in.rc_time_us = rc_time_us_;
+  in.rc_throttle = ctrl::throttle_to_unit(sticks_.throttle);
+  in.vision_seen = vision_seen_;
+  in.vision_time_us = vision_time_us_;
+  in.landed = landed_;
+  return in;
+}
+
+void FlightApp::handle_transition(const Transition& t) {
+  if (t.reason == Reason::kNone) return;
+  if (t.changed) enter_mode(t.from, t.to);
+  const bool failsafe = t.reason == Reason::kFailsafeVisionLost || t.reason == Reason::kFailsafeRcLost ||
+                        t.reason == Reason::kFailsafeEstimator;
+  const uint8_t severity = failsafe ? mav::kSeverityCritical : (t.accepted ? mav::kSeverityInfo : mav::kSeverityWarning);
+  if (t.changed) {
+    char text[24];
+    const char* name = mode_name(t.to);
+    size_t n = strlen(name);
+    memcpy(text, name, n);
+    memcpy(text + n, ": ", 3);
+    send_statustext(severity, text, reason_text(t.reason));
+  } else {
+    send_statustext(severity, reason_text(t.reason));
+  }
+}
+
+void FlightApp::enter_mode(FlightMode from, FlightMode to) {
+  const Vec3 p = filter_.position();
+  const float yaw = yaw_of(observer_.attitude());
+  switch (to) {
+    case FlightMode::kDisarmed:
+      landed_ = true;
+      break;
+    case FlightMode::kManual:
+      manual_.reset(yaw);
+      if (from == FlightMode::kDisarmed) landed_ = true;
+      break;
+    case FlightMode::kAuto:
+      // Hold where the vehicle is; setpoints from the ground station move the target from here.
+      shaper_.reset(p);
+      shaper_.set_target(p);
+      setpoint_ = ctrl::PositionSetpoint{};
+      setpoint_.yaw_d = yaw;
+      break;
+    case FlightMode::kLanding:
+      setpoint_.p_d = p;
+      setpoint_.yaw_d = yaw;
+      landed_for_s_ = 0.0f;
+      break;
+  }
+}
+
+void FlightApp::control(float dt) {
+  ctrl::VehicleState s;
+  s.p = filter_.position();
+  s.v = filter_.velocity();
+  s.q = observer_.attitude();
+  s.omega = observer_.rate();
+
+  const ctrl::CascadeOutput* out = nullptr;
+  switch (modes_.mode()) {
+    case FlightMode::kDisarmed:
+      break;
+    case FlightMode::kManual:
+      // A pulse outside the receiver's range keeps the previous command; the RC failsafe decides.
+      manual_.update(sticks_, dt);
+      out = &cascade_.step_attitude(s, manual_.command());
+      break;
+    case FlightMode::kAuto:
+      shaper_.update(dt, setpoint_);
+      out = &cascade_.step(s, setpoint_);
+      break;
+    case FlightMode::kLanding: {
+      // Descend at LAND_SPEED. Holding position: the horizontal target stays where the landing began.
+      // Level: the horizontal errors are zeroed, so eq. 8.20 asks for no horizontal acceleration and
+      // the attitude stays level (no trust in a position without vision).
+      ctrl::PositionSetpoint sp = setpoint_;
+      sp.p_d.z = s.p.z;
+      sp.v_d = Vec3{0.0f, 0.0f, land_speed_};
+      sp.a_d = Vec3{};
+      if (modes_.land_level()) {
+        sp.p_d.x = s.p.x;
+        sp.p_d.y = s.p.y;
+        sp.v_d.x = s.v.x;
+        sp.v_d.y = s.v.y;
+      }
+      out = &cascade_.step(s, sp);
+      break;
+    }
+  }
+  if (out == nullptr) {
+    for (float& m : motors_) m = 0.0f;
+    last_thrust_ = 0.0f;
+    return;
+  }
+  for (uint8_t i = 0; i < hal::kMotorCount; ++i) motors_[i] = out->motors.command[i];
+  last_thrust_ = out->attitude.thrust;
+}
+
+void FlightApp::detect_landing(float dt) {
+  if (!modes_.armed()) {
+    landed_ = true;
+    landed_for_s_ = 0.0f;
+    return;
+  }
+  // On the ground the commanded descent cannot happen: the estimated vertical speed stays near zero
+  // while the controller, pushing down, asks for clearly less than hover thrust.
+  const bool quiet = absf(filter_.velocity().z) < land_vz_max_ && last_thrust_ < land_thrust_max_;
+  landed_for_s_ = quiet ? landed_for_s_ + dt : 0.0f;
+  if (landed_for_s_ >= land_time_s_) landed_ = true;
+  else if (!quiet) landed_ = false;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Sending
+
+template <class Msg>
+void FlightApp::send(uint8_t port, const Msg& msg) {
+  uint8_t buffer[mav::max_frame_length<Msg>()];
+  const size_t n = senders_[port].encode(msg, buffer, sizeof buffer);
+  if (n == 0) return;
+  const uint16_t written = io_.write(port, buffer, static_cast<uint16_t>(n));
+  counters_.tx_dropped_bytes += static_cast<uint32_t>(n - written);
+}
+
+template <class Msg>
+void FlightApp::broadcast(const Msg& msg) {
+  for (uint8_t port = 0; port < hal::kPortCount; ++port) send(port, msg);
+}
+
+uint8_t FlightApp::base_mode() const {
+  uint8_t mode = mav::kModeFlagCustomModeEnabled;
+  if (modes_.armed()) mode |= mav::kModeFlagSafetyArmed;
+  if (hil_) mode |= mav::kModeFlagHilEnabled;
+  return mode;
+}
+
+void FlightApp::send_actuators(uint64_t time_usec) {
+  mav::HilActuatorControls out;
+  out.time_usec = time_usec;
+  for (uint8_t i = 0; i < hal::kMotorCount; ++i) out.controls[i] = motors_[i];
+  out.mode = base_mode();
+  // One answer per HIL_SENSOR, stamped with its time: the firmware is lockstep-capable by design.
+  out.flags = mav::kHilActuatorControlsFlagLockstep;
+  send(hal::kUart0, out);
+}
+
+void FlightApp::send_statustext(uint8_t severity, const char* text, const char* detail) {
+  mav::Statustext msg;
+  msg.severity = severity;
+  size_t n = 0;
+  for (const char* s = text; *s != '\0' && n < sizeof msg.text; ++s) msg.text[n++] = *s;
+  if (detail != nullptr) {
+    for (const char* s = detail; *s != '\0' && n < sizeof msg.text; ++s) msg.text[n++] = *s;
+  }
+  broadcast(msg);
+}
+
+void FlightApp::send_param(uint8_t port, uint8_t index) {
+  const ParamInfo info = param_info(index);
+  mav::ParamValue msg;
+  msg.param_value = params_.get(index);
+  msg.param_count = kParamCount;
+  msg.param_index = index;
+  copy_name(msg.param_id, info.name);
+  msg.param_type = mav::kParamTypeReal32;
+  send(port, msg);
+}
+
+void FlightApp::send_ack(uint8_t port, uint16_t command, uint8_t result) {
+  mav::CommandAck ack;
+  ack.command = command;
+  ack.result = result;
+  send(port, ack);
+}
+
+void FlightApp::telemetry() {
+  const uint32_t time_boot_ms = now_us_ / 1000u;
+  if (heartbeat_rate_.tick()) {
+    mav::Heartbeat hb;
+    hb.custom_mode = static_cast<uint32_t>(modes_.mode());
+    hb.type = mav::kMavTypeQuadrotor;
+    hb.autopilot = mav::kMavAutopilotGeneric;
+    hb.base_mode = base_mode();
+    if (!calibration_.done()) hb.system_status = mav::kStateCalibrating;
+    else if (modes_.mode() == FlightMode::kLanding && modes_.land_level()) hb.system_status = mav::kStateCritical;
+    else hb.system_status = modes_.armed() ? mav::kStateActive : mav::kStateStandby;
+    broadcast(hb);
+  }
+  if (attitude_rate_.tick()) {
+    mav::AttitudeQuaternion att;
+    att.time_boot_ms = time_boot_ms;
+    const Quat& q = observer_.attitude();
+    att.q1 = q.w;
+    att.q2 = q.x;
+    att.q3 = q.y;
+    att.q4 = q.z;
+    const Vec3& w = observer_.rate();
+    att.rollspeed = w.x;
+    att.pitchspeed = w.y;
+    att.yawspeed = w.z;
+    broadcast(att);
+  }
+  if (position_tel_rate_.tick()) {
+    mav::LocalPositionNed pos;
+    pos.time_boot_ms = time_boot_ms;
+    const Vec3 p = filter_.position();
+    const Vec3 v = filter_.velocity();
+    pos.x = p.x;
+    pos.y = p.y;
+    pos.z = p.z;
+    pos.vx = v.x;
+    pos.vy = v.y;
+    pos.vz = v.z;
+    broadcast(pos);
+  }
+  if (status_rate_.tick()) {
+    mav::SysStatus st;
+    const ModeInputs in = mode_inputs();
+    st.onboard_control_sensors_present = kSensorGyro | kSensorAccel | kSensorMag | kSensorVision | kSensorRc | kSensorAhrs;
+    st.onboard_control_sensors_enabled = st.onboard_control_sensors_present;
+    uint32_t health = 0;
+    if (sensors_ok_) health |= kSensorGyro | kSensorAccel;
+    if (bias_.mag_valid) health |= kSensorMag;
+    if (modes_.vision_fresh(in)) health |= kSensorVision;
+    if (modes_.rc_fresh(in)) health |= kSensorRc;
+    if (in.estimator_healthy) health |= kSensorAhrs;
+    st.onboard_control_sensors_health = health;
+    st.load = loop_timer_.load_permille();
+    st.voltage_battery = UINT16_MAX;  // not measured
+    st.current_battery = -1;
+    st.battery_remaining = -1;
+    uint32_t errors = 0;
+    for (const mav::Parser& p : parsers_) errors += p.stats().bad_checksum + p.stats().bad_length;
+    st.errors_comm = static_cast<uint16_t>(errors > UINT16_MAX ? UINT16_MAX : errors);
+    const uint32_t lost = parsers_[hal::kUart0].stats().sequence_lost + parsers_[hal::kUart2].stats().sequence_lost;
+    const uint32_t received = parsers_[hal::kUart0].stats().frames_accepted + parsers_[hal::kUart2].stats().frames_accepted;
+    st.drop_rate_comm = static_cast<uint16_t>(received + lost == 0 ? 0 : (10000ull * lost) / (received + lost));
+    st.errors_count1 = static_cast<uint16_t>(loop_timer_.overruns() > UINT16_MAX ? UINT16_MAX : loop_timer_.overruns());
+    st.errors_count2 = static_cast<uint16_t>(counters_.fixes_rejected > UINT16_MAX ? UINT16_MAX : counters_.fixes_rejected);
+    st.errors_count3 = static_cast<uint16_t>(counters_.tx_dropped_bytes > UINT16_MAX ? UINT16_MAX : counters_.tx_dropped_bytes);
+    broadcast(st);
+  }
+}
+
+}  // namespace fw
+}  // namespace quad

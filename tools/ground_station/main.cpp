@@ -1,0 +1,330 @@
+// quad_gs: a small ground station on the command line, to drive a HIL flight (or the vehicle) by hand
+// over a serial port: arm, disarm, switch mode, send a position setpoint, list / read / set parameters,
+// and watch the telemetry. It speaks MAVLink v2 as system 255, component 190 (docs/hil-protocol.md).
+//
+//   quad_gs --port PATH [--baud N] COMMAND [ARGS]
+//     arm | disarm [force] | mode manual|auto|land | land
+//     setpoint NORTH EAST DOWN [YAW_DEG]
+//     params                      every parameter as "NAME VALUE" (the quad_firmware --params format)
+//     get NAME | set NAME VALUE
+//     watch [SECONDS]             print STATUSTEXT, mode changes and the position estimate
+//
+// Exit status: 0 done, 1 refused or no answer, 2 usage error or the port cannot be opened.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "quad/hal/host.h"
+#include "quad/link/mavlink.h"
+
+namespace {
+
+namespace mav = quad::mavlink;
+
+constexpr uint8_t kVehicleSystem = 1;
+constexpr uint8_t kVehicleComponent = 1;
+constexpr uint32_t kModeManual = 1, kModeAuto = 2, kModeLanding = 3;
+const char* const kModeNames[] = {"DISARMED", "MANUAL", "AUTO", "LANDING"};
+
+const char kUsage[] =
+    "usage: quad_gs --port PATH [--baud N] COMMAND [ARGS]\n"
+    "  arm | disarm [force] | mode manual|auto|land | land\n"
+    "  setpoint NORTH EAST DOWN [YAW_DEG]   position setpoint in NED metres (AUTO)\n"
+    "  params                               list every parameter as 'NAME VALUE'\n"
+    "  get NAME | set NAME VALUE            read or set one parameter\n"
+    "  watch [SECONDS]                      print status text, mode and position (default 10 s)\n";
+
+// The link to the vehicle: the host HAL's UART0 on the given device, a parser and our identity.
+class Link {
+ public:
+  Link() : sender_(255, mav::kCompIdMissionPlanner) {}
+
+  template <class Msg>
+  void send(const Msg& msg) {
+    uint8_t buf[mav::max_frame_length<Msg>()];
+    const size_t n = sender_.encode(msg, buf, sizeof buf);
+    size_t done = 0;
+    while (done < n) {
+      const uint16_t w = quad::hal::serial_write(quad::hal::kUart0, buf + done, static_cast<uint16_t>(n - done));
+      if (w == 0) quad::hal::idle(1000);
+      done += w;
+      if (quad::hal::host::port_hung_up(quad::hal::kUart0)) return;
+    }
+  }
+
+  // Receives for up to timeout_ms, calling on_frame for each vehicle frame until it returns true.
+  // Returns whether it did.
+  template <class OnFrame>
+  bool receive(int timeout_ms, OnFrame&& on_frame) {
+    const uint32_t start = quad::hal::micros();
+    bool done = false;
+    while (!done && static_cast<int32_t>(quad::hal::micros() - start) < timeout_ms * 1000) {
+      quad::hal::idle(20000);
+      uint8_t buf[512];
+      uint16_t n;
+      while (!done && (n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
+        parser_.feed(buf, n, [&](const mav::Frame& f) {
+          if (done || f.system_id != kVehicleSystem) return;
+          print_statustext(f);
+          done = on_frame(f);
+        });
+      }
+      if (quad::hal::host::port_hung_up(quad::hal::kUart0)) break;
+    }
+    return done;
+  }
+
+ private:
+  static void print_statustext(const mav::Frame& f) {
+    mav::Statustext text;
+    if (mav::decode(f, text)) {
+      std::fprintf(stderr, "vehicle: %.*s\n", static_cast<int>(strnlen(text.text, sizeof text.text)), text.text);
+    }
+  }
+
+  mav::Sender sender_;
+  mav::Parser parser_;
+};
+
+void set_name(char (&dst)[16], const std::string& name) {
+  std::memset(dst, 0, sizeof dst);
+  std::memcpy(dst, name.data(), std::min<size_t>(name.size(), sizeof dst));
+}
+
+std::string name_of(const char (&id)[16]) { return std::string(id, strnlen(id, sizeof id)); }
+
+// COMMAND_LONG with retries; prints the outcome. 0 accepted, 1 otherwise.
+int command(Link& link, uint16_t cmd, float p1, float p2) {
+  mav::CommandLong msg;
+  msg.command = cmd;
+  msg.param1 = p1;
+  msg.param2 = p2;
+  msg.target_system = kVehicleSystem;
+  msg.target_component = kVehicleComponent;
+  for (uint8_t attempt = 0; attempt < 3; ++attempt) {
+    msg.confirmation = attempt;
+    link.send(msg);
+    mav::CommandAck ack;
+    const bool answered = link.receive(1500, [&](const mav::Frame& f) { return mav::decode(f, ack) && ack.command == cmd; });
+    if (!answered) continue;
+    // Let the STATUSTEXT that explains the outcome arrive too.
+    link.receive(200, [](const mav::Frame&) { return false; });
+    if (ack.result == mav::kResultAccepted) {
+      std::printf("accepted\n");
+      return 0;
+    }
+    std::printf("refused (MAV_RESULT %u)\n", ack.result);
+    return 1;
+  }
+  std::fprintf(stderr, "quad_gs: no answer from the vehicle\n");
+  return 1;
+}
+
+int list_params(Link& link) {
+  mav::ParamRequestList req;
+  req.target_system = kVehicleSystem;
+  req.target_component = kVehicleComponent;
+  std::map<uint16_t, mav::ParamValue> got;
+  int count = -1;
+  for (int attempt = 0; attempt < 3 && (count < 0 || static_cast<int>(got.size()) < count); ++attempt) {
+    if (attempt == 0 || count < 0) {
+      link.send(req);
+    } else {
+      // Ask for the missing ones by index.
+      for (int i = 0; i < count; ++i) {
+        if (got.count(static_cast<uint16_t>(i))) continue;
+        mav::ParamRequestRead read;
+        read.target_system = kVehicleSystem;
+        read.target_component = kVehicleComponent;
+        read.param_index = static_cast<int16_t>(i);
+        link.send(read);
+      }
+    }
+    link.receive(3000, [&](const mav::Frame& f) {
+      mav::ParamValue v;
+      if (!mav::decode(f, v)) return false;
+      count = v.param_count;
+      got[v.param_index] = v;
+      return static_cast<int>(got.size()) >= count;
+    });
+  }
+  for (const auto& entry : got) std::printf("%-16s %.9g\n", name_of(entry.second.param_id).c_str(), entry.second.param_value);
+  if (count < 0 || static_cast<int>(got.size()) < count) {
+    std::fprintf(stderr, "quad_gs: received %zu of %d parameters\n", got.size(), count);
+    return 1;
+  }
+  return 0;
+}
+
+int get_param(Link& link, const std::string& name) {
+  mav::ParamRequestRead read;
+  read.target_system = kVehicleSystem;
+  read.target_component = kVehicleComponent;
+  read.param_index = -1;
+  set_name(read.param_id, name);
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    link.send(read);
+    mav::ParamValue v;
+    if (link.receive(1500, [&](const mav::Frame& f) { return mav::decode(f, v) && name_of(v.param_id) == name; })) {
+      std::printf("%-16s %.9g\n", name.c_str(), v.param_value);
+      return 0;
+    }
+  }
+  std::fprintf(stderr, "quad_gs: no value for '%s' (unknown parameter?)\n", name.c_str());
+  return 1;
+}
+
+int set_param(Link& link, const std::string& name, float value) {
+  mav::ParamSet set;
+  set.target_system = kVehicleSystem;
+  set.target_component = kVehicleComponent;
+  set_name(set.param_id, name);
+  set.param_value = value;
+  set.param_type = mav::kParamTypeReal32;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    link.send(set);
+    mav::ParamValue v;
+    if (link.receive(1500, [&](const mav::Frame& f) { return mav::decode(f, v) && name_of(v.param_id) == name; })) {
+      std::printf("%-16s %.9g\n", name.c_str(), v.param_value);
+      if (v.param_value == value) return 0;
+      std::fprintf(stderr, "quad_gs: the vehicle kept %.9g\n", v.param_value);
+      return 1;
+    }
+  }
+  std::fprintf(stderr, "quad_gs: no answer for '%s' (unknown parameter?)\n", name.c_str());
+  return 1;
+}
+
+int send_setpoint(Link& link, float n, float e, float d, bool has_yaw, float yaw_deg) {
+  mav::SetPositionTargetLocalNed sp;
+  sp.target_system = kVehicleSystem;
+  sp.target_component = kVehicleComponent;
+  sp.coordinate_frame = mav::kFrameLocalNed;
+  // Use the position (and the yaw when given); ignore velocity, acceleration and yaw rate.
+  sp.type_mask = 0x38 | 0x1C0 | 0x800 | (has_yaw ? 0 : 0x400);
+  sp.x = n;
+  sp.y = e;
+  sp.z = d;
+  sp.yaw = yaw_deg * 3.14159265f / 180.0f;
+  link.send(sp);
+  std::printf("setpoint sent: N %.3f E %.3f D %.3f\n", n, e, d);
+  return 0;
+}
+
+int watch(Link& link, double seconds) {
+  int32_t last_mode = -1;
+  uint32_t last_print_ms = 0;
+  link.receive(static_cast<int>(seconds * 1000.0), [&](const mav::Frame& f) {
+    mav::Heartbeat hb;
+    mav::LocalPositionNed pos;
+    if (mav::decode(f, hb) && static_cast<int32_t>(hb.custom_mode) != last_mode) {
+      last_mode = static_cast<int32_t>(hb.custom_mode);
+      std::printf("mode %s%s\n", hb.custom_mode < 4 ? kModeNames[hb.custom_mode] : "?",
+                  (hb.base_mode & mav::kModeFlagSafetyArmed) ? " (armed)" : "");
+    } else if (mav::decode(f, pos) && pos.time_boot_ms - last_print_ms >= 1000) {
+      last_print_ms = pos.time_boot_ms;
+      std::printf("t %.1f s  p (%.2f, %.2f, %.2f) m  v (%.2f, %.2f, %.2f) m/s\n", pos.time_boot_ms / 1000.0, pos.x,
+                  pos.y, pos.z, pos.vx, pos.vy, pos.vz);
+    }
+    std::fflush(stdout);
+    return false;
+  });
+  return 0;
+}
+
+bool parse_float(const char* s, float* out) {
+  char* end = nullptr;
+  const double v = std::strtod(s, &end);
+  if (end == s || *end != '\0' || !std::isfinite(v)) return false;
+  *out = static_cast<float>(v);
+  return true;
+}
+
+int usage(const char* why) {
+  std::fprintf(stderr, "quad_gs: %s\n%s", why, kUsage);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  quad::hal::host::Config config;
+  config.ports[quad::hal::kUart0].baud = 57600;
+  std::vector<std::string> args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (a == "--port" || a == "--baud") {
+      if (i + 1 >= argc) return usage((a + ": missing value").c_str());
+      const char* v = argv[++i];
+      if (a == "--port") {
+        config.ports[quad::hal::kUart0].path = v;
+      } else {
+        config.ports[quad::hal::kUart0].baud = static_cast<uint32_t>(std::strtoul(v, nullptr, 10));
+        if (!quad::hal::host::baud_supported(config.ports[quad::hal::kUart0].baud)) {
+          return usage((std::string("--baud: '") + v + "' is not a supported baud rate").c_str());
+        }
+      }
+      continue;
+    }
+    args.push_back(a);
+  }
+  if (config.ports[quad::hal::kUart0].path.empty()) return usage("--port is required");
+  if (args.empty()) return usage("no command");
+
+  // Check the command line before opening the port.
+  const std::string& cmd = args[0];
+  float f[4] = {0, 0, 0, 0};
+  if (cmd == "arm" || cmd == "land" || cmd == "params") {
+    if (args.size() != 1) return usage((cmd + " takes no arguments").c_str());
+  } else if (cmd == "disarm") {
+    if (args.size() > 2 || (args.size() == 2 && args[1] != "force")) return usage("disarm [force]");
+  } else if (cmd == "mode") {
+    if (args.size() != 2 || (args[1] != "manual" && args[1] != "auto" && args[1] != "land")) {
+      return usage("mode manual|auto|land");
+    }
+  } else if (cmd == "setpoint") {
+    if (args.size() != 4 && args.size() != 5) return usage("setpoint NORTH EAST DOWN [YAW_DEG]");
+    for (size_t i = 1; i < args.size(); ++i) {
+      if (!parse_float(args[i].c_str(), &f[i - 1])) return usage(("not a number: '" + args[i] + "'").c_str());
+    }
+  } else if (cmd == "get") {
+    if (args.size() != 2 || args[1].size() > 16) return usage("get NAME (at most 16 characters)");
+  } else if (cmd == "set") {
+    if (args.size() != 3 || args[1].size() > 16) return usage("set NAME VALUE (name at most 16 characters)");
+    if (!parse_float(args[2].c_str(), &f[0])) return usage(("not a number: '" + args[2] + "'").c_str());
+  } else if (cmd == "watch") {
+    if (args.size() > 2 || (args.size() == 2 && !parse_float(args[1].c_str(), &f[0]))) return usage("watch [SECONDS]");
+  } else {
+    return usage(("unknown command '" + cmd + "'").c_str());
+  }
+
+  std::string error;
+  if (!quad::hal::host::open(config, &error)) {
+    std::fprintf(stderr, "quad_gs: %s\n", error.c_str());
+    return 2;
+  }
+  Link link;
+  int status = 0;
+  if (cmd == "arm") status = command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
+  else if (cmd == "disarm") status = command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
+  else if (cmd == "land") status = command(link, mav::kCmdNavLand, 0.0f, 0.0f);
+  else if (cmd == "mode") {
+    const uint32_t mode = args[1] == "manual" ? kModeManual : (args[1] == "auto" ? kModeAuto : kModeLanding);
+    status = command(link, mav::kCmdDoSetMode, static_cast<float>(mav::kModeFlagCustomModeEnabled), static_cast<float>(mode));
+  } else if (cmd == "setpoint") status = send_setpoint(link, f[0], f[1], f[2], args.size() == 5, f[3]);
+  else if (cmd == "params") status = list_params(link);
+  else if (cmd == "get") status = get_param(link, args[1]);
+  else if (cmd == "set") status = set_param(link, args[1], f[0]);
+  else if (cmd == "watch") status = watch(link, args.size() == 2 ? f[0] : 10.0);
+  quad::hal::host::close();
+  return status;
+}
