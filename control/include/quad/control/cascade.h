@@ -4,7 +4,7 @@
 // The pieces stay usable on their own (see their headers); this class only owns one of each and wires
 // them. step_attitude() starts at the attitude loop: for manual flight (ManualControl::command()), and
 // for running the attitude loop faster than the position loop (step() at the position rate, then
-// step_attitude(s, output().attitude) in between: on the ATmega2560 step() costs about 36 000 cycles
+// step_attitude(s, output().attitude) in between: on the ATmega2560 step() costs about 33 000 cycles
 // near hover, step_attitude() about 14 000; docs/control.md).
 //
 // Usage:
