@@ -1,1 +1,160 @@
+// Geometry and configuration of the vision station: the thesis rig, the camera-to-body transform
+// (eq. 7.22) and the vehicle position (eq. 8.5 with its erratum), the calibration file, the row gate of
+// the stereo match and the ROI tracker.
 #include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "quad/vision/stereo_locator.h"
+#include "star_scenes.h"
+
+namespace quad::vision {
+namespace {
+
+TEST(ThesisRigTest, RectifiedRigMatchesTable72AndTheBaseline) {
+  const StereoCalibration c = rectify(thesis_stereo_rig());
+  std::printf("[vision] thesis rig rectified: f %.1f px (table 7.2: 458.9), c (%.1f, %.1f), baseline %.4f m\n",
+              c.rectified_focal(), c.P1(0, 2), c.P1(1, 2), c.baseline());
+  EXPECT_NEAR(c.baseline(), kThesisBaseline, 1e-9);
+  // R is a proper rotation of a few degrees (eq. 7.34 rotates each camera by ~4°).
+  EXPECT_NEAR(cv::determinant(cv::Mat(c.rig.R)), 1.0, 1e-9);
+  const double angle = std::acos(std::clamp((cv::trace(c.rig.R) - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / CV_PI;
+  EXPECT_GT(angle, 1.0);
+  EXPECT_LT(angle, 10.0);
+  // Rectification makes the baseline horizontal: both rectified centres differ only in x.
+  EXPECT_NEAR(c.P2(1, 3), 0.0, 1e-9);
+  EXPECT_NEAR(c.P1(1, 2), c.P2(1, 2), 1e-9);
+}
+
+TEST(CameraMountTest, Eq722MapsImageAxesOntoBodyAxes) {
+  const CameraMount mount = thesis_camera_mount();
+  // Straight below the left camera at 1.5 m: the camera's offset plus the depth along body z (down).
+  const cv::Vec3d below = camera_to_body(mount, cv::Vec3d(0, 0, 1.5));
+  EXPECT_NEAR(below[0], 0.057, 1e-12);
+  EXPECT_NEAR(below[1], -0.057, 1e-12);
+  EXPECT_NEAR(below[2], 1.555, 1e-12);
+  // Image right (camera +x) is body right (+y); image down (camera +y) is body backward (−x).
+  const cv::Vec3d right = camera_to_body(mount, cv::Vec3d(0.3, 0, 1.5)) - below;
+  const cv::Vec3d down = camera_to_body(mount, cv::Vec3d(0, 0.3, 1.5)) - below;
+  EXPECT_NEAR(right[1], 0.3, 1e-12);
+  EXPECT_NEAR(down[0], -0.3, 1e-12);
+}
+
+TEST(CameraMountTest, Eq85ErratumPutsAHoveringVehicleAboveTheStar) {
+  const CameraMount mount = thesis_camera_mount();
+  // Level vehicle (R_IB = I), star 1.5 m straight below the left camera: the vehicle is at negative
+  // down (above the star) and offset by the camera's mounting position.
+  const cv::Vec3d p = vehicle_position_from_star(cv::Matx33d::eye(), mount, cv::Vec3d(0, 0, 1.5));
+  EXPECT_NEAR(p[2], -1.555, 1e-12);
+  EXPECT_NEAR(p[0], -0.057, 1e-12);
+  EXPECT_NEAR(p[1], 0.057, 1e-12);
+  // Yawed 90° (body x east): a star seen ahead of the vehicle puts the vehicle west of it... i.e. the
+  // NED position is the negative of the rotated body vector.
+  const cv::Matx33d yaw90(0, -1, 0, 1, 0, 0, 0, 0, 1);
+  const cv::Vec3d q = vehicle_position_from_star(yaw90, mount, cv::Vec3d(0, -0.5, 1.5));  // image up = ahead
+  const cv::Vec3d star_body = camera_to_body(mount, cv::Vec3d(0, -0.5, 1.5));
+  EXPECT_GT(star_body[0], 0.5);  // ahead
+  EXPECT_LT(q[1], -0.5);         // vehicle west of the star (star east of the vehicle)
+}
+
+class CalibrationFileTest : public ::testing::Test {
+ protected:
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / ("vision_calib_" + std::to_string(::getpid()));
+  void SetUp() override { std::filesystem::create_directories(dir); }
+  void TearDown() override { std::filesystem::remove_all(dir); }
+};
+
+TEST_F(CalibrationFileTest, RoundTripKeepsEveryMatrix) {
+  const StereoCalibration c = rectify(thesis_stereo_rig());
+  const std::string path = (dir / "calib.yaml").string();
+  save_calibration(c, path);
+  const StereoCalibration r = load_calibration(path);
+  EXPECT_EQ(r.rig.image_size, c.rig.image_size);
+  EXPECT_LT(cv::norm(cv::Mat(r.rig.left.K), cv::Mat(c.rig.left.K)), 1e-9);
+  EXPECT_LT(cv::norm(cv::Mat(r.rig.right.D), cv::Mat(c.rig.right.D)), 1e-12);
+  EXPECT_LT(cv::norm(cv::Mat(r.rig.T), cv::Mat(c.rig.T)), 1e-12);
+  EXPECT_LT(cv::norm(cv::Mat(r.P2), cv::Mat(c.P2)), 1e-9);
+  EXPECT_LT(cv::norm(cv::Mat(r.Q), cv::Mat(c.Q)), 1e-9);
+}
+
+TEST_F(CalibrationFileTest, MissingKeyIsNamed) {
+  const std::string path = (dir / "partial.yaml").string();
+  {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    fs << "image_width" << 728 << "image_height" << 488 << "K1" << cv::Mat::eye(3, 3, CV_64F);
+  }
+  try {
+    load_calibration(path);
+    FAIL() << "accepted a file without D1";
+  } catch (const CalibrationFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing key 'D1'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(load_calibration((dir / "absent.yaml").string()), CalibrationFileError);
+  std::ofstream(dir / "garbage.yaml") << "this is : not [ yaml\n";
+  EXPECT_THROW(load_calibration((dir / "garbage.yaml").string()), CalibrationFileError);
+}
+
+class LocatorTest : public ::testing::Test {
+ protected:
+  StereoRig rig = thesis_stereo_rig();
+  StereoCalibration calibration = rectify(rig);
+};
+
+TEST_F(LocatorTest, RowGateRejectsAVerticallyShiftedRightImage) {
+  cv::RNG rng(31);
+  const auto scene = testing::random_star_scene(rig, rng, testing::StarSceneRanges{});
+  ASSERT_TRUE(scene);
+  StereoStarLocator locator(calibration, LocatorSettings{});
+  auto shifted = [&](double dy) {
+    cv::Mat out;
+    cv::warpAffine(scene->right, out, cv::Matx23d(1, 0, 0, 0, 1, dy), scene->right.size(), cv::INTER_LINEAR,
+                   cv::BORDER_REPLICATE);
+    locator.reset_tracking();
+    return locator.locate(scene->left, out);
+  };
+  const StarFix small = shifted(1.0);
+  EXPECT_TRUE(small.found) << "a 1 px shift is within the 2.5 px tolerance";
+  const StarFix large = shifted(12.0);
+  EXPECT_FALSE(large.found) << "rows differ by ~12 px: the stereo match must fail";
+}
+
+TEST_F(LocatorTest, TrackingRoiAgreesWithFullFrameAndFallsBack) {
+  cv::RNG rng(32);
+  testing::StarSceneRanges ranges;
+  ranges.min_height = 1.2;
+  ranges.max_height = 2.0;
+  LocatorSettings tracked_settings;
+  LocatorSettings full_settings;
+  full_settings.track_roi = false;
+  StereoStarLocator tracked(calibration, tracked_settings);
+  StereoStarLocator full(calibration, full_settings);
+  int roi_frames = 0;
+  for (int i = 0; i < 12; ++i) {
+    const auto scene = testing::random_star_scene(rig, rng, ranges);
+    ASSERT_TRUE(scene);
+    // Each scene twice: the second frame is searched in the ROI of the first.
+    for (int repeat = 0; repeat < 2; ++repeat) {
+      const StarFix a = tracked.locate(scene->left, scene->right);
+      const StarFix b = full.locate(scene->left, scene->right);
+      ASSERT_TRUE(a.found && b.found);
+      roi_frames += a.used_roi ? 1 : 0;
+      // Two binarisations of the same pair (local vs whole-image floor estimate) differ by contour
+      // quantisation, which the lens magnifies near the image border; both must stay accurate.
+      EXPECT_LT(cv::norm(a.p_left - b.p_left), 0.01 * cv::norm(b.p_left));
+      EXPECT_LT(cv::norm(a.p_left - scene->truth_left), 0.02 * cv::norm(scene->truth_left));
+    }
+  }
+  // Every repeated frame used the ROI; scene changes (star elsewhere) fell back to the full frame.
+  EXPECT_GE(roi_frames, 12);
+  // A blank pair after a fix: no stale position.
+  const cv::Mat blank(rig.image_size, CV_8UC1, cv::Scalar(200));
+  EXPECT_FALSE(tracked.locate(blank, blank).found);
+}
+
+}  // namespace
+}  // namespace quad::vision

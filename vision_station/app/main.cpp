@@ -21,6 +21,7 @@
 #include "quad/vision/frame_source.h"
 #include "quad/vision/pair_list.h"
 #include "quad/vision/settings_file.h"
+#include "quad/vision/station.h"
 #include "quad/vision/stereo_locator.h"
 
 namespace {
@@ -236,30 +237,25 @@ int run(const std::map<std::string, std::string>& options) {
   std::signal(SIGINT, [](int) { g_stop = 1; });
   std::signal(SIGTERM, [](int) { g_stop = 1; });
 
+  Station station(locator, *source, timeout);
   Status status, total;
   int64_t status_start = monotonic_us();
   bool stalled = false;
-  StereoFrame frame;
   while (!g_stop) {
     if (link) link->poll(monotonic_us());
-    const ReadStatus r = source->read(frame, timeout);
-    if (r == ReadStatus::kEnd) break;
-    if (r == ReadStatus::kNoFrame) {
-      // Never a stale position: no frame, no fix; the tracker forgets its ROI.
-      locator.reset_tracking();
+    const StationStep step = station.step();
+    if (step.status == ReadStatus::kEnd) break;
+    if (step.status == ReadStatus::kNoFrame) {
       ++status.stalls;
       if (!stalled) std::cerr << "no fix: no frames for " << timeout.count() << " ms: " << source->health() << "\n";
       stalled = true;
     } else {
       if (stalled) std::cerr << "frames are back\n";
       stalled = false;
-      check_size(frame.left, frame.label.empty() ? "left image" : frame.label, calibration);
-      check_size(frame.right, frame.label.empty() ? "right image" : frame.label, calibration);
-      const StarFix fix = locator.locate(frame.left, frame.right);
-      status.add(fix);
-      total.add(fix);
-      if (fix.found && link) link->send(fix, settings.mount, frame.capture_time_us);
-      if (display) show(frame, fix);
+      status.add(step.fix);
+      total.add(step.fix);
+      if (step.fix.found && link) link->send(step.fix, settings.mount, step.frame.capture_time_us);
+      if (display) show(step.frame, step.fix);
     }
     const int64_t now = monotonic_us();
     if ((now - status_start) * 1e-6 >= status_period_s) {

@@ -70,6 +70,42 @@ void StarDetector::threshold(const cv::Mat& gray) {
   cv::compare(gray, threshold_full_, binary_, cv::CMP_LT);  // inverted: dark becomes 255
 }
 
+bool StarDetector::midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, const cv::Rect& box,
+                                    std::vector<cv::Point>& out) {
+  constexpr int kGrow = 4;  // the mid-level edge may lie a little outside the Otsu edge
+  const cv::Rect region = cv::Rect(box.x - kGrow, box.y - kGrow, box.width + 2 * kGrow, box.height + 2 * kGrow) & roi;
+  const cv::Rect local = region - roi.tl();
+  // The star's own grey: the mean of its interior (the binary shape eroded by two more pixels).
+  cv::erode(binary_(local), interior_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+  if (cv::countNonZero(interior_) < 16) return false;
+  const double star_grey = cv::mean(gray(region), interior_)[0];
+  // Floor grey B = threshold / ratio; mid-level = (B + star) / 2.
+  threshold_full_(local).convertTo(midpoint_, CV_8U, 0.5 / threshold_ratio_, 0.5 * star_grey);
+  cv::compare(gray(region), midpoint_, refine_binary_, cv::CMP_LT);
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
+  double best_area = 0.0;
+  const std::vector<cv::Point>* best = nullptr;
+  for (const std::vector<cv::Point>& contour : refine_contours_) {
+    const double area = cv::contourArea(contour);
+    if (area > best_area) {
+      best_area = area;
+      best = &contour;
+    }
+  }
+  if (best == nullptr) return false;
+  // Touching the region's border means the mid-level shape merged with something: keep the original.
+  const cv::Rect refined_box = cv::boundingRect(*best);
+  if ((refined_box & region) != refined_box || refined_box.x <= region.x || refined_box.y <= region.y ||
+      refined_box.br().x >= region.br().x || refined_box.br().y >= region.br().y) {
+    return false;
+  }
+  out = *best;
+  return true;
+}
+
 std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times) {
   CV_Assert(gray.type() == CV_8UC1);
   const cv::Rect image_rect(0, 0, gray.cols, gray.rows);
@@ -94,6 +130,7 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
   const bool roi_left = roi.x > 0, roi_top = roi.y > 0;
   const bool roi_right = roi.br().x < gray.cols, roi_bottom = roi.br().y < gray.rows;
   std::vector<cv::Point2f> polygon, hull;
+  std::vector<cv::Point> refined_contour;
   double rectify_us = 0.0;
   for (std::vector<cv::Point>& contour : contours_) {
     const cv::Rect box = cv::boundingRect(contour);
@@ -132,8 +169,17 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
     c.hu_distance = hu_distance(moments);
     if (!(c.hu_distance > s.min_hu_distance && c.hu_distance < s.max_hu_distance)) continue;
 
-    // Sub-pixel centroid from the moments of the rectified polygon (input of eq. 8.2–8.4).
-    c.centroid = cv::Point2d(moments.m10 / moments.m00, moments.m01 / moments.m00);
+    // Sub-pixel centroid from the moments of the rectified polygon (input of eq. 8.2–8.4), on the
+    // mid-level contour when refinement is on.
+    cv::Moments centroid_moments = moments;
+    if (s.refine_midpoint && midpoint_contour(gray, roi, box, refined_contour)) {
+      const Clock::time_point r1 = Clock::now();
+      rectifier_.apply(refined_contour, c.rectified);
+      rectify_us += microseconds(r1, Clock::now());
+      centroid_moments = cv::moments(c.rectified);
+      contour.swap(refined_contour);
+    }
+    c.centroid = cv::Point2d(centroid_moments.m10 / centroid_moments.m00, centroid_moments.m01 / centroid_moments.m00);
     c.box = box;
     c.contour = std::move(contour);
     candidates.push_back(std::move(c));

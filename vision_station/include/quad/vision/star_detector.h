@@ -25,6 +25,11 @@ struct DetectorSettings {
   double min_threshold_ratio = 0.25;
   double max_threshold_ratio = 0.85;
   int morphology_kernel_px = 3;      // square structuring element of erode, dilate ×2, erode
+  // (project) Re-threshold each accepted star at the mid-level between its own grey and the local floor,
+  // so that its edge sits where the pixel coverage is ½ whatever the Otsu level was: a uniform edge shift
+  // is not uniform after undistortion (the lens magnifies the edge nearer the image border) and would
+  // bias the centroid.
+  bool refine_midpoint = true;
 
   int edge_margin_px = 2;            // filter 1: contour at least this far from the image edge
   double min_area_px = 350.0;        // filter 2: rectified contour area strictly above this
@@ -82,6 +87,8 @@ class StarDetector {
 
  private:
   void threshold(const cv::Mat& gray);
+  // The mid-level contour of an accepted candidate (raw pixels), or false to keep the original.
+  bool midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, const cv::Rect& box, std::vector<cv::Point>& out);
   double hu_distance(const cv::Moments& moments) const;
 
   DetectorSettings settings_;
@@ -91,6 +98,8 @@ class StarDetector {
   cv::Mat small_, background_, ratio_, threshold_small_, threshold_full_;
   cv::Mat binary_;
   cv::Mat scratch_;
+  cv::Mat refine_binary_, refine_scratch_, interior_, midpoint_;
+  std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
   std::vector<std::vector<cv::Point>> contours_;
 };
