@@ -1,24 +1,61 @@
-// Core image for the cross targets: runs the math core on inputs the compiler cannot see (volatile),
-// so every routine is linked and measured. Replaced by the flight application's image.
-#include "quad/math/math.h"
+// Core image for the cross targets until hal/avr and hal/cortexm implement the board HAL: the whole
+// flight application runs on inputs the compiler cannot see (volatile), so every routine is linked,
+// the cross compilers check the freestanding rule, and the size report shows what the application
+// costs in flash and RAM. Storage is a RAM array standing in for the EEPROM; frames go to a sink.
+#include <string.h>
+
+#include "quad/firmware/app.h"
 
 namespace {
-volatile float g_in[4] = {0.1f, -0.2f, 0.3f, 0.01f};
-volatile float g_out[4];
+
+volatile float g_in[7] = {0.0f, 0.0f, -9.80665f, 0.01f, 0.0f, 0.0f, 0.3f};
+volatile float g_motor_out[quad::hal::kMotorCount];
+volatile uint8_t g_tx_sink;
+volatile uint8_t g_rx_byte;
+
+uint8_t g_storage[512];
+
+bool storage_read(uint16_t offset, void* dst, uint16_t length) {
+  if (offset + length > sizeof g_storage) return false;
+  memcpy(dst, g_storage + offset, length);
+  return true;
+}
+
+bool storage_write(uint16_t offset, const void* src, uint16_t length) {
+  if (offset + length > sizeof g_storage) return false;
+  memcpy(g_storage + offset, src, length);
+  return true;
+}
+
+uint16_t write_port(uint8_t, const uint8_t* data, uint16_t length) {
+  for (uint16_t i = 0; i < length; ++i) g_tx_sink = data[i];
+  return length;
+}
+
+uint32_t g_clock_us = 0;
+uint32_t micros() { return g_clock_us; }
+
+quad::fw::FlightApp g_app;
+
 }  // namespace
 
 int main() {
-  quad::Quat q = quad::Quat::identity();
+  memset(g_storage, 0xFF, sizeof g_storage);
+  quad::fw::AppIo io;
+  io.storage = quad::fw::StorageIo{storage_read, storage_write};
+  io.write = write_port;
+  io.micros = micros;
+  g_app.init(io, /*hil=*/false);
   for (;;) {
-    const quad::Vec3 w{g_in[0], g_in[1], g_in[2]};
-    q = quad::integrate_exact(q, w, g_in[3]);
-    q = quad::integrate_second_order(q, w, g_in[3]);
-    const quad::Euler e = quad::to_euler(q);
-    const quad::Quat back = quad::from_dcm(quad::dcm_from_euler(e));
-    const quad::Vec3 s = quad::sat_delta(quad::project(w, quad::rotate(back, w)), 0.03f);
-    g_out[0] = e.roll + s.x;
-    g_out[1] = e.pitch + s.y;
-    g_out[2] = e.yaw + s.z;
-    g_out[3] = quad::norm(quad::to_rotation_vector(quad::from_euler(e)));
+    g_clock_us += 10000u;
+    quad::hal::ImuSample imu;
+    imu.accel = quad::Vec3{g_in[0], g_in[1], g_in[2]};
+    imu.gyro = quad::Vec3{g_in[3], g_in[4], g_in[5]};
+    quad::hal::MagSample mag;
+    mag.field = quad::Vec3{g_in[6], 0.0f, 0.4f};
+    const uint8_t byte = g_rx_byte;
+    g_app.receive(quad::hal::kUart2, &byte, 1, g_clock_us);
+    g_app.step(g_clock_us, imu, &mag);
+    for (uint8_t i = 0; i < quad::hal::kMotorCount; ++i) g_motor_out[i] = g_app.motors()[i];
   }
 }

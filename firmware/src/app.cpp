@@ -9,19 +9,19 @@ namespace mav = ::quad::mavlink;
 namespace {
 
 // MAV_SYS_STATUS_SENSOR bits reported in SYS_STATUS.
-constexpr uint32_t kSensorGyro = 1u << 0;
-constexpr uint32_t kSensorAccel = 1u << 1;
-constexpr uint32_t kSensorMag = 1u << 2;
-constexpr uint32_t kSensorVision = 1u << 7;
-constexpr uint32_t kSensorRc = 1u << 16;
-constexpr uint32_t kSensorAhrs = 1u << 21;
+constexpr uint32_t kSensorGyro = UINT32_C(1) << 0;
+constexpr uint32_t kSensorAccel = UINT32_C(1) << 1;
+constexpr uint32_t kSensorMag = UINT32_C(1) << 2;
+constexpr uint32_t kSensorVision = UINT32_C(1) << 7;
+constexpr uint32_t kSensorRc = UINT32_C(1) << 16;
+constexpr uint32_t kSensorAhrs = UINT32_C(1) << 21;
 
 // HIL_SENSOR.fields_updated: bits 6..8 flag a new magnetometer sample.
 constexpr uint32_t kHilMagFields = 0x1C0u;
 
 // SET_POSITION_TARGET_LOCAL_NED.type_mask bits.
 constexpr uint16_t kIgnorePosition = 0x7u;
-constexpr uint16_t kIgnoreYaw = 1u << 10;
+constexpr uint16_t kIgnoreYaw = 0x400u;
 
 constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
 
@@ -29,7 +29,8 @@ float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
 // MANUAL_CONTROL axis (-1000..1000) to a 1000..2000 us pulse.
 uint16_t axis_to_pulse(int16_t v, bool reverse) {
-  int32_t p = 1500 + (reverse ? -v : v) / 2;
+  const int32_t axis = reverse ? -static_cast<int32_t>(v) : static_cast<int32_t>(v);
+  int32_t p = 1500 + axis / 2;
   if (p < 1000) p = 1000;
   if (p > 2000) p = 2000;
   return static_cast<uint16_t>(p);
@@ -39,6 +40,26 @@ void copy_name(char (&dst)[16], const char* src) {
   memset(dst, 0, sizeof dst);
   for (uint8_t i = 0; i < 16 && src[i] != '\0'; ++i) dst[i] = src[i];
 }
+
+// One STATUSTEXT line assembled from flash texts and RAM strings (names, the control library's field
+// names); anything beyond MAVLink's 50 characters is cut.
+class StatusLine {
+ public:
+  explicit StatusLine(uint8_t severity) { msg_.severity = severity; }
+  StatusLine& operator<<(FlashText text) {
+    append_text(msg_.text, sizeof msg_.text, n_, text);
+    return *this;
+  }
+  StatusLine& operator<<(const char* ram) {
+    for (const char* c = ram; c != nullptr && *c != '\0' && n_ < sizeof msg_.text; ++c) msg_.text[n_++] = *c;
+    return *this;
+  }
+  const mav::Statustext& message() const { return msg_; }
+
+ private:
+  mav::Statustext msg_;
+  size_t n_ = 0;
+};
 
 }  // namespace
 
@@ -56,11 +77,11 @@ void FlightApp::init(const AppIo& io, bool hil) {
     params_.reset_to_defaults();
     store_in_sync_ = false;
     apply_params(params_, &error);
-    send_statustext(mav::kSeverityError, "params rejected, defaults: ", error);
+    broadcast((StatusLine(mav::kSeverityError) << QUAD_TEXT("params rejected, defaults: ") << error).message());
   }
   if (store_status_ != StoreStatus::kLoaded) send_statustext(mav::kSeverityWarning, store_status_text(store_status_));
   calibration_.restart();
-  send_statustext(mav::kSeverityInfo, "calibrating: keep the vehicle still");
+  send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrating: keep the vehicle still"));
 }
 
 bool FlightApp::apply_params(const Params& p, const char** error) {
@@ -147,9 +168,8 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   attitude_rate_.configure(p.get(kTelAttHz), loop_hz);
   position_tel_rate_.configure(p.get(kTelPosHz), loop_hz);
   status_rate_.configure(p.get(kTelSysHz), loop_hz);
-  // The attitude history spans at least 0.3 s of vision delay at any loop rate.
-  const float records_per_s = static_cast<float>(AttitudeHistory::kCapacity - 2) / 0.3f;
-  history_.set_decimation(static_cast<uint8_t>(loop_hz / records_per_s) + 1u);
+  // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
+  history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
 
   land_speed_ = p.get(kLandSpeed);
   land_vz_max_ = p.get(kLandVzMax);
@@ -301,7 +321,7 @@ void FlightApp::on_manual_control(const mav::ManualControl& msg) {
   sticks.roll = axis_to_pulse(msg.y, false);
   sticks.pitch = axis_to_pulse(msg.x, true);
   sticks.yaw = axis_to_pulse(msg.r, false);
-  int32_t throttle = 1000 + (msg.z < 0 ? 0 : msg.z);
+  const int32_t throttle = 1000 + (msg.z < 0 ? 0 : static_cast<int32_t>(msg.z));
   sticks.throttle = static_cast<uint16_t>(throttle > 2000 ? 2000 : throttle);
   rc_input(sticks, now_us_);
 }
@@ -350,7 +370,7 @@ void FlightApp::on_command(uint8_t port, const mav::CommandLong& cmd) {
         case static_cast<int>(FlightMode::kLanding): c = Command::kLand; break;
         default:
           send_ack(port, cmd.command, mav::kResultDenied);
-          send_statustext(mav::kSeverityWarning, "unknown custom mode");
+          send_statustext(mav::kSeverityWarning, QUAD_TEXT("unknown custom mode"));
           return;
       }
       break;
@@ -376,7 +396,7 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
     char name[kParamNameLength + 1];
     memcpy(name, msg.param_id, kParamNameLength);
     name[kParamNameLength] = '\0';
-    send_statustext(mav::kSeverityWarning, "no such param: ", name);
+    broadcast((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("no such param: ") << name).message());
     return;
   }
   const uint8_t i = static_cast<uint8_t>(index);
@@ -384,15 +404,18 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
   const ParamError e = candidate.set(i, msg.param_value);
   const char* error = nullptr;
   if (e != ParamError::kNone) {
-    send_statustext(mav::kSeverityWarning, e == ParamError::kNotFinite ? "param not finite: " : "param out of range: ",
-                    param_info(i).name);
+    const ParamInfo info = param_info(i);
+    broadcast((StatusLine(mav::kSeverityWarning)
+               << (e == ParamError::kNotFinite ? QUAD_TEXT("param not finite: ") : QUAD_TEXT("param out of range: "))
+               << info.name)
+                  .message());
   } else if (!apply_params(candidate, &error)) {
-    send_statustext(mav::kSeverityWarning, "param refused: ", error);
+    broadcast((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("param refused: ") << error).message());
   } else {
     params_ = candidate;
     const bool saved = store_in_sync_ ? params_save_one(io_.storage, params_, i) : params_save_all(io_.storage, params_);
     store_in_sync_ = saved;
-    if (!saved) send_statustext(mav::kSeverityError, "param storage write failed");
+    if (!saved) send_statustext(mav::kSeverityError, QUAD_TEXT("param storage write failed"));
   }
   // Always answer with the value now in force, so the sender sees whether its value was taken.
   send_param(port, i);
@@ -426,7 +449,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
       } else {
         observer_.reset(observer_.attitude(), bias_.gyro_bias);
       }
-      send_statustext(mav::kSeverityInfo, "calibrated, ready to arm");
+      send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrated, ready to arm"));
     }
   } else {
     estimate(imu.gyro, imu.accel - bias_.accel_bias, mag, dt);
@@ -482,16 +505,9 @@ void FlightApp::handle_transition(const Transition& t) {
   const bool failsafe = t.reason == Reason::kFailsafeVisionLost || t.reason == Reason::kFailsafeRcLost ||
                         t.reason == Reason::kFailsafeEstimator;
   const uint8_t severity = failsafe ? mav::kSeverityCritical : (t.accepted ? mav::kSeverityInfo : mav::kSeverityWarning);
-  if (t.changed) {
-    char text[24];
-    const char* name = mode_name(t.to);
-    size_t n = strlen(name);
-    memcpy(text, name, n);
-    memcpy(text + n, ": ", 3);
-    send_statustext(severity, text, reason_text(t.reason));
-  } else {
-    send_statustext(severity, reason_text(t.reason));
-  }
+  StatusLine line(severity);
+  if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
+  broadcast((line << reason_text(t.reason)).message());
 }
 
 void FlightApp::enter_mode(FlightMode from, FlightMode to) {
@@ -615,16 +631,7 @@ void FlightApp::send_actuators(uint64_t time_usec) {
   send(hal::kUart0, out);
 }
 
-void FlightApp::send_statustext(uint8_t severity, const char* text, const char* detail) {
-  mav::Statustext msg;
-  msg.severity = severity;
-  size_t n = 0;
-  for (const char* s = text; *s != '\0' && n < sizeof msg.text; ++s) msg.text[n++] = *s;
-  if (detail != nullptr) {
-    for (const char* s = detail; *s != '\0' && n < sizeof msg.text; ++s) msg.text[n++] = *s;
-  }
-  broadcast(msg);
-}
+void FlightApp::send_statustext(uint8_t severity, FlashText text) { broadcast((StatusLine(severity) << text).message()); }
 
 void FlightApp::send_param(uint8_t port, uint8_t index) {
   const ParamInfo info = param_info(index);

@@ -13,40 +13,40 @@ bool within(uint32_t now_us, uint32_t then_us, float timeout_s) {
 
 }  // namespace
 
-const char* mode_name(FlightMode mode) {
+FlashText mode_name(FlightMode mode) {
   switch (mode) {
-    case FlightMode::kDisarmed: return "DISARMED";
-    case FlightMode::kManual: return "MANUAL";
-    case FlightMode::kAuto: return "AUTO";
-    case FlightMode::kLanding: return "LANDING";
+    case FlightMode::kDisarmed: return QUAD_TEXT("DISARMED");
+    case FlightMode::kManual: return QUAD_TEXT("MANUAL");
+    case FlightMode::kAuto: return QUAD_TEXT("AUTO");
+    case FlightMode::kLanding: return QUAD_TEXT("LANDING");
   }
-  return "?";
+  return QUAD_TEXT("?");
 }
 
-const char* reason_text(Reason reason) {
+FlashText reason_text(Reason reason) {
   switch (reason) {
-    case Reason::kNone: return "";
-    case Reason::kArmed: return "armed";
-    case Reason::kDisarmed: return "disarmed";
-    case Reason::kLandedDisarmed: return "landed, disarmed";
-    case Reason::kManualSelected: return "manual selected";
-    case Reason::kAutoSelected: return "auto selected";
-    case Reason::kLandCommanded: return "land commanded";
-    case Reason::kFailsafeVisionLost: return "FAILSAFE vision lost: level, land";
-    case Reason::kFailsafeRcLost: return "FAILSAFE RC lost: land";
-    case Reason::kFailsafeEstimator: return "FAILSAFE estimator unhealthy: land";
-    case Reason::kRejectEstimatorNotConverged: return "arm refused: estimator not converged";
-    case Reason::kRejectSensors: return "arm refused: sensors unhealthy";
-    case Reason::kRejectNoRc: return "refused: no RC";
-    case Reason::kRejectThrottleHigh: return "arm refused: throttle not low";
-    case Reason::kRejectNoVision: return "auto refused: no vision fix";
-    case Reason::kRejectEstimatorUnhealthy: return "auto refused: estimator unhealthy";
-    case Reason::kRejectNotArmed: return "refused: not armed";
-    case Reason::kRejectAlreadyArmed: return "arm refused: already armed";
-    case Reason::kRejectInFlight: return "disarm refused: in flight";
-    case Reason::kRejectLanding: return "refused: landing";
+    case Reason::kNone: return QUAD_TEXT("");
+    case Reason::kArmed: return QUAD_TEXT("armed");
+    case Reason::kDisarmed: return QUAD_TEXT("disarmed");
+    case Reason::kLandedDisarmed: return QUAD_TEXT("landed, disarmed");
+    case Reason::kManualSelected: return QUAD_TEXT("manual selected");
+    case Reason::kAutoSelected: return QUAD_TEXT("auto selected");
+    case Reason::kLandCommanded: return QUAD_TEXT("land commanded");
+    case Reason::kFailsafeVisionLost: return QUAD_TEXT("FAILSAFE vision lost: level, land");
+    case Reason::kFailsafeRcLost: return QUAD_TEXT("FAILSAFE RC lost: land");
+    case Reason::kFailsafeEstimator: return QUAD_TEXT("FAILSAFE estimator unhealthy: land");
+    case Reason::kRejectEstimatorNotConverged: return QUAD_TEXT("arm refused: estimator not converged");
+    case Reason::kRejectSensors: return QUAD_TEXT("arm refused: sensors unhealthy");
+    case Reason::kRejectNoRc: return QUAD_TEXT("refused: no RC");
+    case Reason::kRejectThrottleHigh: return QUAD_TEXT("arm refused: throttle not low");
+    case Reason::kRejectNoVision: return QUAD_TEXT("auto refused: no vision fix");
+    case Reason::kRejectEstimatorUnhealthy: return QUAD_TEXT("auto refused: estimator unhealthy");
+    case Reason::kRejectNotArmed: return QUAD_TEXT("refused: not armed");
+    case Reason::kRejectAlreadyArmed: return QUAD_TEXT("arm refused: already armed");
+    case Reason::kRejectInFlight: return QUAD_TEXT("disarm refused: in flight");
+    case Reason::kRejectLanding: return QUAD_TEXT("refused: landing");
   }
-  return "?";
+  return QUAD_TEXT("?");
 }
 
 bool ModeMachine::vision_fresh(const ModeInputs& in) const {

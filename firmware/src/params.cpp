@@ -79,15 +79,15 @@ void Params::reset_to_defaults() {
   ++generation_;
 }
 
-const char* store_status_text(StoreStatus status) {
+FlashText store_status_text(StoreStatus status) {
   switch (status) {
-    case StoreStatus::kLoaded: return "params loaded";
-    case StoreStatus::kEmpty: return "params: store empty, defaults";
-    case StoreStatus::kSchemaChanged: return "params: table changed, defaults";
-    case StoreStatus::kCorrupt: return "params: store corrupt, defaults";
-    case StoreStatus::kIoError: return "params: storage error, defaults";
+    case StoreStatus::kLoaded: return QUAD_TEXT("params loaded");
+    case StoreStatus::kEmpty: return QUAD_TEXT("params: store empty, defaults");
+    case StoreStatus::kSchemaChanged: return QUAD_TEXT("params: table changed, defaults");
+    case StoreStatus::kCorrupt: return QUAD_TEXT("params: store corrupt, defaults");
+    case StoreStatus::kIoError: return QUAD_TEXT("params: storage error, defaults");
   }
-  return "params: ?";
+  return QUAD_TEXT("params: ?");
 }
 
 // FNV-1a over the names, folded to 16 bits: a firmware with a different table never reads this one's

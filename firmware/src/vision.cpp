@@ -11,6 +11,11 @@ int16_t quantise(float x) {
 
 }  // namespace
 
+uint8_t AttitudeHistory::decimation_for(float loop_hz, float span_s) {
+  const float d = ceilf(loop_hz * span_s / static_cast<float>(kCapacity - 2));
+  return d < 1.0f ? 1 : (d > 255.0f ? 255 : static_cast<uint8_t>(d));
+}
+
 void AttitudeHistory::push(uint32_t t_us, const Quat& q) {
   newest_push_us_ = t_us;
   if (count_ > 0 && ++skip_ < decimation_) return;

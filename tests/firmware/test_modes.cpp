@@ -304,7 +304,7 @@ TEST(Modes, TimeoutsSurviveClockWrap) {
 
 TEST(Modes, EveryReasonHasText) {
   for (int r = static_cast<int>(Reason::kArmed); r <= static_cast<int>(Reason::kRejectLanding); ++r) {
-    const char* text = quad::fw::reason_text(static_cast<Reason>(r));
+    const char* text = quad::fw::reason_text(static_cast<Reason>(r)).p;
     ASSERT_NE(text, nullptr);
     EXPECT_GT(strlen(text), 3u) << r;
     EXPECT_LE(strlen(text), 50u) << "STATUSTEXT holds 50 characters: " << text;

@@ -205,7 +205,7 @@ TEST_F(ParamStore, DifferentSchemaIsNotLoaded) {
   eeprom_.bytes[4] ^= 0x5A;
   Params loaded;
   EXPECT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kSchemaChanged);
-  EXPECT_STRNE(quad::fw::store_status_text(StoreStatus::kSchemaChanged), "");
+  EXPECT_STRNE(quad::fw::store_status_text(StoreStatus::kSchemaChanged).p, "");
 }
 
 }  // namespace

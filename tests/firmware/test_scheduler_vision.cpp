@@ -98,6 +98,7 @@ TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
   const Eigen::Vector3f axis = Eigen::Vector3f(0.3f, -0.5f, 0.8f).normalized();
   auto truth = [&](double t) { return Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(t), axis)); };
   AttitudeHistory h;
+  h.set_decimation(2);  // one record per 20 ms
   for (int k = 0; k <= 40; ++k) {
     const Eigen::Quaternionf q = truth(k * 0.01);
     h.push(static_cast<uint32_t>(k * 10000), quad::Quat{q.w(), q.x(), q.y(), q.z()});
@@ -109,8 +110,8 @@ TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
   ASSERT_TRUE(h.lookup(t_query, q));
   const Eigen::Quaternionf expect = truth(t_query * 1e-6);
   const float err = Eigen::Quaternionf(q.w, q.x, q.y, q.z).angularDistance(expect);
-  EXPECT_LT(err, 2e-4f);
-  // Older than the oldest record (32 records span 0.31 s): refused rather than guessed.
+  EXPECT_LT(err, 3e-4f);
+  // Older than the oldest record (16 records at 20 ms span 0.30 s): refused rather than guessed.
   EXPECT_FALSE(h.lookup(400000 - 320000, q));
   // Newer than the last push: refused.
   EXPECT_FALSE(h.lookup(400001, q));
@@ -118,11 +119,17 @@ TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
 }
 
 TEST(AttitudeHistory, DecimationStretchesTheSpan) {
-  AttitudeHistory h;
-  h.set_decimation(4);  // 400 Hz loop, one record per 10 ms
-  for (int k = 0; k <= 400; ++k) h.push(static_cast<uint32_t>(k * 2500), quad::Quat::identity());
-  quad::Quat q;
-  EXPECT_TRUE(h.lookup(1000000 - 300000, q)) << "0.3 s back must still be covered";
+  for (float hz : {50.0f, 100.0f, 400.0f, 1000.0f}) {
+    AttitudeHistory h;
+    h.set_decimation(AttitudeHistory::decimation_for(hz, 0.3f));
+    const uint32_t period = static_cast<uint32_t>(1e6f / hz);
+    const int n = static_cast<int>(hz);  // one second
+    for (int k = 0; k <= n; ++k) h.push(static_cast<uint32_t>(k) * period, quad::Quat::identity());
+    quad::Quat q;
+    const uint32_t now = static_cast<uint32_t>(n) * period;
+    EXPECT_TRUE(h.lookup(now - 300000, q)) << hz << " Hz: 0.3 s back must still be covered";
+    EXPECT_FALSE(h.lookup(now - 700000, q)) << hz << " Hz: the history is not unbounded";
+  }
 }
 
 TEST(AttitudeHistory, InterpolatesAcrossTheQuaternionSignFlip) {

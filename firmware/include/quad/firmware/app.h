@@ -39,9 +39,9 @@ constexpr uint8_t kVehicleSystemId = 1;
 constexpr uint8_t kVehicleComponentId = 1;
 
 // The position filter predicts at about this rate whatever the control loop rate; its history covers
-// 300 ms of vision delay at that rate.
+// 250 ms of vision delay at that rate.
 constexpr float kPositionRateHz = 100.0f;
-constexpr int kPositionHistory = est::history_length(100, 300);
+constexpr int kPositionHistory = est::history_length(100);
 
 // MAVLink's MAV_CMD_COMPONENT_ARM_DISARM param2 that forces a disarm in flight.
 constexpr float kForceDisarmMagic = 21196.0f;
@@ -128,7 +128,7 @@ class FlightApp {
   void detect_landing(float dt);
   void telemetry();
 
-  void send_statustext(uint8_t severity, const char* text, const char* detail = nullptr);
+  void send_statustext(uint8_t severity, FlashText text);
   void send_param(uint8_t port, uint8_t index);
   void send_ack(uint8_t port, uint16_t command, uint8_t result);
   void send_actuators(uint64_t time_usec);

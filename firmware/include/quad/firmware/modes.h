@@ -15,13 +15,15 @@
 
 #include <stdint.h>
 
+#include "quad/firmware/flash.h"
+
 namespace quad {
 namespace fw {
 
 // MAVLink custom_mode values (HEARTBEAT.custom_mode, MAV_CMD_DO_SET_MODE param2).
 enum class FlightMode : uint8_t { kDisarmed = 0, kManual = 1, kAuto = 2, kLanding = 3 };
 
-const char* mode_name(FlightMode mode);
+FlashText mode_name(FlightMode mode);
 
 struct ModeConfig {
   float vision_timeout_s = 0.5f;
@@ -69,7 +71,7 @@ enum class Reason : uint8_t {
   kRejectLanding,
 };
 
-const char* reason_text(Reason reason);
+FlashText reason_text(Reason reason);
 
 struct Transition {
   bool changed = false;    // the mode changed

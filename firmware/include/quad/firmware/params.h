@@ -7,6 +7,8 @@
 
 #include <stdint.h>
 
+#include "quad/firmware/flash.h"
+
 namespace quad {
 namespace fw {
 
@@ -145,7 +147,7 @@ enum class StoreStatus : uint8_t {
   kIoError,        // the storage could not be read: defaults
 };
 
-const char* store_status_text(StoreStatus status);
+FlashText store_status_text(StoreStatus status);
 
 uint16_t params_schema_hash();
 uint16_t params_store_size();

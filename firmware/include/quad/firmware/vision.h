@@ -17,11 +17,15 @@
 namespace quad {
 namespace fw {
 
-// Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad) so that a
-// few hundred milliseconds of history cost a few hundred bytes of SRAM.
+// Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad): 16 records
+// of 12 bytes cover a few hundred milliseconds (every 3rd iteration at 100 Hz spans 0.48 s).
 class AttitudeHistory {
  public:
-  static constexpr uint8_t kCapacity = 32;
+  static constexpr uint8_t kCapacity = 16;
+
+  // The smallest decimation at which the records span at least span_s at loop_hz (two records spare
+  // for the interpolation at both ends).
+  static uint8_t decimation_for(float loop_hz, float span_s);
 
   // Record one sample every `decimation` calls to push().
   void set_decimation(uint8_t decimation) { decimation_ = decimation == 0 ? 1 : decimation; }
