@@ -1,14 +1,27 @@
 #include "quad/estimation/conditioned_observer.h"
 
-#include "gravity_gate.h"
 #include "quad/estimation/vector_attitude.h"
 
 namespace quad {
 namespace est {
 
 namespace {
+
 constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
+
+// Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
+// approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
+// renormalises to round-off without the square root and division of a full normalisation.
+Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt) {
+  const float half_dt = 0.5f * dt;
+  const float x2 = half_dt * half_dt * norm_sq(omega);
+  const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
+  const Quat d{1.0f - 0.5f * x2, omega.x * k, omega.y * k, omega.z * k};
+  const Quat n = q * d;  // A(Omega) q = q (x) [0, Omega]
+  return n * (1.5f - 0.5f * norm_sq(n));
 }
+
+}  // namespace
 
 ConditionedObserver::ConditionedObserver(const ObserverParams& params) : params_(params) { cache_reference(); }
 
@@ -17,8 +30,13 @@ void ConditionedObserver::set_params(const ObserverParams& params) {
   cache_reference();
 }
 
-// The inertial reference direction and the constant denominator, computed once per reference.
+// The inertial reference direction, the constant denominator and the accelerometer gate, computed
+// once per parameter set rather than on every sample.
 void ConditionedObserver::cache_reference() {
+  const float lo = maxf(1.0f - params_.accel_norm_tolerance, 0.0f) * kGravity;
+  const float hi = (1.0f + params_.accel_norm_tolerance) * kGravity;
+  accel_lo2_ = lo * lo;
+  accel_hi2_ = hi * hi;
   const Vec3& m = params_.mag_ref_ned;
   if (params_.innovation == Innovation::Conditioned) {
     // thesis eq. 4.7: v_I = pi_{e3} m_I / ||pi_{e3} m_I||; pi_{e3} m = (m_N, m_E, 0).
@@ -62,16 +80,16 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   }
   const ObserverParams& k = params_;
   // Estimated directions in the body frame: with q = q_IB, u_hat_B = R^T u_I (the transpose of what
-  // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R.
-  const Mat3 r = to_dcm(q_);
-  const Vec3 u_hat = r.row(2);
+  // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R (eq. 3.18).
+  const float qw = q_.w, qx = q_.x, qy = q_.y, qz = q_.z;
+  const Vec3 u_hat{2.0f * (qx * qz - qw * qy), 2.0f * (qy * qz + qw * qx), 1.0f - 2.0f * (qx * qx + qy * qy)};
 
   // Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
   // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm.
   Vec3 u_meas;
   bool use_accel = false;
   const float a2 = norm_sq(accel);
-  if (near_gravity(a2, k.accel_norm_tolerance)) {
+  if (a2 > accel_lo2_ && a2 < accel_hi2_) {  // false for NaN
     u_meas = accel * (-1.0f / sqrtf(a2));
     use_accel = true;
   }
@@ -91,16 +109,25 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
     sigma_b -= e_u * k.k3;
   }
   if (use_mag) {
-    const Vec3 v_hat = mul_transpose(r, v_ref_);  // R^T v_I
+    // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
+    // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
+    Vec3 v_hat;
+    if (v_ref_.x != 0.0f) {
+      v_hat += Vec3{1.0f - 2.0f * (qy * qy + qz * qz), 2.0f * (qx * qy - qw * qz), 2.0f * (qx * qz + qw * qy)} * v_ref_.x;
+    }
+    if (v_ref_.y != 0.0f) {
+      v_hat += Vec3{2.0f * (qx * qy + qw * qz), 1.0f - 2.0f * (qx * qx + qz * qz), 2.0f * (qy * qz - qw * qx)} * v_ref_.y;
+    }
+    if (v_ref_.z != 0.0f) v_hat += u_hat * v_ref_.z;
     if (k.innovation == Innovation::Conditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.
+      // The constant 1/||pi_{u_I} m_I|| is applied to the scalar gains instead of the vector.
       const Vec3& axis = use_accel ? u_meas : u_hat;
-      const Vec3 v_meas = (mag - axis * dot(axis, mag)) * inv_mag_h_;
-      const Vec3 e_v = cross(v_meas, v_hat);
+      const Vec3 e_v = cross(mag - axis * dot(axis, mag), v_hat);  // sk(v_B) v_hat / inv_mag_h_
       // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.
-      sigma_r += u_hat * (k.k2 * dot(u_hat, e_v));
-      sigma_b -= e_v * k.k4;
+      sigma_r += u_hat * (k.k2 * inv_mag_h_ * dot(u_hat, e_v));
+      sigma_b -= e_v * (k.k4 * inv_mag_h_);
     } else {
       // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
       const Vec3 v_meas = mag * (1.0f / sqrtf(norm_sq(mag)));
@@ -112,20 +139,23 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
   const Vec3 rate = gyro - bias_;
   const Vec3 omega = rate + sigma_r;
-  const Quat q_next =
-      k.propagator == Propagator::Exact ? integrate_exact(q_, omega, dt) : integrate_second_order(q_, omega, dt);
+  const Quat q_next = k.propagator == Propagator::Exact ? normalized(integrate_exact(q_, omega, dt))
+                                                        : propagate_second_order(q_, omega, dt);
   // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
-  // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none).
+  // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
+  // sat_Delta(b) - b = b (Delta/|b| - 1).
   Vec3 b_dot = sigma_b;
-  if (k.innovation == Innovation::Conditioned) b_dot += (sat_delta(bias_, k.delta) - bias_) * k.kb;
+  const float b2 = norm_sq(bias_);
+  if (k.innovation == Innovation::Conditioned && b2 > k.delta * k.delta) {
+    b_dot += bias_ * (k.kb * (k.delta / sqrtf(b2) - 1.0f));
+  }
   const Vec3 b_next = bias_ + b_dot * dt;
 
   if (!is_finite(q_next) || !is_finite(b_next)) {
     ++health_.state_restored;
     return;
   }
-  // The exact propagator preserves the norm only up to round-off: renormalise (sqrt, once per step).
-  q_ = k.propagator == Propagator::Exact ? normalized(q_next) : q_next;
+  q_ = q_next;
   bias_ = b_next;
   rate_ = rate;
   ++health_.updates;

@@ -66,28 +66,28 @@ PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity,
 void PositionFilterCore::set_params(const PositionFilterParams& params) {
   params_ = params;
   const bool white = params.process_noise == ProcessNoise::WhiteAcceleration;
-  for (int i = 0; i < 3; ++i) {
-    qp_[i] = white ? 0.0f : params.q_pos;
-    qv_[i] = white ? params.q_accel : params.q_vel;
-  }
+  qp_ = white ? 0.0f : params.q_pos;
+  qv_ = white ? params.q_accel : params.q_vel;
   qb_ = params.z_accel_bias ? params.q_bias : 0.0f;
+  q_dt_ = -1.0f;  // the cached Q(T) belongs to the old parameters
   if (!params.z_accel_bias) {
     x_[2].b = 0.0f;
-    p_[2].pb = p_[2].vb = p_[2].bb = 0.0f;
+    p_[1].pb = p_[1].vb = p_[1].bb = 0.0f;
     corr_[2].b = 0.0f;
   }
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
-  const float vel_var = sqf(params_.vel_sigma0);
   for (int i = 0; i < 3; ++i) {
     x_[i] = AxisState{p_ned[i], v_ned[i], 0.0f};
-    p_[i] = AxisCovariance{};
-    p_[i].pp = sqf(i == 2 ? params_.fix_sigma_z : params_.fix_sigma_xy);
-    p_[i].vv = vel_var;
     corr_[i] = Correction{};
   }
-  if (params_.z_accel_bias) p_[2].bb = sqf(params_.bias_sigma0);
+  for (int c = 0; c < 2; ++c) {
+    p_[c] = AxisCovariance{};
+    p_[c].pp = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
+    p_[c].vv = sqf(params_.vel_sigma0);
+  }
+  if (params_.z_accel_bias) p_[1].bb = sqf(params_.bias_sigma0);
   t_us_ = t_us;
   corr_origin_us_ = t_us;
   clock_started_ = true;
@@ -96,6 +96,16 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
   consecutive_rejections_ = 0;
   clear_history();
   push_history();
+}
+
+float PositionFilterCore::last_gain_p(int axis) const {
+  const float* k = gain_[axis == 2 ? 1 : 0];
+  return k[0] - gain_tau_ * (k[1] + 0.5f * gain_tau_ * k[2]);  // K = Phi(-tau) (D h / S)
+}
+
+float PositionFilterCore::last_gain_v(int axis) const {
+  const float* k = gain_[axis == 2 ? 1 : 0];
+  return k[1] + gain_tau_ * k[2];
 }
 
 void PositionFilterCore::clear_history() {
@@ -154,9 +164,16 @@ void PositionFilterCore::propagate(const Vec3& u, float dt) {
     const float a = u[i] - x.b;
     x.p += dt * x.v + h * a;
     x.v += dt * a;
-    const bool bias = i == 2 && params_.z_accel_bias;
-    propagate_covariance(p_[i], dt, bias, process_noise(dt, qp_[i], qv_[i], bias ? qb_ : 0.0f));
   }
+  // Q(T) depends only on T, which is the loop period on every step but the odd one: cache it.
+  const bool bias = params_.z_accel_bias;
+  if (dt != q_dt_) {
+    q_[0] = process_noise(dt, qp_, qv_, 0.0f);
+    q_[1] = bias ? process_noise(dt, qp_, qv_, qb_) : q_[0];
+    q_dt_ = dt;
+  }
+  propagate_covariance(p_[0], dt, false, q_[0]);
+  propagate_covariance(p_[1], dt, bias, q_[1]);
 }
 
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
@@ -242,7 +259,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedInvalid;
   }
   const float lost = sqf(params_.reset_position_sigma);
-  const bool diverged = p_[0].pp > lost || p_[1].pp > lost || p_[2].pp > lost || !is_finite(p_[2].pp);
+  const bool diverged = !(p_[0].pp <= lost) || !(p_[1].pp <= lost);  // also catches NaN
   const bool rejected_too_often =
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
@@ -268,29 +285,38 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
 
   // Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
   // -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
-  // correction carried to now is Phi(tau) K nu = D h nu / S.
-  float w[3][3];
-  float s[3];
+  // correction carried to now is Phi(tau) K nu = D h nu / S. Computed once per covariance class.
+  float w[2][3];
+  float inv_s[2];
+  const float h1 = -tau, h2 = -0.5f * tau * tau;
+  for (int c = 0; c < 2; ++c) {
+    const bool bias = c == 1 && params_.z_accel_bias;
+    const AxisCovariance q = process_noise(tau, qp_, qv_, bias ? qb_ : 0.0f);
+    const AxisCovariance& p = p_[c];
+    const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
+    w[c][0] = dpp + h1 * dpv;
+    w[c][1] = dpv + h1 * dvv;
+    w[c][2] = 0.0f;
+    if (bias) {
+      const float dpb = p.pb - q.pb, dvb = p.vb - q.vb, dbb = p.bb - q.bb;
+      w[c][0] += h2 * dpb;
+      w[c][1] += h2 * dvb;
+      w[c][2] = dpb + h1 * dvb + h2 * dbb;
+    }
+    const float r = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
+    // h^T D h is the variance of the predicted position at capture time: never below zero.
+    inv_s[c] = 1.0f / (maxf(w[c][0] + h1 * w[c][1] + h2 * w[c][2], 0.0f) + r);
+  }
+  // Mahalanobis gate per axis: nu^2 / S <= gate^2.
   float nu[3];
   bool pass = true;
   float nis = 0.0f;
-  const float h1 = -tau, h2 = -0.5f * tau * tau;
+  const float gate2 = sqf(params_.gate_sigma);
   for (int i = 0; i < 3; ++i) {
-    const bool bias = i == 2 && params_.z_accel_bias;
-    const AxisCovariance q = process_noise(tau, qp_[i], qv_[i], bias ? qb_ : 0.0f);
-    const AxisCovariance& p = p_[i];
-    const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
-    const float dpb = p.pb - q.pb, dvb = p.vb - q.vb, dbb = p.bb - q.bb;
-    w[i][0] = dpp + h1 * dpv + h2 * dpb;
-    w[i][1] = dpv + h1 * dvv + h2 * dvb;
-    w[i][2] = bias ? dpb + h1 * dvb + h2 * dbb : 0.0f;
-    const float r = sqf(i == 2 ? params_.fix_sigma_z : params_.fix_sigma_xy);
-    // h^T D h is the variance of the predicted position at capture time: never below zero.
-    s[i] = maxf(w[i][0] + h1 * w[i][1] + h2 * w[i][2], 0.0f) + r;
     nu[i] = y[i] - p_s[i];
-    // Mahalanobis gate per axis: nu^2 <= gate^2 S (no square root, no division).
-    if (nu[i] * nu[i] > sqf(params_.gate_sigma) * s[i] || !is_finite(nu[i])) pass = false;
-    nis += nu[i] * nu[i] / s[i];
+    const float d2 = nu[i] * nu[i] * inv_s[i == 2 ? 1 : 0];
+    if (!(d2 <= gate2)) pass = false;  // also rejects a non-finite innovation
+    nis += d2;
   }
   last_nis_ = nis;
   if (!pass) {
@@ -300,29 +326,33 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   }
 
   rebase_correction(t_us_);
+  gain_tau_ = tau;
+  for (int c = 0; c < 2; ++c) {
+    float* k = gain_[c];
+    for (int j = 0; j < 3; ++j) k[j] = w[c][j] * inv_s[c];
+    // thesis eq. 8.11b (errata) at capture time, carried to now: P_now -= (D h)(D h)^T / S.
+    AxisCovariance& p = p_[c];
+    p.pp -= k[0] * w[c][0];
+    p.pv -= k[0] * w[c][1];
+    p.vv -= k[1] * w[c][1];
+    if (c == 1 && params_.z_accel_bias) {
+      p.pb -= k[0] * w[c][2];
+      p.vb -= k[1] * w[c][2];
+      p.bb -= k[2] * w[c][2];
+    }
+  }
   bool fold = false;
   for (int i = 0; i < 3; ++i) {
-    const float inv_s = 1.0f / s[i];
-    const float k0 = w[i][0] * inv_s, k1 = w[i][1] * inv_s, k2 = w[i][2] * inv_s;
-    // Gain at capture time, K = Phi(-tau) D h / S (reported for the steady-state check).
-    gain_p_[i] = k0 + h1 * k1 + h2 * k2;
-    gain_v_[i] = k1 - h1 * k2;
-    // thesis eq. 8.11b (errata) at capture time, carried to now.
+    const float* k = gain_[i == 2 ? 1 : 0];
     AxisState& x = x_[i];
-    x.p += k0 * nu[i];
-    x.v += k1 * nu[i];
-    x.b += k2 * nu[i];
-    AxisCovariance& p = p_[i];
-    p.pp -= k0 * w[i][0];
-    p.pv -= k0 * w[i][1];
-    p.vv -= k1 * w[i][1];
-    p.pb -= k0 * w[i][2];
-    p.vb -= k1 * w[i][2];
-    p.bb -= k2 * w[i][2];
     Correction& c = corr_[i];
-    c.p += k0 * nu[i];
-    c.v += k1 * nu[i];
-    c.b += k2 * nu[i];
+    const float dp = k[0] * nu[i], dv = k[1] * nu[i], db = k[2] * nu[i];
+    x.p += dp;
+    x.v += dv;
+    x.b += db;
+    c.p += dp;
+    c.v += dv;
+    c.b += db;
     if (absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) fold = true;
   }
   if (fold) fold_correction();

@@ -400,8 +400,9 @@ TEST(PositionFilter, NeesIsChiSquareConsistent) {
     const double overall_lo = chi2_quantile(-1.959964, static_cast<double>(dof) * runs * steps) / (runs * steps);
     const double overall_hi = chi2_quantile(1.959964, static_cast<double>(dof) * runs * steps) / (runs * steps);
     std::cout << "[figure] NEES, " << runs << " runs x " << steps << " steps, fixes " << delay * 1e3
-              << " ms late: mean " << mean << " (expected " << dof << ", 95 % band of the mean [" << overall_lo * 1
-              << ", " << overall_hi << "] x steps correlation), " << 100.0 * inside / steps
+              << " ms late: mean " << mean << " (expected " << dof << "; the 95 % band [" << overall_lo << ", "
+              << overall_hi << "] would hold for independent steps, consecutive steps are correlated), "
+              << 100.0 * inside / steps
               << " % of steps inside the per-step 95 % band [" << lo << ", " << hi << "]\n";
     EXPECT_GT(inside, 0.90 * steps);
     EXPECT_NEAR(mean, dof, 0.3);

@@ -95,6 +95,7 @@ class ConditionedObserver {
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
   float inv_mag_h_ = 1.0f;  // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
+  float accel_lo2_ = 0.0f, accel_hi2_ = 0.0f;  // accelerometer gate on |a|^2
   Quat q_;
   Vec3 bias_;
   Vec3 rate_;

@@ -115,10 +115,12 @@ class PositionFilterCore {
   Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
   float accel_bias_z() const { return x_[2].b; }  // m/s^2; 0 unless z_accel_bias
-  const AxisCovariance& covariance(int axis) const { return p_[axis]; }
-  // Gain of the last fused fix on each axis (position, velocity) expressed at capture time.
-  float last_gain_p(int axis) const { return gain_p_[axis]; }
-  float last_gain_v(int axis) const { return gain_v_[axis]; }
+  // x and y share one model, noise and the fusion instants, so their covariances are identical: one is
+  // kept (and computed) for both.
+  const AxisCovariance& covariance(int axis) const { return p_[axis == 2 ? 1 : 0]; }
+  // Kalman gain of the last fused fix on each axis (position, velocity), at the fix's capture time.
+  float last_gain_p(int axis) const;
+  float last_gain_v(int axis) const;
   // Normalised innovation squared of the last fix that reached the gate, summed over the axes.
   float last_nis() const { return last_nis_; }
   bool initialized() const { return initialized_; }
@@ -148,15 +150,15 @@ class PositionFilterCore {
   void propagate(const Vec3& u, float dt);
 
   PositionFilterParams params_;
-  float qp_[3] = {0.0f, 0.0f, 0.0f};  // spectral densities per axis: q_p, q_v, q_b
-  float qv_[3] = {0.0f, 0.0f, 0.0f};
-  float qb_ = 0.0f;
+  float qp_ = 0.0f, qv_ = 0.0f, qb_ = 0.0f;  // spectral densities of position, velocity, z bias
+  float q_dt_ = -1.0f;                       // step of the cached process noise (the loop period)
+  AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
   AxisState x_[3];
-  AxisCovariance p_[3];
+  AxisCovariance p_[2];                      // horizontal (x and y), vertical
   Correction corr_[3];
   uint32_t corr_origin_us_ = 0;
-  float gain_p_[3] = {0.0f, 0.0f, 0.0f};
-  float gain_v_[3] = {0.0f, 0.0f, 0.0f};
+  float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // last correction gain, carried to now
+  float gain_tau_ = 0.0f;                    // age of the last fused fix when it was fused
   float last_nis_ = 0.0f;
   uint32_t t_us_ = 0;
   uint32_t last_fix_us_ = 0;    // capture time of the last fused fix (valid while have_fix_)
