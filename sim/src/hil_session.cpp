@@ -8,9 +8,9 @@
 #include <stdexcept>
 #include <thread>
 
-#include "quad/firmware/modes.h"
 #include "quad/link/mavlink.h"
 #include "quad/sim/firmware_process.h"
+#include "quad/sim/flight_modes.h"
 #include "quad/sim/frames.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
@@ -74,6 +74,7 @@ class Session {
   // Receiving.
   void handle_frame(const mav::Frame& f, double t, const char* port);
   bool wait_for_answer(double t);
+  void wait_radio_consumed();
   void poll_uart0(double t);
   void poll_uart2(double t);
 
@@ -120,6 +121,7 @@ class Session {
   double pending_apply_t_ = 0.0;
   bool have_pending_ = false;
   std::optional<mav::HilActuatorControls> answer_;
+  bool radio_written_ = false;
   std::vector<uint8_t> last_sensor_frame_;  // resent while the firmware is still starting
   uint64_t exchanges_ = 0, vision_sent_ = 0, uart0_overruns_ = 0;
   Telemetry tele_;
@@ -251,7 +253,7 @@ void Session::send_due_commands(double t) {
       cmd.command = mav::kCmdDoSetMode;
       cmd.param1 = mav::kModeFlagCustomModeEnabled;
       cmd.param2 = static_cast<float>(*c.mode);
-      what = std::string("mode ") + fw::mode_name(static_cast<fw::FlightMode>(*c.mode));
+      what = "mode " + flight_mode_name(*c.mode);
     } else {
       cmd.command = mav::kCmdNavLand;
       what = "land";
@@ -360,6 +362,10 @@ void Session::apply_faults(double t) {
 void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
   if (f.system_id != kVehicleSys || f.component_id != mav::kCompIdAutopilot1) return;
   ++tele_.frames;
+  // The logged estimate comes from UART0 only: it arrives in order with the lockstep answer, so the log
+  // stays deterministic. What the ground station hears over the radio goes to the events log.
+  const bool uart0 = port[0] == 'u';
+  if (!uart0 && f.message_id != mav::Statustext::kId && f.message_id != mav::CommandAck::kId) return;
   switch (f.message_id) {
     case mav::HilActuatorControls::kId: {
       mav::HilActuatorControls m;
@@ -372,9 +378,8 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
       const int mode = static_cast<int>(m.custom_mode);
       const bool armed = (m.base_mode & mav::kModeFlagSafetyArmed) != 0;
       if (mode != tele_.mode || armed != tele_.armed) {
-        const char* name = mode >= 0 && mode <= static_cast<int>(fw::FlightMode::kLanding)
-                               ? fw::mode_name(static_cast<fw::FlightMode>(mode)) : "?";
-        event(t, std::string("firmware (") + port + "): mode " + name + (armed ? ", armed" : ", disarmed"));
+        event(t, std::string("firmware (") + port + "): mode " + flight_mode_name(mode) +
+                     (armed ? ", armed" : ", disarmed"));
       }
       tele_.mode = mode;
       tele_.armed = armed;
@@ -423,6 +428,19 @@ void Session::poll_uart2(double t) {
     uart2_splitter_.feed(buf, n, [&](const mav::Frame& f) { radio_down_.send(f.bytes, f.size, t); });
 }
 
+void Session::wait_radio_consumed() {
+  // Radio bytes delivered during the last period must reach the firmware before this step's
+  // HIL_SENSOR, as they would on the vehicle; two ptys give no order between them. The kernel moves
+  // written bytes to the slave's input queue a moment later (a work queue), so: wait until they show
+  // up there (or 0.2 ms: the firmware may have taken them already), then until the firmware has read
+  // them (at most 2 ms: a firmware that ignores UART2 must not stall the run).
+  if (!radio_written_) return;
+  radio_written_ = false;
+  const auto start = Clock::now();
+  while (uart2_.unread_by_peer() == 0 && Clock::now() - start < std::chrono::microseconds(200)) std::this_thread::yield();
+  while (uart2_.unread_by_peer() > 0 && Clock::now() - start < std::chrono::milliseconds(2)) std::this_thread::yield();
+}
+
 bool Session::wait_for_answer(double t) {
   const uint64_t want = to_usec(t);
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o_.answer_timeout_s));
@@ -467,7 +485,10 @@ void Session::physics_period(double t_end) {
       ++vision_sent_;
       vision_pending_.pop_front();
     }
-    radio_up_.deliver_until(now, [&](const uint8_t* d, size_t n) { uart2_.write_all(d, n); });
+    radio_up_.deliver_until(now, [&](const uint8_t* d, size_t n) {
+      uart2_.write_all(d, n);
+      radio_written_ = true;
+    });
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
       ground_parser_.feed(d, n, [&](const mav::Frame& f) { handle_frame(f, now, "radio"); });
     });
@@ -579,9 +600,9 @@ void Session::progress(double t, bool final_line) {
   const VehicleTruth tr = vehicle_.truth();
   char err[32] = "     -";
   if (setpoint_) std::snprintf(err, sizeof err, "%6.3f", (tr.position_ned - *setpoint_).norm());
-  const char* mode = tele_.mode >= 0 && tele_.mode <= 3 ? fw::mode_name(static_cast<fw::FlightMode>(tele_.mode)) : "-";
+  const std::string mode = tele_.mode < 0 ? "-" : flight_mode_name(tele_.mode);
   std::fprintf(stderr, "\r  t %6.1f / %.0f s | %6.1fx real time | error %s m | height %5.2f m | %-8s%s", t,
-               s_.duration_s, wall > 0 ? t / wall : 0.0, err, -(tr.position_ned.z() - vehicle_.rest_down_m()), mode,
+               s_.duration_s, wall > 0 ? t / wall : 0.0, err, -(tr.position_ned.z() - vehicle_.rest_down_m()), mode.c_str(),
                final_line ? "\n" : "");
   std::fflush(stderr);
 }
@@ -622,6 +643,7 @@ SessionResult Session::run() {
       reason = "interrupted";
       break;
     }
+    if (!o_.realtime) wait_radio_consumed();
     send_due_commands(t);
     send_rc(t);
     send_sensors(t);

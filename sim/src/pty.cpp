@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
+#include <sys/ioctl.h>
 #include <stdexcept>
 #include <termios.h>
 #include <unistd.h>
@@ -82,6 +83,15 @@ size_t Pty::read_some(uint8_t* out, size_t capacity) {
 bool Pty::wait_readable(int timeout_ms) const {
   pollfd p{master_, POLLIN, 0};
   return poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN);
+}
+
+}  // namespace quad::sim
+
+namespace quad::sim {
+
+int Pty::unread_by_peer() const {
+  int n = 0;
+  return ioctl(slave_, FIONREAD, &n) == 0 ? n : 0;
 }
 
 }  // namespace quad::sim

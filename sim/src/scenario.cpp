@@ -9,7 +9,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "quad/firmware/modes.h"
+#include "quad/sim/flight_modes.h"
 
 namespace quad::sim {
 namespace {
@@ -121,10 +121,10 @@ int parse_mode(const Field& f) {
   std::transform(upper.begin(), upper.end(), upper.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
   std::string names;
   // The names and numbers are the firmware's own (quad/firmware/modes.h).
-  for (int m = 0; m <= static_cast<int>(fw::FlightMode::kLanding); ++m) {
-    const char* name = fw::mode_name(static_cast<fw::FlightMode>(m));
+  for (int m = 0; m < kFlightModeCount; ++m) {
+    const std::string name = flight_mode_name(m);
     if (upper == name) return m;
-    names += (names.empty() ? "" : ", ") + std::string(name);
+    names += (names.empty() ? "" : ", ") + name;
   }
   f.fail("is not a flight mode (expected one of: " + names + ")");
 }

@@ -25,6 +25,8 @@ class Pty {
   size_t read_some(uint8_t* out, size_t capacity);
   // Waits up to timeout_ms for bytes to read; false on timeout.
   bool wait_readable(int timeout_ms) const;
+  // Bytes written to the master that the firmware has not read yet (FIONREAD on the slave side).
+  int unread_by_peer() const;
 
  private:
   int master_ = -1;

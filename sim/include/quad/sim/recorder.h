@@ -16,7 +16,7 @@ class Vehicle;
 class OffscreenRecorder {
  public:
   // Creates the GL context for `model` and starts ffmpeg writing `path`. Throws with the reason.
-  OffscreenRecorder(const mjModel* model, const std::string& path, int width = 960, int height = 540,
+  OffscreenRecorder(const mjModel* model, const std::string& path, int width = 640, int height = 360,
                     double fps = 30.0, const std::string& camera = "chase");
   ~OffscreenRecorder();  // finishes the file
   OffscreenRecorder(const OffscreenRecorder&) = delete;
