@@ -74,7 +74,7 @@ namespace fw {
   X(kArmThrMax, "ARM_THR_MAX", 0.1f, 0.0f, 0.5f)                                                 \
   X(kLandSpeed, "LAND_SPEED", 0.5f, 0.1f, 3.0f)                                                  \
   X(kLandVzMax, "LAND_VZ_MAX", 0.25f, 0.05f, 1.0f)                                               \
-  X(kLandThrFrac, "LAND_THR_FRAC", 0.7f, 0.1f, 1.0f)                                             \
+  X(kLandThrFrac, "LAND_THR_FRAC", 0.9f, 0.1f, 1.0f)                                             \
   X(kLandTime, "LAND_TIME", 1.0f, 0.1f, 10.0f)                                                   \
   X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                         \
   X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                            \

@@ -1,0 +1,511 @@
+// The flight application in-process, spoken to only in MAVLink bytes as the simulator, the ground
+// station and the vision station would: boot calibration, arming checks, the vision path (eq. 8.5 with
+// the errata sign, attitude at the capture time), the parameter protocol and store, failsafes, and a
+// whole vertical flight (take-off in AUTO, land, disarm) against a point-mass vehicle.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quad/firmware/app.h"
+
+namespace {
+
+namespace mav = quad::mavlink;
+using quad::fw::FlightMode;
+
+constexpr float kG = 9.80665f;
+
+// The world around one FlightApp: storage, clock, and everything it sends, decoded.
+class Bench {
+ public:
+  Bench() : storage(4096, 0xFF) { current = this; }
+  ~Bench() { current = nullptr; }
+
+  void boot(bool hil = true) {
+    app = std::make_unique<quad::fw::FlightApp>();
+    quad::fw::AppIo io;
+    io.storage = quad::fw::StorageIo{&Bench::storage_read, &Bench::storage_write};
+    io.write = &Bench::write;
+    io.micros = &Bench::micros;
+    app->init(io, hil);
+  }
+
+  // One HIL step of a vehicle with attitude q, body rate w, specific force f_b (FRD).
+  void hil_step(const Eigen::Quaternionf& q, const Eigen::Vector3f& f_b, const Eigen::Vector3f& w_b = Eigen::Vector3f::Zero()) {
+    const Eigen::Vector3f mag_ned(0.21f, 0.0f, 0.43f);
+    const Eigen::Vector3f m_b = q.conjugate() * mag_ned;
+    mav::HilSensor s;
+    s.time_usec = t_us;
+    s.xacc = f_b.x();
+    s.yacc = f_b.y();
+    s.zacc = f_b.z();
+    s.xgyro = w_b.x() + gyro_bias.x();
+    s.ygyro = w_b.y() + gyro_bias.y();
+    s.zgyro = w_b.z() + gyro_bias.z();
+    s.xmag = m_b.x();
+    s.ymag = m_b.y();
+    s.zmag = m_b.z();
+    s.fields_updated = 0x1FF;
+    send(quad::hal::kUart0, s, sim);
+    t_us += 10000;
+  }
+  void still_step(const Eigen::Quaternionf& q = Eigen::Quaternionf::Identity()) {
+    hil_step(q, q.conjugate() * Eigen::Vector3f(0, 0, -kG));
+  }
+
+  template <class Msg>
+  void send(uint8_t port, const Msg& msg, mav::Sender& from) {
+    uint8_t buf[mav::max_frame_length<Msg>()];
+    const size_t n = from.encode(msg, buf, sizeof buf);
+    app->receive(port, buf, static_cast<uint16_t>(n), static_cast<uint32_t>(t_us));
+  }
+
+  void sticks(int16_t throttle) {
+    mav::ManualControl m;
+    m.target = 1;
+    m.z = throttle;
+    send(quad::hal::kUart0, m, gcs);
+  }
+
+  uint8_t command(uint16_t cmd, float p1 = 0.0f, float p2 = 0.0f) {
+    mav::CommandLong c;
+    c.command = cmd;
+    c.param1 = p1;
+    c.param2 = p2;
+    c.target_system = 1;
+    c.target_component = 1;
+    const size_t before = acks.size();
+    send(quad::hal::kUart0, c, gcs);
+    EXPECT_EQ(acks.size(), before + 1) << "every command is acknowledged";
+    return acks.empty() ? 255 : acks.back().result;
+  }
+  uint8_t arm() { return command(mav::kCmdComponentArmDisarm, 1.0f); }
+  uint8_t set_mode(FlightMode m) { return command(mav::kCmdDoSetMode, 1.0f, static_cast<float>(m)); }
+
+  // The star seen from a vehicle at p (NED) with attitude q, as the vision station reports it.
+  void landing_target(const Eigen::Vector3f& p, const Eigen::Quaternionf& q, uint64_t capture_us,
+                      const Eigen::Vector3f& star = Eigen::Vector3f::Zero()) {
+    const Eigen::Vector3f p_b = q.conjugate() * (star - p);
+    mav::LandingTarget lt;
+    lt.time_usec = capture_us;
+    lt.frame = mav::kFrameBodyFrd;
+    lt.position_valid = 1;
+    lt.x = p_b.x();
+    lt.y = p_b.y();
+    lt.z = p_b.z();
+    send(quad::hal::kUart2, lt, vision);
+  }
+
+  bool said(const std::string& needle) const {
+    return std::any_of(texts.begin(), texts.end(), [&](const std::string& t) { return t.find(needle) != std::string::npos; });
+  }
+
+  std::unique_ptr<quad::fw::FlightApp> app;
+  std::vector<uint8_t> storage;
+  bool storage_fails = false;
+  uint64_t t_us = 1000000;
+  Eigen::Vector3f gyro_bias{0.02f, -0.015f, 0.01f};
+  mav::Sender sim{1, 200};
+  mav::Sender gcs{255, 190};
+  mav::Sender vision{1, 197};
+  mav::Parser out[quad::hal::kPortCount];
+  std::vector<std::string> texts;
+  std::vector<mav::CommandAck> acks;
+  std::vector<mav::ParamValue> params;
+  std::vector<mav::HilActuatorControls> actuators;
+  int frames_on[quad::hal::kPortCount] = {0, 0};
+
+ private:
+  static Bench* current;
+  static bool storage_read(uint16_t offset, void* dst, uint16_t length) {
+    if (current->storage_fails || offset + length > current->storage.size()) return false;
+    std::memcpy(dst, current->storage.data() + offset, length);
+    return true;
+  }
+  static bool storage_write(uint16_t offset, const void* src, uint16_t length) {
+    if (current->storage_fails || offset + length > current->storage.size()) return false;
+    std::memcpy(current->storage.data() + offset, src, length);
+    return true;
+  }
+  static uint32_t micros() { return static_cast<uint32_t>(current->t_us); }
+  static uint16_t write(uint8_t port, const uint8_t* data, uint16_t length) {
+    current->out[port].feed(data, length, [port](const mav::Frame& f) { current->on_frame(port, f); });
+    return length;
+  }
+  void on_frame(uint8_t port, const mav::Frame& f) {
+    ++frames_on[port];
+    mav::Statustext text;
+    mav::CommandAck ack;
+    mav::ParamValue pv;
+    mav::HilActuatorControls act;
+    // STATUSTEXT goes to both ports; keep one copy.
+    if (mav::decode(f, text) && port == quad::hal::kUart0) texts.emplace_back(text.text, strnlen(text.text, 50));
+    if (mav::decode(f, ack)) acks.push_back(ack);
+    if (mav::decode(f, pv)) params.push_back(pv);
+    if (mav::decode(f, act)) actuators.push_back(act);
+  }
+};
+Bench* Bench::current = nullptr;
+
+void calibrate(Bench& b, const Eigen::Quaternionf& q = Eigen::Quaternionf::Identity()) {
+  for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step(q);
+  ASSERT_TRUE(b.app->calibrated());
+}
+
+TEST(FirmwareApp, BootReportsEmptyStoreAndCalibration) {
+  Bench b;
+  b.boot();
+  EXPECT_EQ(b.app->store_status(), quad::fw::StoreStatus::kEmpty);
+  EXPECT_TRUE(b.said("params: store empty, defaults"));
+  EXPECT_TRUE(b.said("calibrating"));
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
+}
+
+TEST(FirmwareApp, CalibrationFindsGyroBiasAndTiltedAttitude) {
+  Bench b;
+  b.boot();
+  // Tilted 10 deg in roll and -6 deg in pitch, heading 40 deg: the boot attitude must be right.
+  const Eigen::Quaternionf q = Eigen::AngleAxisf(0.698f, Eigen::Vector3f::UnitZ()) *
+                               Eigen::AngleAxisf(-0.105f, Eigen::Vector3f::UnitY()) *
+                               Eigen::AngleAxisf(0.175f, Eigen::Vector3f::UnitX());
+  calibrate(b, q);
+  EXPECT_TRUE(b.said("calibrated, ready to arm"));
+  // A few more still seconds: the estimate stays put (bias removed, no drift).
+  for (int i = 0; i < 300; ++i) b.still_step(q);
+  const quad::Quat est = b.app->attitude();
+  const float err = Eigen::Quaternionf(est.w, est.x, est.y, est.z).angularDistance(q);
+  EXPECT_LT(err, 0.01f) << "attitude error " << err << " rad";
+}
+
+TEST(FirmwareApp, CalibrationRestartsWhenTheVehicleMoves) {
+  Bench b;
+  b.boot();
+  for (int i = 0; i < 150; ++i) b.still_step();  // 1.5 s of the 2 s
+  // A bump: 0.5 rad/s for one sample.
+  b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, -kG), Eigen::Vector3f(0.5f, 0, 0));
+  for (int i = 0; i < 100; ++i) b.still_step();
+  EXPECT_FALSE(b.app->calibrated()) << "the still period starts again after the bump";
+  for (int i = 0; i < 120; ++i) b.still_step();
+  EXPECT_TRUE(b.app->calibrated());
+}
+
+TEST(FirmwareApp, ArmingChecksOverMavlink) {
+  Bench b;
+  b.boot();
+  b.sticks(0);
+  EXPECT_EQ(b.arm(), mav::kResultDenied) << "not calibrated yet";
+  EXPECT_TRUE(b.said("arm refused: estimator not converged"));
+  calibrate(b);
+  b.sticks(600);
+  EXPECT_EQ(b.arm(), mav::kResultDenied);
+  EXPECT_TRUE(b.said("arm refused: throttle not low"));
+  b.sticks(0);
+  EXPECT_EQ(b.arm(), mav::kResultAccepted);
+  EXPECT_TRUE(b.said("MANUAL: armed"));
+  b.still_step();
+  ASSERT_FALSE(b.actuators.empty());
+  EXPECT_NE(b.actuators.back().mode & mav::kModeFlagSafetyArmed, 0);
+  EXPECT_EQ(b.command(999), mav::kResultUnsupported);
+  EXPECT_EQ(b.command(mav::kCmdDoSetMode, 1.0f, 7.0f), mav::kResultDenied) << "no custom mode 7";
+}
+
+TEST(FirmwareApp, AnswersEachHilSensorOnceAndRepeatsWithoutSteppingTwice) {
+  Bench b;
+  b.boot();
+  for (int i = 0; i < 10; ++i) b.still_step();
+  ASSERT_EQ(b.actuators.size(), 10u);
+  const uint32_t iterations = b.app->counters().iterations;
+  // The simulator missed an answer and repeats the last step.
+  b.t_us -= 10000;
+  b.still_step();
+  EXPECT_EQ(b.actuators.size(), 11u);
+  EXPECT_EQ(b.actuators[10].time_usec, b.actuators[9].time_usec);
+  EXPECT_EQ(b.app->counters().iterations, iterations);
+}
+
+TEST(FirmwareApp, LandingTargetGivesTheVehiclePositionWithTheErrataSign) {
+  // Vehicle at (1.0, -0.5, -1.5) NED, yawed 60 deg, star at VIS_STAR (2, 1, 0): thesis eq. 8.5 with the
+  // errata, p = s - R p_B. A sign error would put the estimate on the other side of the star.
+  Bench b;
+  b.boot();
+  const Eigen::Quaternionf q(Eigen::AngleAxisf(1.047f, Eigen::Vector3f::UnitZ()));
+  const Eigen::Vector3f p(1.0f, -0.5f, -1.5f), star(2.0f, 1.0f, 0.0f);
+  mav::ParamSet set;
+  set.target_system = 1;
+  set.param_type = mav::kParamTypeReal32;
+  std::strncpy(set.param_id, "VIS_STAR_N", 16);
+  set.param_value = 2.0f;
+  b.send(quad::hal::kUart0, set, b.gcs);
+  std::strncpy(set.param_id, "VIS_STAR_E", 16);
+  set.param_value = 1.0f;
+  b.send(quad::hal::kUart0, set, b.gcs);
+  calibrate(b, q);
+  // Hovering (still) at p: fixes at 30 Hz captured 60 ms before they arrive.
+  // (The first fixes wait until the attitude history reaches back to their capture time.)
+  for (int i = 0; i < 200; ++i) {
+    b.still_step(q);
+    if (i >= 10 && i % 3 == 0) b.landing_target(p, q, b.t_us - 60000, star);
+  }
+  const quad::Vec3 est = b.app->position();
+  EXPECT_NEAR(est.x, p.x(), 0.02f);
+  EXPECT_NEAR(est.y, p.y(), 0.02f);
+  EXPECT_NEAR(est.z, p.z(), 0.02f);
+  EXPECT_GT(b.app->counters().fixes_fused, 60u);
+  // (The printed sign, p = R p_B, would have put it at s - p = (1, 1.5, 1.5).)
+  EXPECT_EQ(b.app->counters().fixes_rejected, 0u);
+}
+
+TEST(FirmwareApp, LandingTargetUsesTheAttitudeAtCaptureTime) {
+  // The vehicle yaws at 1 rad/s while hovering at p; fixes arrive 100 ms late. Rotating p_B with the
+  // current attitude instead of the one at capture would misplace the fix by |p_B| * 0.1 rad ~ 0.17 m.
+  Bench b;
+  b.boot();
+  calibrate(b);
+  const Eigen::Vector3f p(0.8f, 0.6f, -1.5f);
+  float yaw = 0.0f;
+  std::vector<std::pair<uint64_t, Eigen::Quaternionf>> past;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Quaternionf q(Eigen::AngleAxisf(yaw, Eigen::Vector3f::UnitZ()));
+    past.emplace_back(b.t_us, q);
+    b.hil_step(q, q.conjugate() * Eigen::Vector3f(0, 0, -kG), Eigen::Vector3f(0, 0, 1.0f));
+    yaw += 0.01f;
+    if (i > 20 && i % 3 == 0) {
+      const auto& then = past[past.size() - 11];  // captured 100 ms ago
+      b.landing_target(p, then.second, then.first);
+    }
+  }
+  const quad::Vec3 est = b.app->position();
+  EXPECT_NEAR(est.x, p.x(), 0.03f);
+  EXPECT_NEAR(est.y, p.y(), 0.03f);
+  EXPECT_NEAR(est.z, p.z(), 0.03f);
+}
+
+TEST(FirmwareApp, BadFixesAreCountedNotFused) {
+  Bench b;
+  b.boot();
+  calibrate(b);
+  mav::LandingTarget lt;
+  lt.time_usec = b.t_us - 10000;
+  lt.frame = mav::kFrameLocalNed;  // wrong frame
+  lt.position_valid = 1;
+  b.send(quad::hal::kUart2, lt, b.vision);
+  lt.frame = mav::kFrameBodyFrd;
+  lt.position_valid = 0;  // no position
+  b.send(quad::hal::kUart2, lt, b.vision);
+  lt.position_valid = 1;
+  lt.time_usec = b.t_us - 2000000;  // older than the attitude history
+  b.send(quad::hal::kUart2, lt, b.vision);
+  EXPECT_EQ(b.app->counters().fixes_invalid, 2u);
+  EXPECT_EQ(b.app->counters().fixes_rejected, 1u);
+  EXPECT_EQ(b.app->counters().fixes_fused, 0u);
+}
+
+TEST(FirmwareApp, ParameterProtocolListReadSetAndPersist) {
+  Bench b;
+  b.boot();
+  mav::ParamRequestList list;
+  list.target_system = 1;
+  b.send(quad::hal::kUart2, list, b.gcs);
+  for (int i = 0; i < quad::fw::kParamCount + 5; ++i) b.still_step();
+  ASSERT_EQ(b.params.size(), static_cast<size_t>(quad::fw::kParamCount)) << "one PARAM_VALUE per parameter";
+  for (size_t i = 0; i < b.params.size(); ++i) {
+    EXPECT_EQ(b.params[i].param_index, i);
+    EXPECT_EQ(b.params[i].param_count, quad::fw::kParamCount);
+    EXPECT_EQ(b.params[i].param_type, mav::kParamTypeReal32);
+  }
+
+  mav::ParamSet set;
+  set.target_system = 1;
+  std::strncpy(set.param_id, "POS_KP_Z", 16);
+  set.param_value = 2.5f;
+  b.params.clear();
+  b.send(quad::hal::kUart2, set, b.gcs);
+  ASSERT_EQ(b.params.size(), 1u);
+  EXPECT_FLOAT_EQ(b.params[0].param_value, 2.5f);
+  EXPECT_FLOAT_EQ(b.app->params().get(quad::fw::kPosKpZ), 2.5f);
+
+  // Out of range: refused, the old value echoed, the reason said.
+  set.param_value = -1.0f;
+  b.send(quad::hal::kUart2, set, b.gcs);
+  ASSERT_EQ(b.params.size(), 2u);
+  EXPECT_FLOAT_EQ(b.params[1].param_value, 2.5f);
+  EXPECT_TRUE(b.said("param out of range: POS_KP_Z"));
+
+  // Read by name (16 characters, no terminator) and by index.
+  mav::ParamRequestRead read;
+  read.target_system = 1;
+  read.param_index = -1;
+  std::memcpy(read.param_id, "FS_VIS_TIMEOUT\0\0", 16);
+  b.send(quad::hal::kUart0, read, b.gcs);
+  ASSERT_EQ(b.params.size(), 3u);
+  EXPECT_FLOAT_EQ(b.params[2].param_value, 0.5f);
+  read.param_index = quad::fw::kLoopHz;
+  b.send(quad::hal::kUart0, read, b.gcs);
+  EXPECT_FLOAT_EQ(b.params.back().param_value, 100.0f);
+
+  // Reboot: the set value came back from the store.
+  b.boot();
+  EXPECT_EQ(b.app->store_status(), quad::fw::StoreStatus::kLoaded);
+  EXPECT_FLOAT_EQ(b.app->params().get(quad::fw::kPosKpZ), 2.5f);
+
+  // Corrupt one stored byte: defaults, and the vehicle says so.
+  b.storage[20] ^= 0x10;
+  b.texts.clear();
+  b.boot();
+  EXPECT_EQ(b.app->store_status(), quad::fw::StoreStatus::kCorrupt);
+  EXPECT_FLOAT_EQ(b.app->params().get(quad::fw::kPosKpZ), 3.625f);
+  EXPECT_TRUE(b.said("params: store corrupt, defaults"));
+}
+
+TEST(FirmwareApp, ParametersReconfigureTheTelemetryRates) {
+  Bench b;
+  b.boot();
+  for (int i = 0; i < 100; ++i) b.still_step();
+  const int base = b.frames_on[quad::hal::kUart2];
+  mav::ParamSet set;
+  set.target_system = 1;
+  for (const char* name : {"TEL_ATT_HZ", "TEL_POS_HZ", "TEL_SYS_HZ", "TEL_HB_HZ"}) {
+    std::strncpy(set.param_id, name, 16);
+    set.param_value = 0.0f;
+    b.send(quad::hal::kUart0, set, b.gcs);
+  }
+  const int after_set = b.frames_on[quad::hal::kUart2];
+  for (int i = 0; i < 100; ++i) b.still_step();
+  EXPECT_GT(base, 20) << "defaults: attitude and position at 10 Hz, heartbeat and status at 1 Hz";
+  EXPECT_EQ(b.frames_on[quad::hal::kUart2], after_set) << "all streams off: nothing more on the radio";
+}
+
+// Brings a calibrated, armed vehicle into AUTO with fresh fixes (hovering still at p).
+void into_auto(Bench& b, const Eigen::Vector3f& p) {
+  calibrate(b);
+  b.sticks(0);
+  ASSERT_EQ(b.arm(), mav::kResultAccepted);
+  for (int i = 0; i < 30; ++i) {
+    b.still_step();
+    if (i % 3 == 0) b.landing_target(p, Eigen::Quaternionf::Identity(), b.t_us - 30000);
+    if (i % 5 == 0) b.sticks(0);
+  }
+  ASSERT_EQ(b.set_mode(FlightMode::kAuto), mav::kResultAccepted);
+  EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
+}
+
+TEST(FirmwareApp, AutoRefusedWithoutVision) {
+  Bench b;
+  b.boot();
+  calibrate(b);
+  b.sticks(0);
+  ASSERT_EQ(b.arm(), mav::kResultAccepted);
+  EXPECT_EQ(b.set_mode(FlightMode::kAuto), mav::kResultDenied);
+  EXPECT_TRUE(b.said("auto refused: no vision fix"));
+}
+
+TEST(FirmwareApp, FailsafeVisionLostLandsLevel) {
+  Bench b;
+  b.boot();
+  into_auto(b, Eigen::Vector3f(0, 0, -1.5f));
+  // Fixes stop; RC keeps coming. 0.5 s later the vehicle lands, level.
+  for (int i = 0; i < 45; ++i) {
+    b.still_step();
+    if (i % 5 == 0) b.sticks(0);
+  }
+  EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
+  for (int i = 0; i < 10; ++i) b.still_step();
+  EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
+  EXPECT_TRUE(b.said("LANDING: FAILSAFE vision lost: level, land"));
+}
+
+TEST(FirmwareApp, FailsafeRcLostLands) {
+  Bench b;
+  b.boot();
+  calibrate(b);
+  b.sticks(0);
+  ASSERT_EQ(b.arm(), mav::kResultAccepted);
+  for (int i = 0; i < 95; ++i) b.still_step();
+  EXPECT_EQ(b.app->mode(), FlightMode::kManual);
+  for (int i = 0; i < 10; ++i) b.still_step();
+  // On the ground the landing is over at once: LANDING, then DISARMED, both reported in that order.
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
+  const auto landing = std::find(b.texts.begin(), b.texts.end(), "LANDING: FAILSAFE RC lost: land");
+  ASSERT_NE(landing, b.texts.end());
+  EXPECT_NE(std::find(landing, b.texts.end(), "DISARMED: landed, disarmed"), b.texts.end());
+}
+
+TEST(FirmwareApp, NoRcFailsafeWhenRcIsNotRequired) {
+  Bench b;
+  b.boot();
+  mav::ParamSet set;
+  set.target_system = 1;
+  std::strncpy(set.param_id, "FS_RC_ENABLE", 16);
+  set.param_value = 0.0f;
+  b.send(quad::hal::kUart0, set, b.gcs);
+  calibrate(b);
+  ASSERT_EQ(b.arm(), mav::kResultAccepted) << "arming without any RC";
+  for (int i = 0; i < 300; ++i) b.still_step();
+  EXPECT_EQ(b.app->mode(), FlightMode::kManual);
+}
+
+// A vehicle that moves only vertically (level, heading north) under the four rotor thrusts
+// f_i = f_max u_i^2 (control/vehicle.h), standing on the ground at z = 0.
+struct VerticalVehicle {
+  float z = 0.0f, vz = 0.0f;
+  float f_max = 0.880f * kG, mass = 1.4f;
+  // Specific force along body z for the commands; integrates one 10 ms step.
+  float step(const float (&u)[16], float dt) {
+    float thrust = 0.0f;
+    for (int i = 0; i < 4; ++i) thrust += f_max * u[i] * u[i];
+    float az = kG - thrust / mass;
+    if (z >= 0.0f && az > 0.0f) az = 0.0f;  // the ground holds it
+    vz += az * dt;
+    z += vz * dt;
+    if (z > 0.0f) {
+      z = 0.0f;
+      vz = 0.0f;
+    }
+    const bool on_ground = z >= 0.0f && vz == 0.0f;
+    return on_ground ? -kG : -thrust / mass;
+  }
+};
+
+TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
+  Bench b;
+  b.gyro_bias.setZero();
+  b.boot();
+  VerticalVehicle v;
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  // Climb to 1.5 m.
+  mav::SetPositionTargetLocalNed sp;
+  sp.target_system = 1;
+  sp.coordinate_frame = mav::kFrameLocalNed;
+  sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
+  sp.z = -1.5f;
+  b.send(quad::hal::kUart0, sp, b.gcs);
+  float f_z = -kG;
+  auto fly = [&](int steps) {
+    for (int i = 0; i < steps; ++i) {
+      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
+      f_z = v.step(b.actuators.back().controls, 0.01f);
+      if (i % 3 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 10000);
+      if (i % 5 == 0) b.sticks(0);
+    }
+  };
+  fly(800);
+  EXPECT_NEAR(v.z, -1.5f, 0.1f) << "AUTO reaches the setpoint";
+  EXPECT_NEAR(b.app->position().z, v.z, 0.05f);
+  EXPECT_EQ(b.command(mav::kCmdComponentArmDisarm, 0.0f), mav::kResultDenied) << "no disarm in flight";
+  EXPECT_TRUE(b.said("disarm refused: in flight"));
+  ASSERT_EQ(b.command(mav::kCmdNavLand), mav::kResultAccepted);
+  EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
+  fly(1000);
+  EXPECT_NEAR(v.z, 0.0f, 1e-3f) << "on the ground";
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
+  EXPECT_TRUE(b.said("DISARMED: landed, disarmed"));
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(b.actuators.back().controls[i], 0.0f);
+}
+
+}  // namespace
