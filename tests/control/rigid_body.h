@@ -9,6 +9,8 @@
 // The rotors are placed from the table in quad/control/vehicle.h (angle positions, not the library's
 // code), and each one's thrust f_i = f_max u_i^2 acts at its position along body -z, with a drag torque
 // s_i (kappa/b) f_i about body z: forces and torques come from r x F, not from the mixer's matrix.
+// Optionally each rotor follows its command with a first-order lag (RotorS: 1/80 s spinning up, 1/40 s
+// down) instead of instantly.
 #pragma once
 
 #include <Eigen/Dense>
@@ -26,6 +28,8 @@ struct RigidBodyParams {
   double yaw_per_thrust = 0.016;  // kappa / b, m
   bool x_frame = false;
   double gravity = 9.80665;
+  double motor_tau_up = 0.0;    // s; 0: the rotor speed follows the command instantly
+  double motor_tau_down = 0.0;  // s
 };
 
 struct RigidBodyState {
@@ -33,12 +37,14 @@ struct RigidBodyState {
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  Eigen::Vector4d rotor = Eigen::Vector4d::Zero();  // normalised rotor speeds (only with a motor lag)
 };
 
 struct RigidBodyRates {
   Eigen::Vector3d p_dot, v_dot;
   Eigen::Vector4d q_dot;  // (w, x, y, z)
   Eigen::Vector3d w_dot;
+  Eigen::Vector4d rotor_dot = Eigen::Vector4d::Zero();
 };
 
 class RigidBody {
@@ -66,11 +72,22 @@ class RigidBody {
     }
   }
 
+  bool has_motor_lag() const { return prm_.motor_tau_up > 0.0 && prm_.motor_tau_down > 0.0; }
+
   RigidBodyRates rates(const RigidBodyState& s, const std::array<double, 4>& u) const {
     Eigen::Vector3d f_b, tau_b;
-    wrench(u, f_b, tau_b);
-    const Eigen::Quaterniond q = s.q.normalized();
+    std::array<double, 4> speed = u;
     RigidBodyRates r;
+    if (has_motor_lag()) {
+      for (int i = 0; i < 4; ++i) {
+        speed[i] = s.rotor(i);
+        const double target = std::min(1.0, std::max(0.0, u[i]));
+        const double tau = target > s.rotor(i) ? prm_.motor_tau_up : prm_.motor_tau_down;
+        r.rotor_dot(i) = (target - s.rotor(i)) / tau;
+      }
+    }
+    wrench(speed, f_b, tau_b);
+    const Eigen::Quaterniond q = s.q.normalized();
     r.p_dot = s.v;
     r.v_dot = Eigen::Vector3d(0.0, 0.0, prm_.gravity) + q * f_b / prm_.mass;
     const Eigen::Quaterniond dq = s.q * Eigen::Quaterniond(0.0, s.w.x(), s.w.y(), s.w.z());
@@ -91,6 +108,7 @@ class RigidBody {
     const Eigen::Vector4d dq = dt / 6.0 * (k1.q_dot + 2.0 * k2.q_dot + 2.0 * k3.q_dot + k4.q_dot);
     s.q = Eigen::Quaterniond(s.q.w() + dq(0), s.q.x() + dq(1), s.q.y() + dq(2), s.q.z() + dq(3)).normalized();
     s.w += dt / 6.0 * (k1.w_dot + 2.0 * k2.w_dot + 2.0 * k3.w_dot + k4.w_dot);
+    s.rotor += dt / 6.0 * (k1.rotor_dot + 2.0 * k2.rotor_dot + 2.0 * k3.rotor_dot + k4.rotor_dot);
   }
 
   const RigidBodyParams& params() const { return prm_; }
@@ -103,6 +121,7 @@ class RigidBody {
     n.q = Eigen::Quaterniond(s.q.w() + h * r.q_dot(0), s.q.x() + h * r.q_dot(1), s.q.y() + h * r.q_dot(2),
                              s.q.z() + h * r.q_dot(3));
     n.w = s.w + h * r.w_dot;
+    n.rotor = s.rotor + h * r.rotor_dot;
     return n;
   }
 
