@@ -123,13 +123,15 @@ class Sender {
  public:
   Sender(uint8_t system_id, uint8_t component_id) : system_id_(system_id), component_id_(component_id) {}
 
-  // As mavlink::encode(); the sequence number advances only when a frame was written.
+  // As mavlink::encode(); the sequence number advances only when a frame was written. With
+  // kIncompatFlagSigned the frame ends in a zeroed signature block (see encode_signed() in signing.h).
   template <class Msg>
-  size_t encode(const Msg& msg, uint8_t* out, size_t capacity) {
+  size_t encode(const Msg& msg, uint8_t* out, size_t capacity, uint8_t incompat_flags = 0) {
     FrameHeader header;
     header.system_id = system_id_;
     header.component_id = component_id_;
     header.sequence = sequence_;
+    header.incompat_flags = incompat_flags;
     const size_t length = ::quad::mavlink::encode(msg, header, out, capacity);
     if (length > 0) ++sequence_;
     return length;

@@ -21,6 +21,10 @@
 //   });
 //   parser.stats().bad_checksum, parser.find_sender(1, 200)->lost, ...
 //
+// Signing (signing.h): mav::Signer fills the signature block of frames encoded with the signed flag
+// (mav::encode_signed()), mav::SignatureVerifier checks received frames and rejects unsigned (when
+// required), wrongly signed and replayed ones.
+//
 // Text fields (param_id, text): mav::copy_text(msg.param_id, "ATT_KP"), mav::text_equals(msg.param_id, "ATT_KP").
 //
 // See docs/mavlink.md for the wire details and what the parser counts.
@@ -32,6 +36,8 @@
 #include "quad/link/frame.h"
 #include "quad/link/messages.h"
 #include "quad/link/parser.h"
+#include "quad/link/sha256.h"
+#include "quad/link/signing.h"
 #include "quad/link/text.h"
 #include "quad/link/wire.h"
 
