@@ -67,11 +67,12 @@ class Link {
       quad::hal::idle(20000);
       uint8_t buf[512];
       uint16_t n;
-      while (!done && (n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
+      while ((n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
         parser_.feed(buf, n, [&](const mav::Frame& f) {
-          if (done || f.system_id != kVehicleSystem) return;
+          if (f.system_id != kVehicleSystem) return;
+          // Status text is always shown, also when it follows the awaited frame in the same read.
           print_statustext(f);
-          done = on_frame(f);
+          if (!done) done = on_frame(f);
         });
       }
       if (quad::hal::host::port_hung_up(quad::hal::kUart0)) break;

@@ -1,0 +1,219 @@
+// quad_gs against quad_firmware over pseudo-terminals: the test plays the simulator on UART0 (lockstep
+// HIL_SENSOR for a still vehicle) and carries the radio (UART2) to a third pseudo-terminal where the
+// ground-station tool runs, as a user driving a HIL flight by hand would.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <pty.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "param_file.h"
+#include "quad/firmware/params.h"
+#include "quad/link/mavlink.h"
+
+namespace {
+
+namespace mav = quad::mavlink;
+
+struct Pty {
+  int master = -1, slave = -1;
+  std::string path;
+  Pty() {
+    char name[128];
+    if (openpty(&master, &slave, name, nullptr, nullptr) != 0) return;
+    path = name;
+    termios tio;
+    tcgetattr(slave, &tio);
+    cfmakeraw(&tio);
+    tcsetattr(slave, TCSANOW, &tio);
+    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
+    fcntl(master, F_SETFD, FD_CLOEXEC);
+    fcntl(slave, F_SETFD, FD_CLOEXEC);
+  }
+  ~Pty() {
+    if (master >= 0) close(master);
+    if (slave >= 0) close(slave);
+  }
+};
+
+// The simulator and the radio in one thread: a HIL step every 5 ms (lockstep: wait for the answer),
+// and every byte copied between the firmware's UART2 and the ground station's terminal.
+class World {
+ public:
+  World(int uart0, int radio_vehicle, int radio_ground)
+      : uart0_(uart0), radio_vehicle_(radio_vehicle), radio_ground_(radio_ground), thread_([this] { run(); }) {}
+  ~World() {
+    stop_ = true;
+    thread_.join();
+  }
+  int steps() const { return steps_; }
+
+ private:
+  void run() {
+    mav::Sender sim(1, 200);
+    mav::Parser parser;
+    uint64_t t_us = 1000000;
+    while (!stop_) {
+      mav::HilSensor s;
+      s.time_usec = t_us;
+      s.zacc = -9.80665f;
+      s.xmag = 0.21f;
+      s.zmag = 0.43f;
+      s.fields_updated = 0x1FF;
+      uint8_t buf[mav::max_frame_length<mav::HilSensor>()];
+      const size_t n = sim.encode(s, buf, sizeof buf);
+      if (write(uart0_, buf, n) != static_cast<ssize_t>(n)) break;
+      bool answered = false;
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+      while (!answered && !stop_ && std::chrono::steady_clock::now() < deadline) {
+        pollfd p{uart0_, POLLIN, 0};
+        poll(&p, 1, 5);
+        uint8_t in[512];
+        ssize_t got;
+        while ((got = read(uart0_, in, sizeof in)) > 0) {
+          parser.feed(in, static_cast<size_t>(got), [&](const mav::Frame& f) {
+            if (f.message_id == mav::HilActuatorControls::kId) answered = true;
+          });
+        }
+      }
+      t_us += 10000;
+      ++steps_;
+      copy(radio_vehicle_, radio_ground_);
+      copy(radio_ground_, radio_vehicle_);
+      std::this_thread::sleep_for(std::chrono::milliseconds(3));
+    }
+  }
+  // Whatever is readable; errors (the tool not running: EIO) just mean nothing to copy.
+  static void copy(int from, int to) {
+    uint8_t buf[1024];
+    ssize_t n;
+    while ((n = read(from, buf, sizeof buf)) > 0) {
+      if (write(to, buf, static_cast<size_t>(n)) < 0) break;
+    }
+  }
+
+  int uart0_, radio_vehicle_, radio_ground_;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> steps_{0};
+  std::thread thread_;
+};
+
+struct Result {
+  int status;
+  std::string out;
+};
+
+Result gs(const std::string& port, const std::string& args) {
+  const std::string cmd = std::string(QUAD_GS_EXE) + " --port " + port + " --baud 57600 " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  Result r{-1, ""};
+  char buf[256];
+  while (fgets(buf, sizeof buf, p) != nullptr) r.out += buf;
+  const int s = pclose(p);
+  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return r;
+}
+
+TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
+  Pty uart0, uart2, ground;
+  ASSERT_FALSE(ground.path.empty());
+  const std::string params = ::testing::TempDir() + "gs_test.params";
+  // Short calibration; no RC in this session, so RC is not required.
+  std::ofstream(params) << "CAL_TIME 0.3\nFS_RC_ENABLE 0\n";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
+          "--params", params.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ASSERT_GT(pid, 0);
+  {
+    World world(uart0.master, uart2.master, ground.master);
+    while (world.steps() < 60) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+
+    Result r = gs(ground.path, "arm");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("accepted"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("vehicle: MANUAL: armed"), std::string::npos) << r.out;
+
+    r = gs(ground.path, "mode auto");
+    EXPECT_EQ(r.status, 1) << "no vision fix yet: " << r.out;
+    EXPECT_NE(r.out.find("auto refused: no vision fix"), std::string::npos) << r.out;
+
+    r = gs(ground.path, "setpoint 0.5 -0.2 -1.5 90");
+    EXPECT_EQ(r.status, 0) << r.out;
+
+    r = gs(ground.path, "set POS_KP_Z 2.5");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("POS_KP_Z         2.5"), std::string::npos) << r.out;
+    r = gs(ground.path, "get POS_KP_Z");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("2.5"), std::string::npos) << r.out;
+    r = gs(ground.path, "set POS_KP_Z 1000");
+    EXPECT_EQ(r.status, 1) << "out of range: " << r.out;
+    EXPECT_NE(r.out.find("param out of range: POS_KP_Z"), std::string::npos) << r.out;
+
+    // The list is every parameter, in the format quad_firmware --params reads back.
+    r = gs(ground.path, "params");
+    ASSERT_EQ(r.status, 0) << r.out;
+    std::string listing;
+    int lines = 0;
+    std::istringstream in(r.out);
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("vehicle:", 0) == 0) continue;  // status text on stderr
+      listing += line + "\n";
+      ++lines;
+    }
+    EXPECT_EQ(lines, quad::fw::kParamCount);
+    std::vector<quad::fw::ParamOverride> parsed;
+    std::string error;
+    ASSERT_TRUE(quad::fw::parse_param_text(listing, "listing", &parsed, &error)) << error;
+    ASSERT_EQ(parsed.size(), static_cast<size_t>(quad::fw::kParamCount));
+    for (const auto& p : parsed) {
+      if (p.index == quad::fw::kPosKpZ) EXPECT_FLOAT_EQ(p.value, 2.5f);
+      if (p.index == quad::fw::kCalTime) EXPECT_FLOAT_EQ(p.value, 0.3f);
+    }
+
+    r = gs(ground.path, "disarm");
+    EXPECT_EQ(r.status, 0) << "on the ground: " << r.out;
+    EXPECT_NE(r.out.find("DISARMED: disarmed"), std::string::npos) << r.out;
+
+    r = gs(ground.path, "get NO_SUCH_PARAM");
+    EXPECT_EQ(r.status, 1) << r.out;
+  }
+  close(uart0.master);
+  uart0.master = -1;
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (waitpid(pid, &status, WNOHANG) == 0) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+    ADD_FAILURE() << "the firmware did not end when UART0 hung up";
+  }
+}
+
+TEST(GroundStation, UsageErrors) {
+  Result r = gs("/nonexistent/tty", "arm");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("/nonexistent/tty"), std::string::npos) << r.out;
+  r = gs("/dev/null", "fly");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("unknown command 'fly'"), std::string::npos) << r.out;
+  r = gs("/dev/null", "setpoint 1 x 2");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("not a number: 'x'"), std::string::npos) << r.out;
+}
+
+}  // namespace
