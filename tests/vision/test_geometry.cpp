@@ -20,6 +20,8 @@ TEST(ThesisRigTest, RectifiedRigMatchesTable72AndTheBaseline) {
   std::printf("[vision] thesis rig rectified: f %.1f px (table 7.2: 458.9), c (%.1f, %.1f), baseline %.4f m\n",
               c.rectified_focal(), c.P1(0, 2), c.P1(1, 2), c.baseline());
   EXPECT_NEAR(c.baseline(), kThesisBaseline, 1e-9);
+  // fx = s·f, fy = f (eq. 7.26a) reproduces table 7.2's rectified focal length.
+  EXPECT_NEAR(c.rectified_focal(), 458.9, 0.1);
   // R is a proper rotation of a few degrees (eq. 7.34 rotates each camera by ~4°).
   EXPECT_NEAR(cv::determinant(cv::Mat(c.rig.R)), 1.0, 1e-9);
   const double angle = std::acos(std::clamp((cv::trace(c.rig.R) - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / CV_PI;

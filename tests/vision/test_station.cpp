@@ -36,6 +36,8 @@ class ScriptedSource : public FrameSource {
     frame.capture_time_us = monotonic_us();
     return ReadStatus::kFrame;
   }
+  void processed(const StereoFrame&, double processing_us) override { processing.push_back(processing_us); }
+  std::vector<double> processing;
 };
 
 TEST(StationTest, StalledCameraGivesNoFixAndRecovers) {
@@ -54,6 +56,9 @@ TEST(StationTest, StalledCameraGivesNoFixAndRecovers) {
     found.push_back(step.status == ReadStatus::kFrame && step.fix.found);
   }
   EXPECT_EQ(found, (std::vector<bool>{true, true, false, false, false, true}));
+  // The source hears back about every processed frame (lockstep sources account the time).
+  ASSERT_EQ(source.processing.size(), 3u);
+  for (double us : source.processing) EXPECT_GT(us, 0.0);
 }
 
 TEST(StationTest, WrongImageSizeIsAClearError) {

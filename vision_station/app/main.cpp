@@ -5,6 +5,7 @@
 //   vision_station run --calib FILE --source SPEC [--out /dev/ttyUSB0 --baud 57600] [--show]
 //                      [--settings FILE] [--timeout-ms 500] [--status-s 1]
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -231,6 +232,9 @@ int run(const std::map<std::string, std::string>& options) {
     link = std::make_unique<FixLink>(*port);
   }
   const bool display = options.count("--show") > 0;
+  if (display && std::getenv("DISPLAY") == nullptr && std::getenv("WAYLAND_DISPLAY") == nullptr) {
+    throw std::runtime_error("--show needs a display (DISPLAY or WAYLAND_DISPLAY is not set)");
+  }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(number(options, "--timeout-ms", 500)));
   const double status_period_s = number(options, "--status-s", 1.0);
   StereoStarLocator locator(calibration, settings.locator);

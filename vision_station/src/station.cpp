@@ -27,7 +27,9 @@ StationStep Station::step() {
   const cv::Size size = locator_.calibration().rig.image_size;
   check_size(step.frame.left, "left", step.frame, size);
   check_size(step.frame.right, "right", step.frame, size);
+  const int64_t start = monotonic_us();
   step.fix = locator_.locate(step.frame.left, step.frame.right);
+  source_.processed(step.frame, static_cast<double>(monotonic_us() - start));
   return step;
 }
 

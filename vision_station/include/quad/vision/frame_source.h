@@ -39,6 +39,9 @@ class FrameSource {
   virtual ReadStatus read(StereoFrame& frame, std::chrono::milliseconds timeout) = 0;
   // One line for the status output when something is wrong (e.g. "left camera: no frames for 2.1 s").
   virtual std::string health() const { return {}; }
+  // Called once the station has processed `frame`, with its processing time: a lockstep source (the
+  // simulator's) accounts it in simulated time before releasing the next frame.
+  virtual void processed(const StereoFrame& /*frame*/, double /*processing_us*/) {}
 };
 
 // Throws FrameSourceError with a message naming the problem (unknown scheme, missing files...).

@@ -28,7 +28,7 @@ struct StereoCalibration {
   double baseline() const { return -P2(0, 3) / P2(0, 0); }
 };
 
-// Computes the rectification of a rig (cv::stereoRectify with CALIB_ZERO_DISPARITY, alpha 0).
+// Computes the rectification of a rig (cv::stereoRectify with CALIB_ZERO_DISPARITY, default alpha).
 StereoCalibration rectify(const StereoRig& rig);
 
 // Writes / reads the YAML file. load_calibration throws CalibrationFileError naming the file and the

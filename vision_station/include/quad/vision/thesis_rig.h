@@ -2,8 +2,8 @@
 //
 // Mapping of the thesis' intrinsics onto OpenCV's pinhole model (documented in docs/vision_station.md):
 //  - eq. 7.26a scales only the horizontal coordinate by the cell aspect s, so fx = s·f and fy = f.
-//    Table 7.2's rectified focal length 458.9 is the mean of the two f values, i.e. of the fy values,
-//    which is what cv::stereoRectify produces for a horizontal rig: consistent with this reading.
+//    Check: cv::stereoRectify (default alpha) of this rig gives the rectified focal length 458.9 px of
+//    table 7.2 exactly (tests/vision/test_geometry.cpp).
 //  - eq. 7.24/7.25 write the radial polynomial as "detected · D = ideal", but the κ values were produced
 //    by OpenCV's calibrateCamera (sec. 7.4.1), whose model is the forward one: distorted = ideal · D(r_ideal)
 //    in normalised coordinates. The κ are used as OpenCV's k1, k2, k3 with zero tangential terms.
