@@ -4,8 +4,6 @@
 // documents (floats as their exact bit patterns), in wire order, so a wrong field order, type, length,
 // CRC_EXTRA or truncation rule on either side fails the test.
 #include <gtest/gtest.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -19,14 +17,12 @@
 #include <vector>
 
 #include "message_testing.h"
+#include "node_peer.h"
 #include "quad/link/mavlink.h"
 
 namespace mav = quad::mavlink;
 
 namespace {
-
-const std::string kNode = QUAD_NODE_EXECUTABLE;
-const std::string kNodeDir = QUAD_NODE_DIR;
 
 // Formats field values like mavlink_peer.js does.
 class LineFormatter {
@@ -92,55 +88,16 @@ class ZeroTail {
   size_t index_ = 0;
 };
 
-std::vector<std::string> read_lines(const std::string& path) {
-  std::ifstream in(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-class NodeConformance : public ::testing::Test {
- protected:
-  void SetUp() override {
-    ASSERT_FALSE(kNode.empty() || kNode.find("NOTFOUND") != std::string::npos)
-        << "node was not found when CMake configured the build; install it with `make setup`";
-    ASSERT_EQ(access(kNode.c_str(), X_OK), 0) << "cannot execute node at " << kNode;
-    const std::string module = kNodeDir + "/node_modules/node-mavlink/package.json";
-    ASSERT_EQ(access(module.c_str(), R_OK), 0)
-        << module << " is missing: node-mavlink is not installed; run `make setup` (npm ci in tools/node)";
-    char pattern[] = "/tmp/quad_link_conformance_XXXXXX";
-    ASSERT_NE(mkdtemp(pattern), nullptr);
-    dir_ = pattern;
-  }
-  void TearDown() override {
-    if (!dir_.empty() && !HasFailure()) std::system(("rm -rf '" + dir_ + "'").c_str());
-  }
-
-  // Runs the peer script; on failure reports its exit status and stderr.
-  void run_peer(const std::string& arguments) {
-    const std::string err = dir_ + "/node.stderr";
-    const std::string command =
-        "'" + kNode + "' '" + kNodeDir + "/mavlink_peer.js' " + arguments + " 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    ASSERT_EQ(status, 0) << command << "\n" << read_file(err);
-  }
-
-  std::string dir_;
-};
+using NodeConformance = mav::testing::NodePeerTest;
+using mav::testing::read_file;
+using mav::testing::read_lines;
 
 }  // namespace
 
 TEST_F(NodeConformance, FramesEncodedByNodeMavlinkDecodeExactly) {
   const std::string bin = dir_ + "/node.bin";
   const std::string txt = dir_ + "/node.txt";
-  ASSERT_NO_FATAL_FAILURE(run_peer("encode 5150 60 '" + bin + "' '" + txt + "'"));
+  ASSERT_NO_FATAL_FAILURE(run_peer("mavlink_peer.js", "encode 5150 60 '" + bin + "' '" + txt + "'"));
   const std::vector<std::string> expected = read_lines(txt);
   const std::string bytes = read_file(bin);
   ASSERT_EQ(expected.size(), 60u * 19u);
@@ -211,7 +168,7 @@ TEST_F(NodeConformance, FramesWeEncodeDecodeInNodeMavlinkToTheSameValues) {
   const std::string bin = dir_ + "/ours.bin";
   const std::string txt = dir_ + "/ours_decoded_by_node.txt";
   std::ofstream(bin, std::ios::binary) << bytes;
-  ASSERT_NO_FATAL_FAILURE(run_peer("decode '" + bin + "' '" + txt + "'"));
+  ASSERT_NO_FATAL_FAILURE(run_peer("mavlink_peer.js", "decode '" + bin + "' '" + txt + "'"));
   const std::vector<std::string> decoded = read_lines(txt);
   ASSERT_EQ(decoded.size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(decoded[i], expected[i]) << "frame " << i;

@@ -210,4 +210,7 @@ function main(argv) {
   }
 }
 
-main(process.argv.slice(2));
+// signing_peer.js reuses the message list and the random values.
+module.exports = { REGISTRY, MESSAGES, classByName, wireFields, makeRandom, randomValue };
+
+if (require.main === module) main(process.argv.slice(2));
