@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "param_file.h"
-#include "quad/firmware/app.h"
+#include "quad/firmware/runner.h"
 #include "quad/hal/host.h"
 
 namespace {
@@ -81,10 +81,6 @@ bool parse_args(int argc, char** argv, Options* o, std::string* error) {
   return true;
 }
 
-uint16_t write_port(uint8_t port, const uint8_t* data, uint16_t length) {
-  return quad::hal::serial_write(static_cast<quad::hal::Port>(port), data, length);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -110,11 +106,7 @@ int main(int argc, char** argv) {
   signal(SIGPIPE, SIG_IGN);
 
   static quad::fw::FlightApp app;  // large: keep it off the stack
-  quad::fw::AppIo io;
-  io.storage = quad::fw::StorageIo{quad::hal::storage_read, quad::hal::storage_write};
-  io.write = write_port;
-  io.micros = quad::hal::micros;
-  app.init(io, /*hil=*/true);
+  app.init(quad::fw::hal_app_io(), /*hil=*/true);
   for (const quad::fw::ParamOverride& o : overrides) {
     if (const char* why = app.override_param(o.index, o.value)) {
       std::fprintf(stderr, "quad_firmware: %s: %s: %s\n", options.params_path.c_str(),
@@ -124,15 +116,10 @@ int main(int argc, char** argv) {
     }
   }
 
-  uint8_t buffer[512];
+  // run_hil() without the "forever": the host stops on a signal or when the simulator hangs up.
   while (!g_stop && !quad::hal::host::port_hung_up(quad::hal::kUart0)) {
     quad::hal::idle(20000);
-    for (uint8_t port = 0; port < quad::hal::kPortCount; ++port) {
-      uint16_t n;
-      while ((n = quad::hal::serial_read(static_cast<quad::hal::Port>(port), buffer, sizeof buffer)) > 0) {
-        app.receive(port, buffer, n, quad::hal::micros());
-      }
-    }
+    quad::fw::poll_ports(app);
   }
   quad::hal::host::close();
   return 0;
