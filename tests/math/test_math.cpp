@@ -319,6 +319,12 @@ TEST_F(MathCore, ScalarHelpers) {
     EXPECT_NEAR(sincf(static_cast<float>(x)), std::sin(x) / x, 1e-6);
     EXPECT_NEAR(wrap_pi(static_cast<float>(x * 10)), std::remainder(x * 10, 2 * M_PI), 1e-4);
   }
+  // Huge finite angles still end in (-pi, pi] (a plain subtraction loop would never terminate).
+  for (float a : {1e10f, -3e12f, 123456.7f, 3.4e38f}) {
+    const float w = wrap_pi(a);
+    EXPECT_GT(w, -M_PI - 1e-6);
+    EXPECT_LE(w, M_PI + 1e-6);
+  }
   EXPECT_EQ(safe_asinf(1.5f), asinf(1.0f));
   EXPECT_EQ(safe_sqrtf(-1e-9f), 0.0f);
   EXPECT_FALSE(is_finite(std::numeric_limits<float>::quiet_NaN()));

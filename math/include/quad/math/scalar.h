@@ -39,9 +39,12 @@ inline float safe_sqrtf(float x) { return x > 0.0f ? sqrtf(x) : 0.0f; }
 // asin with its argument clamped to [-1, 1], so round-off near +-90 deg never yields NaN.
 inline float safe_asinf(float x) { return asinf(clampf(x, -1.0f, 1.0f)); }
 
-// Wrap an angle to (-pi, pi].
+// Wrap an angle to (-pi, pi]. Angles a few turns away (the common case) take the loop; larger ones go
+// through fmodf so the result is bounded for every finite input (subtracting 2 pi from 1e10 rad would
+// never change it).
 inline float wrap_pi(float a) {
   if (!is_finite(a)) return a;
+  if (a > 4.0f * kTwoPi || a < -4.0f * kTwoPi) a = fmodf(a, kTwoPi);
   while (a > kPi) a -= kTwoPi;
   while (a <= -kPi) a += kTwoPi;
   return a;
