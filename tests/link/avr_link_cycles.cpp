@@ -1,6 +1,7 @@
 // Cycle cost of the link codec on the ATmega2560 (APM 2.5), run on simavr by tools/avr_cycles: what one
 // HIL step costs the flight board (parse and decode HIL_SENSOR, encode HIL_ACTUATOR_CONTROLS), and the
-// cost per byte of noise; and the AVR's CRC against references. Built with avr-g++ and the avr-apm25 preset's flags by tests/link/CMakeLists.txt.
+// cost per byte of noise; what message signing adds (SHA-256 of one block, signing and verifying the
+// HIL_SENSOR frame); and the AVR's CRC and SHA-256 against references. Built with avr-g++ and the avr-apm25 preset's flags by tests/link/CMakeLists.txt.
 #include "cycle_probe.h"
 #include "quad/link/mavlink.h"
 
@@ -12,7 +13,9 @@ volatile float g_in[3] = {0.12f, -0.07f, -9.81f};  // values the compiler cannot
 uint8_t g_frame[mav::max_frame_length<mav::HilSensor>()];
 uint8_t g_out[mav::max_frame_length<mav::HilActuatorControls>()];
 uint8_t g_noise[100];
+uint8_t g_signed[mav::max_frame_length<mav::HilSensor>(true)];
 mav::Parser g_parser;
+mav::SigningKey g_key;
 
 template <typename F>
 void measure(const char* name, F&& f) {
@@ -66,6 +69,35 @@ int main() {
     for (uint8_t b : g_noise) g_parser.feed(b, [&](const mav::Frame&) { ++frames; });
   });
 
+  // Signing: the frame sent on a signed link, then the receiver's check of it.
+  for (uint8_t i = 0; i < sizeof g_key.bytes; ++i) g_key.bytes[i] = static_cast<uint8_t>(i);
+  mav::SigningClock ground_clock(34715520000000ull);
+  mav::SigningClock vehicle_clock(34715520000000ull);
+  mav::Signer signer(g_key, ground_clock, 1);
+  mav::SignatureVerifier verifier(g_key, vehicle_clock);
+  verifier.set_require_signed(true);
+  uint8_t digest[mav::kSha256DigestLength];
+  measure("sha256_abc", [&] { mav::sha256(reinterpret_cast<const uint8_t*>("abc"), 3, digest); });
+  quad_probe::keep(digest);
+  measure("sign_hil_sensor", [&] { size = mav::encode_signed(sender, signer, sample, g_signed, sizeof g_signed); });
+  quad_probe::keep(size);
+  int verified = 0;
+  for (size_t i = 0; i < size; ++i) {
+    if (g_parser.push(g_signed[i])) {
+      measure("verify_hil_sensor", [&] { verified += mav::accepted(verifier.check(g_parser.frame())) ? 1 : 0; });
+      while (g_parser.next()) {
+      }
+    }
+  }
+  // FIPS 180-4's "abc" example: the AVR's SHA-256 (flash constants, 8-bit arithmetic) is right.
+  static const uint8_t kAbcDigest[] = {0xba, 0x78, 0x16, 0xbf, 0x8f, 0x01, 0xcf, 0xea};
+  bool sha_ok = true;
+  for (uint8_t i = 0; i < sizeof kAbcDigest; ++i) sha_ok = sha_ok && digest[i] == kAbcDigest[i];
+  // A replay of the same frame must be rejected on the AVR too.
+  for (size_t i = 0; i < size; ++i) {
+    g_parser.feed(g_signed[i], [&](const mav::Frame& f) { verified += verifier.check(f) == mav::SignatureCheck::kRejectedReplay ? 1 : 0; });
+  }
+
   // The AVR computes the CRC with avr-libc's assembly: check it against references made elsewhere, the
   // CRC-16/MCRF4XX check value and a HEARTBEAT frame serialised by node-mavlink.
   static const uint8_t kDigits[] = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
@@ -78,7 +110,7 @@ int main() {
   }
 
   // A lost or wrongly decoded frame makes the ctest fail (FAIL_REGULAR_EXPRESSION "ERROR_").
-  const bool ok = crc_ok && frames == 3 && decoded.zacc == sample.zacc && decoded.fields_updated == 0x1FF &&
+  const bool ok = crc_ok && sha_ok && verified == 2 && frames == 3 && decoded.zacc == sample.zacc && decoded.fields_updated == 0x1FF &&
                   heartbeat.custom_mode == 0x01020304 && heartbeat.base_mode == 0x81;
   measure(ok ? "frames_ok" : "ERROR_frame_lost_or_wrong", [] {});
   quad_probe::done();
