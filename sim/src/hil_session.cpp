@@ -75,6 +75,7 @@ class Session {
   void handle_frame(const mav::Frame& f, double t, const char* port);
   bool wait_for_answer(double t);
   void wait_radio_consumed();
+  void deliver_radio(double until);
   void poll_uart0(double t);
   void poll_uart2(double t);
 
@@ -122,6 +123,9 @@ class Session {
   bool have_pending_ = false;
   std::optional<mav::HilActuatorControls> answer_;
   bool radio_written_ = false;
+  uint64_t radio_sync_timeouts_ = 0;  // see wait_radio_consumed()
+  int radio_sync_misses_in_row_ = 0;
+  bool radio_ignored_ = false;
   std::vector<uint8_t> last_sensor_frame_;  // resent while the firmware is still starting
   uint64_t exchanges_ = 0, vision_sent_ = 0, uart0_overruns_ = 0;
   Telemetry tele_;
@@ -429,16 +433,25 @@ void Session::poll_uart2(double t) {
 }
 
 void Session::wait_radio_consumed() {
-  // Radio bytes delivered during the last period must reach the firmware before this step's
-  // HIL_SENSOR, as they would on the vehicle; two ptys give no order between them. The kernel moves
-  // written bytes to the slave's input queue a moment later (a work queue), so: wait until they show
-  // up there (or 0.2 ms: the firmware may have taken them already), then until the firmware has read
-  // them (at most 2 ms: a firmware that ignores UART2 must not stall the run).
-  if (!radio_written_) return;
+  // Radio bytes for this step were written right after the last answer (run()). The firmware must have
+  // read them before this step's HIL_SENSOR, as on the vehicle; two ptys give no order between them, so
+  // wait until UART2's input queue is empty. A firmware that does not read UART2 within 20 ms three
+  // times in a row is taken to ignore it, and not waited for again.
+  if (!radio_written_ || radio_ignored_) return;
   radio_written_ = false;
   const auto start = Clock::now();
-  while (uart2_.unread_by_peer() == 0 && Clock::now() - start < std::chrono::microseconds(200)) std::this_thread::yield();
-  while (uart2_.unread_by_peer() > 0 && Clock::now() - start < std::chrono::milliseconds(2)) std::this_thread::yield();
+  while (uart2_.unread_by_peer() > 0) {
+    if (Clock::now() - start > std::chrono::milliseconds(20)) {
+      ++radio_sync_timeouts_;
+      if (++radio_sync_misses_in_row_ == 3) {
+        radio_ignored_ = true;
+        event(vehicle_.time(), "the firmware does not read UART2: radio bytes are no longer ordered with HIL_SENSOR");
+      }
+      return;
+    }
+    std::this_thread::yield();
+  }
+  radio_sync_misses_in_row_ = 0;
 }
 
 bool Session::wait_for_answer(double t) {
@@ -463,6 +476,13 @@ bool Session::wait_for_answer(double t) {
   return true;
 }
 
+void Session::deliver_radio(double until) {
+  radio_up_.deliver_until(until, [&](const uint8_t* d, size_t n) {
+    uart2_.write_all(d, n);
+    radio_written_ = true;
+  });
+}
+
 void Session::physics_period(double t_end) {
   const double dt = vehicle_.timestep();
   while (vehicle_.time() < t_end - 0.5 * dt) {
@@ -485,10 +505,7 @@ void Session::physics_period(double t_end) {
       ++vision_sent_;
       vision_pending_.pop_front();
     }
-    radio_up_.deliver_until(now, [&](const uint8_t* d, size_t n) {
-      uart2_.write_all(d, n);
-      radio_written_ = true;
-    });
+    if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
       ground_parser_.feed(d, n, [&](const mav::Frame& f) { handle_frame(f, now, "radio"); });
     });
@@ -574,6 +591,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   links.add("uart0_to_firmware", line_json(uart0_out_.stats())).add("uart0_from_firmware", uart0_in);
   links.add("radio_uplink", line_json(radio_up_.stats())).add("radio_downlink", line_json(radio_down_.stats()));
   links.add("ground_station_received", ground_in).add("uart0_overruns", static_cast<long>(uart0_overruns_));
+  links.add("radio_sync_timeouts", static_cast<long>(radio_sync_timeouts_));
   Json j;
   j.add("scenario", s_.name).add("scenario_file", s_.path).add("seed", static_cast<long>(s_.seed));
   j.add("complete", complete);
@@ -679,6 +697,10 @@ SessionResult Session::run() {
       for (size_t i = 0; i < 4; ++i) pending_commands_[i] = answer_->controls[i];
       pending_apply_t_ = t + exchange_s;
       have_pending_ = true;
+      // Radio bytes arriving during this period can only be acted on at the next step: hand them over
+      // now, while the firmware waits, so they are read before the next HIL_SENSOR (deterministic order).
+      // Vision and radio latencies exceed the period, so everything arriving by t + T is queued by now.
+      deliver_radio(t + period);
     }
     poll_uart2(t);
     physics_period(t + period);

@@ -90,6 +90,8 @@ bool Pty::wait_readable(int timeout_ms) const {
 namespace quad::sim {
 
 int Pty::unread_by_peer() const {
+  pollfd p{slave_, POLLIN, 0};
+  poll(&p, 1, 0);  // n_tty_poll flushes the pending flip buffer into the slave's input queue
   int n = 0;
   return ioctl(slave_, FIONREAD, &n) == 0 ? n : 0;
 }

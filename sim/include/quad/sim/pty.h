@@ -25,7 +25,9 @@ class Pty {
   size_t read_some(uint8_t* out, size_t capacity);
   // Waits up to timeout_ms for bytes to read; false on timeout.
   bool wait_readable(int timeout_ms) const;
-  // Bytes written to the master that the firmware has not read yet (FIONREAD on the slave side).
+  // Bytes written to the master that the firmware has not read yet (FIONREAD on the slave side). The
+  // kernel moves written bytes to the slave from a work queue; this first forces that move (a poll on
+  // the slave runs it synchronously), so the count is exact.
   int unread_by_peer() const;
 
  private:
