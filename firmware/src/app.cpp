@@ -428,10 +428,11 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   const uint32_t begin = io_.micros();
   loop_timer_.begin(begin);
   const float nominal_dt = static_cast<float>(loop_timer_.period_us()) * 1e-6f;
-  float dt = clock_started_ ? static_cast<float>(static_cast<int32_t>(t_us - now_us_)) * 1e-6f : nominal_dt;
+  float dt = clock_started_ ? static_cast<float>(static_cast<int32_t>(t_us - last_step_us_)) * 1e-6f : nominal_dt;
   // A gap or a clock step: integrate one nominal period rather than a jump.
   if (!(dt > 0.0f) || dt > 5.0f * nominal_dt) dt = nominal_dt;
   clock_started_ = true;
+  last_step_us_ = t_us;
   now_us_ = t_us;
   ++counters_.iterations;
 
@@ -712,7 +713,9 @@ void FlightApp::telemetry() {
     st.errors_comm = static_cast<uint16_t>(errors > UINT16_MAX ? UINT16_MAX : errors);
     const uint32_t lost = parsers_[hal::kUart0].stats().sequence_lost + parsers_[hal::kUart2].stats().sequence_lost;
     const uint32_t received = parsers_[hal::kUart0].stats().frames_accepted + parsers_[hal::kUart2].stats().frames_accepted;
-    st.drop_rate_comm = static_cast<uint16_t>(received + lost == 0 ? 0 : (10000ull * lost) / (received + lost));
+    // In 0.01 %; float, so the AVR needs no 64-bit division.
+    st.drop_rate_comm = static_cast<uint16_t>(
+        received + lost == 0 ? 0.0f : 10000.0f * static_cast<float>(lost) / static_cast<float>(received + lost));
     st.errors_count1 = static_cast<uint16_t>(loop_timer_.overruns() > UINT16_MAX ? UINT16_MAX : loop_timer_.overruns());
     st.errors_count2 = static_cast<uint16_t>(counters_.fixes_rejected > UINT16_MAX ? UINT16_MAX : counters_.fixes_rejected);
     st.errors_count3 = static_cast<uint16_t>(counters_.tx_dropped_bytes > UINT16_MAX ? UINT16_MAX : counters_.tx_dropped_bytes);

@@ -178,7 +178,8 @@ class FlightApp {
   float motors_[hal::kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
   float last_thrust_ = 0.0f;
 
-  uint32_t now_us_ = 0;
+  uint32_t now_us_ = 0;        // vehicle time: the last step, or (on a board) the last receive()
+  uint32_t last_step_us_ = 0;  // time of the last control iteration, for its period
   uint64_t hil_time_usec_ = 0;
   bool clock_started_ = false;
   bool sensors_ok_ = false;
