@@ -62,8 +62,8 @@ bool fully_visible(const CameraIntrinsics& camera, cv::Size size, const Pose& po
 
 namespace {
 
-// Anti-aliased coverage (0..1, CV_32F) of a floor polygon, within `image_rect` of the image; returns the
-// covered bounding box (empty when the polygon is off the image) or nullopt when it cannot be projected.
+// Anti-aliased coverage (0..1, CV_32F, in `out`) of a floor polygon over its bounding box in the image;
+// returns that box (empty when the polygon is off the image) or nullopt when it cannot be projected.
 std::optional<cv::Rect> coverage(const CameraIntrinsics& camera, cv::Size size, const Pose& pose,
                                  const std::vector<cv::Point2d>& outline, int ss, cv::Mat& out) {
   std::vector<cv::Point2d> image_points;

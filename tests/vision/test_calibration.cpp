@@ -2,7 +2,15 @@
 // lengths within 0.5 %, the baseline within 1 %; too few or degenerate views are refused.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "quad/vision/chessboard_calibration.h"
 #include "scene_renderer.h"
@@ -32,6 +40,7 @@ std::vector<FloorShape> board_shapes() {
 
 struct Views {
   std::vector<std::vector<cv::Point2f>> left, right;
+  std::vector<cv::Mat> left_images, right_images;
 };
 
 // Boards at 0.45–0.8 m, tilted up to `max_tilt`, spread over the image; only views in which both
@@ -63,15 +72,28 @@ Views capture(const StereoRig& rig, int count, double max_tilt, cv::RNG& rng) {
     if (!cl || !cr) continue;
     views.left.push_back(*cl);
     views.right.push_back(*cr);
+    views.left_images.push_back(*l);
+    views.right_images.push_back(*r);
   }
+  return views;
+}
+
+// 18 views rendered once for the tests that need a good set.
+const Views& good_views() {
+  static const Views views = [] {
+    cv::RNG rng(7);
+    return capture(thesis_stereo_rig(), 18, 40.0 * CV_PI / 180.0, rng);
+  }();
   return views;
 }
 
 TEST(StereoCalibrationTest, RecoversTheThesisRigFromRenderedChessboards) {
   const StereoRig truth = thesis_stereo_rig();
-  cv::RNG rng(7);
-  const Views views = capture(truth, 18, 40.0 * CV_PI / 180.0, rng);
+  Views views = good_views();
   ASSERT_EQ(views.left.size(), 18u);
+  // The corner order of a view may start from either end of the board: every third right view reversed
+  // must not matter.
+  for (size_t i = 0; i < views.right.size(); i += 3) std::reverse(views.right[i].begin(), views.right[i].end());
   const StereoCalibrationResult result = calibrate_stereo(views.left, views.right, truth.image_size, kBoard);
   const StereoRig& rig = result.calibration.rig;
   const double fx1 = rig.left.K(0, 0) / truth.left.K(0, 0) - 1.0, fy1 = rig.left.K(1, 1) / truth.left.K(1, 1) - 1.0;
@@ -89,6 +111,20 @@ TEST(StereoCalibrationTest, RecoversTheThesisRigFromRenderedChessboards) {
   EXPECT_LT(result.rms_stereo_px, 0.5);
   // The rectified rig is horizontal with the right camera on the right.
   EXPECT_NEAR(result.calibration.baseline(), cv::norm(truth.T), 0.01 * cv::norm(truth.T));
+}
+
+TEST(StereoCalibrationTest, RefusesUnsynchronisedPairs) {
+  const StereoRig truth = thesis_stereo_rig();
+  Views views = good_views();
+  ASSERT_EQ(views.left.size(), 18u);
+  // Each right view paired with the next left view: the board moved between the two images.
+  std::rotate(views.right.begin(), views.right.begin() + 1, views.right.end());
+  try {
+    calibrate_stereo(views.left, views.right, truth.image_size, kBoard);
+    FAIL() << "unsynchronised pairs accepted";
+  } catch (const CalibrationSetError& e) {
+    EXPECT_NE(std::string(e.what()).find("not taken at the same time"), std::string::npos) << e.what();
+  }
 }
 
 TEST(StereoCalibrationTest, RefusesTooFewViews) {
@@ -113,6 +149,42 @@ TEST(StereoCalibrationTest, RefusesFrontoParallelViews) {
   } catch (const CalibrationSetError& e) {
     EXPECT_NE(std::string(e.what()).find("tilted"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace
+}  // namespace quad::vision
+
+namespace quad::vision {
+namespace {
+
+// `vision_station calibrate --images DIR` end to end on rendered chessboard files.
+TEST(CalibrateCommandTest, WritesACalibrationFileFromImagePairs) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("vision_calibrate_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const StereoRig truth = thesis_stereo_rig();
+  cv::RNG rng(10);
+  const Views views = capture(truth, 14, 40.0 * CV_PI / 180.0, rng);
+  int written = 0;
+  for (size_t i = 0; i < views.left_images.size(); ++i, ++written) {
+    const std::string suffix = std::to_string(100 + i) + ".png";
+    cv::imwrite((dir / ("left" + suffix)).string(), views.left_images[i]);
+    cv::imwrite((dir / ("right" + suffix)).string(), views.right_images[i]);
+  }
+  ASSERT_EQ(written, 14);
+  const std::string out = (dir / "calib.yaml").string();
+  const std::string log = (dir / "log.txt").string();
+  const std::string command = std::string(VISION_STATION_EXE) + " calibrate --images " + dir.string() +
+                              " --board 9x6 --square " + std::to_string(kSquare) + " --out " + out + " >" + log + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const StereoCalibration c = load_calibration(out);
+  EXPECT_NEAR(c.baseline(), cv::norm(truth.T), 0.01 * cv::norm(truth.T));
+  EXPECT_NEAR(c.rig.left.K(1, 1), truth.left.K(1, 1), 0.005 * truth.left.K(1, 1));
+  std::ifstream in(log);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("calibrated from 14 views"), std::string::npos) << text;
+  EXPECT_NE(text.find("baseline 0.11"), std::string::npos) << text;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -54,8 +54,8 @@ TEST(CameraMountTest, Eq85ErratumPutsAHoveringVehicleAboveTheStar) {
   EXPECT_NEAR(p[2], -1.555, 1e-12);
   EXPECT_NEAR(p[0], -0.057, 1e-12);
   EXPECT_NEAR(p[1], 0.057, 1e-12);
-  // Yawed 90° (body x east): a star seen ahead of the vehicle puts the vehicle west of it... i.e. the
-  // NED position is the negative of the rotated body vector.
+  // Yawed 90° (body x points east): a star ahead of the vehicle is east of it, so the vehicle's position
+  // relative to the star is west (negative east).
   const cv::Matx33d yaw90(0, -1, 0, 1, 0, 0, 0, 0, 1);
   const cv::Vec3d q = vehicle_position_from_star(yaw90, mount, cv::Vec3d(0, -0.5, 1.5));  // image up = ahead
   const cv::Vec3d star_body = camera_to_body(mount, cv::Vec3d(0, -0.5, 1.5));

@@ -139,14 +139,13 @@ int calibrate(const std::map<std::string, std::string>& options) {
   cv::Size size;
   StereoFrame frame;
   int64_t last_kept_us = 0;
-  for (int seen = 0; !live || static_cast<int>(left.size()) < wanted;) {
+  while (!live || static_cast<int>(left.size()) < wanted) {
     const ReadStatus status = source->read(frame, std::chrono::milliseconds(2000));
     if (status == ReadStatus::kEnd) break;
     if (status == ReadStatus::kNoFrame) {
       std::cerr << "calibrate: no frames: " << source->health() << "\n";
       continue;
     }
-    ++seen;
     if (size.area() == 0) size = frame.left.size();
     if (frame.left.size() != size || frame.right.size() != size) {
       throw std::runtime_error(frame.label + ": image size differs from the first pair");

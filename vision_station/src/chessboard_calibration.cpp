@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <string>
 
@@ -69,6 +70,18 @@ StereoCalibrationResult calibrate_stereo(const std::vector<std::vector<cv::Point
     }
   }
 
+  // The chessboard detector may report a view's corners from either end (180° ambiguity). The cameras
+  // look the same way, so the first-to-last corner direction must agree between left and right.
+  std::vector<std::vector<cv::Point2f>> right_aligned = right;
+  for (int i = 0; i < n; ++i) {
+    if (left[i].size() != right[i].size() || left[i].empty()) {
+      throw std::invalid_argument("calibrate_stereo: view " + std::to_string(i) + " has different corner counts");
+    }
+    const cv::Point2f dl = left[i].back() - left[i].front();
+    const cv::Point2f dr = right[i].back() - right[i].front();
+    if (dl.dot(dr) < 0.0f) std::reverse(right_aligned[i].begin(), right_aligned[i].end());
+  }
+
   const std::vector<std::vector<cv::Point3f>> object(static_cast<size_t>(n), board_points(board));
   StereoRig rig;
   rig.image_size = image_size;
@@ -94,10 +107,20 @@ StereoCalibrationResult calibrate_stereo(const std::vector<std::vector<cv::Point
                               std::to_string(req.min_tilted_views) +
                               "); capture the board tilted by 20-40 deg towards different sides");
   }
-  result.rms_right_px = cv::calibrateCamera(object, right, image_size, K2, D2, rvecs, tvecs);
+  result.rms_right_px = cv::calibrateCamera(object, right_aligned, image_size, K2, D2, rvecs, tvecs);
   cv::Mat R, T, E, F;
-  result.rms_stereo_px = cv::stereoCalibrate(object, left, right, K1, D1, K2, D2, image_size, R, T, E, F,
+  result.rms_stereo_px = cv::stereoCalibrate(object, left, right_aligned, K1, D1, K2, D2, image_size, R, T, E, F,
                                              cv::CALIB_FIX_INTRINSIC);
+  const double worst = std::max({result.rms_left_px, result.rms_right_px, result.rms_stereo_px});
+  if (worst > req.max_rms_px) {
+    char message[320];
+    std::snprintf(message, sizeof message,
+                  "reprojection RMS too large (left %.2f px, right %.2f px, stereo %.2f px; limit %.2f): some "
+                  "corners are wrong or the left and right images were not taken at the same time; capture the "
+                  "whole board with a white margin in both images, holding it still",
+                  result.rms_left_px, result.rms_right_px, result.rms_stereo_px, req.max_rms_px);
+    throw CalibrationSetError(message);
+  }
   rig.left = CameraIntrinsics{cv::Matx33d(K1), cv::Vec<double, 5>(D1.reshape(1, 5))};
   rig.right = CameraIntrinsics{cv::Matx33d(K2), cv::Vec<double, 5>(D2.reshape(1, 5))};
   rig.R = cv::Matx33d(R);

@@ -29,6 +29,7 @@ struct CalibrationRequirements {
   int min_covered_cells = 15;  // ... of which the corners must reach this many, in each camera
   double min_tilt_deg = 15.0;  // at least min_tilted_views boards tilted this much from fronto-parallel
   int min_tilted_views = 3;
+  double max_rms_px = 1.0;     // reprojection RMS above this means bad corners or unsynchronised pairs
 };
 
 struct StereoCalibrationResult {
