@@ -52,8 +52,8 @@ struct Frame {
   uint32_t message_id = 0;
   const uint8_t* payload = nullptr;
   // The 13-byte signature block (link id, timestamp, signature) of a signed frame, or nullptr. The parser
-  // does not verify signatures: a signing layer checks them over `bytes` (SHA-256 of key + bytes[0 ..
-  // size - 6)), see the MAVLink signing specification.
+  // does not verify signatures: SignatureVerifier (signing.h) checks them over `bytes` (SHA-256 of key +
+  // bytes[0 .. size - 6)).
   const uint8_t* signature = nullptr;
   const uint8_t* bytes = nullptr;  // the whole frame, STX to the last signature byte
   uint16_t size = 0;

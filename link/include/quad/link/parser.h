@@ -14,8 +14,8 @@
 // complete more than one frame: after push() returns true, call next() until it returns false, or use
 // feed(), which does that for you.
 //
-// The parser does not verify signatures; it exposes the signature block in Frame (issue 10 adds a
-// verifying layer on top).
+// The parser does not verify signatures; it exposes the signature block in Frame for SignatureVerifier
+// (signing.h).
 //
 // Sequence numbers are tracked per sender (system id, component id) for link-loss statistics: a jump from
 // s to s + k counts k - 1 lost frames (modulo 256, so a sender restarting its count shows as a gap). Up to kMaxSenders senders are tracked; frames of further senders

@@ -106,7 +106,8 @@ class Signer {
 };
 
 // Encodes `msg` with `sender` as a signed frame and signs it: the frame length, or 0 when the buffer is
-// too small (capacity < max_frame_length<Msg>(true)) or signing failed.
+// too small (capacity < max_frame_length<Msg>(true)) or the clock is exhausted (the sender's sequence
+// number has advanced then).
 template <class Msg>
 size_t encode_signed(Sender& sender, Signer& signer, const Msg& msg, uint8_t* out, size_t capacity) {
   const size_t size = sender.encode(msg, out, capacity, kIncompatFlagSigned);
