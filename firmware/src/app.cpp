@@ -61,6 +61,16 @@ class StatusLine {
   size_t n_ = 0;
 };
 
+FlashText rejection_text(est::CalibrationStatus status) {
+  switch (status) {
+    case est::CalibrationStatus::Moved: return QUAD_TEXT("calibration: vehicle moved, again");
+    case est::CalibrationStatus::Turning: return QUAD_TEXT("calibration: vehicle turning, again");
+    case est::CalibrationStatus::NotLevel: return QUAD_TEXT("calibration: not level, again");
+    case est::CalibrationStatus::NonFinite: return QUAD_TEXT("calibration: bad sample, again");
+    default: return QUAD_TEXT("calibration: again");
+  }
+}
+
 }  // namespace
 
 FlightApp::FlightApp()
@@ -157,8 +167,10 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
 
   CalibrationConfig cc;
   cc.duration_s = p.get(kCalTime);
-  cc.gyro_still = p.get(kCalGyroStill);
-  cc.accel_still = p.get(kCalAccStill);
+  cc.limits.max_gyro_std = p.get(kCalGyroStd);
+  cc.limits.max_accel_std = p.get(kCalAccStd);
+  cc.limits.max_gyro_mean = p.get(kCalGyroMax);
+  cc.limits.max_accel_bias = p.get(kCalAccMax);
   calibration_.configure(cc);
 
   const float loop_hz = p.get(kLoopHz);
@@ -438,22 +450,9 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
 
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && norm_sq(imu.accel) > sqf(0.3f * kGravity);
   if (!calibration_.done()) {
-    if (calibration_.add(t_us, imu.gyro, imu.accel, mag != nullptr ? &mag->field : nullptr)) {
-      bias_ = calibration_.result();
-      if (!bias_.mag_valid || !observer_.initialize(bias_.accel_mean, bias_.mag_mean)) {
-        // No magnetometer: level from gravity, heading zero (thesis eq. 3.20 inverse for roll/pitch).
-        const Vec3& a = bias_.accel_mean;
-        Euler e;
-        e.roll = atan2f(-a.y, -a.z);
-        e.pitch = atan2f(a.x, sqrtf(a.y * a.y + a.z * a.z));
-        observer_.reset(from_euler(e), bias_.gyro_bias);
-      } else {
-        observer_.reset(observer_.attitude(), bias_.gyro_bias);
-      }
-      send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrated, ready to arm"));
-    }
+    calibrate(imu, mag);
   } else {
-    estimate(imu.gyro, imu.accel - bias_.accel_bias, mag, dt);
+    estimate(imu.gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, mag, dt);
   }
 
   handle_transition(modes_.update(mode_inputs()));
@@ -466,6 +465,28 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     if (++param_stream_next_ >= kParamCount) param_stream_next_ = -1;
   }
   loop_timer_.end(io_.micros());
+}
+
+void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) {
+  switch (calibration_.add(now_us_, imu.gyro, imu.accel, mag != nullptr ? &mag->field : nullptr)) {
+    case BootCalibration::Event::kCollecting:
+      return;
+    case BootCalibration::Event::kWindowRejected:
+      send_statustext(mav::kSeverityWarning, rejection_text(calibration_.rejection()));
+      return;
+    case BootCalibration::Event::kDone:
+      break;
+  }
+  bias_ = calibration_.result();
+  // With the biases removed the mean specific force is -g e_z: level; the heading comes from the
+  // magnetometer (TRIAD), or is 0 without one.
+  const Vec3 down_force{0.0f, 0.0f, -kGravity};
+  if (!bias_.mag_valid || !observer_.initialize(down_force, bias_.mag_mean)) {
+    observer_.reset(Quat::identity(), Vec3{});
+  } else {
+    observer_.reset(observer_.attitude(), Vec3{});
+  }
+  send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrated, ready to arm"));
 }
 
 void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt) {

@@ -206,7 +206,7 @@ TEST(FirmwarePty, AnswersEverySensorMessageAndArms) {
   Pty uart0, uart2;
   ASSERT_FALSE(uart0.path.empty());
   ASSERT_FALSE(uart2.path.empty());
-  const std::string params = temp_file("fw_pty.params", "# short calibration for the test\nCAL_TIME 0.5\n");
+  const std::string params = temp_file("fw_pty.params", "# short calibration for the test (at least 100 samples)\nCAL_TIME 1.0\n");
   const pid_t pid = start_firmware({"--uart0", uart0.path, "--uart0-baud", "921600", "--uart2", uart2.path,
                                     "--uart2-baud", "57600", "--params", params});
   ASSERT_GT(pid, 0);
@@ -220,9 +220,9 @@ TEST(FirmwarePty, AnswersEverySensorMessageAndArms) {
   ASSERT_TRUE(sim.wait_for([&] { return contains(sim.texts, "calibrating"); }, 5000));
   ASSERT_TRUE(radio.wait_for([&] { return contains(radio.texts, "calibrating"); }, 1000));
 
-  constexpr int kSteps = 160;
-  constexpr int kArmAt = 80;        // 0.8 s: after the 0.5 s calibration
-  constexpr int kThrottleAt = 120;  // half throttle from here
+  constexpr int kSteps = 210;  // the 1 Hz heartbeat at iteration 200 reports the armed mode
+  constexpr int kArmAt = 110;       // 1.1 s: after the 1 s calibration
+  constexpr int kThrottleAt = 140;  // half throttle from here
   const auto start = Clock::now();
   std::vector<double> latency_ms;
   for (int k = 0; k < kSteps; ++k) {

@@ -131,7 +131,7 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
   ASSERT_FALSE(ground.path.empty());
   const std::string params = ::testing::TempDir() + "gs_test.params";
   // Short calibration; no RC in this session, so RC is not required.
-  std::ofstream(params) << "CAL_TIME 0.3\nFS_RC_ENABLE 0\n";
+  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
   const pid_t pid = fork();
   if (pid == 0) {
     execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
@@ -141,7 +141,7 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master);
-    while (world.steps() < 60) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
 
     Result r = gs(ground.path, "arm");
     EXPECT_EQ(r.status, 0) << r.out;
@@ -183,7 +183,7 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
     ASSERT_EQ(parsed.size(), static_cast<size_t>(quad::fw::kParamCount));
     for (const auto& p : parsed) {
       if (p.index == quad::fw::kPosKpZ) EXPECT_FLOAT_EQ(p.value, 2.5f);
-      if (p.index == quad::fw::kCalTime) EXPECT_FLOAT_EQ(p.value, 0.3f);
+      if (p.index == quad::fw::kCalTime) EXPECT_FLOAT_EQ(p.value, 1.0f);
     }
 
     r = gs(ground.path, "disarm");

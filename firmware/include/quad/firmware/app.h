@@ -120,6 +120,7 @@ class FlightApp {
   void on_fix(const Vec3& p_ned, uint32_t capture_us);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg);
 
+  void calibrate(const hal::ImuSample& imu, const hal::MagSample* mag);
   void estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt);
   ModeInputs mode_inputs() const;
   void handle_transition(const Transition& t);

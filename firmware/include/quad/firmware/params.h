@@ -16,10 +16,12 @@ namespace fw {
 #define QUAD_PARAM_TABLE(X)                                                                      \
   /* scheduler: the control loop rate (HIL: the rate the simulator sends HIL_SENSOR at) */       \
   X(kLoopHz, "SYS_LOOP_HZ", 100.0f, 50.0f, 1000.0f)                                              \
-  /* boot calibration: the vehicle must stay still for CAL_TIME seconds */                       \
+  /* boot calibration (thesis eq. 7.2, 7.4): windows of CAL_TIME s, still and level */          \
   X(kCalTime, "CAL_TIME", 2.0f, 0.2f, 30.0f)                                                     \
-  X(kCalGyroStill, "CAL_GYRO_STILL", 0.05f, 0.001f, 1.0f)                                        \
-  X(kCalAccStill, "CAL_ACC_STILL", 0.5f, 0.01f, 5.0f)                                            \
+  X(kCalGyroStd, "CAL_GYRO_STD", 0.01f, 0.0001f, 1.0f)                                           \
+  X(kCalAccStd, "CAL_ACC_STD", 0.1f, 0.001f, 5.0f)                                               \
+  X(kCalGyroMax, "CAL_GYRO_MAX", 0.35f, 0.001f, 2.0f)                                            \
+  X(kCalAccMax, "CAL_ACC_MAX", 1.0f, 0.01f, 5.0f)                                                \
   /* conditioned attitude observer, thesis table 8.1 */                                          \
   X(kObsK1, "OBS_K1", 1.0f, 0.0f, 100.0f)                                                        \
   X(kObsK2, "OBS_K2", 0.2f, 0.0f, 100.0f)                                                        \
