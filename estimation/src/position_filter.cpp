@@ -129,7 +129,9 @@ void PositionFilterCore::push_history() {
   // Once the last fused fix is older than the whole history, no fix can be out of order with it; forget
   // it before the 32-bit clock difference could wrap (after 35 min without fixes).
   if (have_fix_) {
-    const HistoryEntry& oldest = history_[(head_ + capacity_ - count_) % capacity_];
+    uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);
+    if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
+    const HistoryEntry& oldest = history_[k];
     if (seconds_between(oldest.t_us, last_fix_us_) > 0.0f) have_fix_ = false;
   }
 }
@@ -206,40 +208,42 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   push_history();
 }
 
-// Position on the current estimate's time line at t_us, from the history (linear interpolation between
-// the entries around t_us). False when t_us is older than the oldest entry.
+// Position on the current estimate's time line at t_us (not after now), from the history: linear
+// interpolation between the entries around t_us. False when t_us is older than the oldest entry. Ages
+// are compared as unsigned microseconds (all within the history, so the clock wrap does not matter).
 bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3]) const {
   if (count_ == 0) return false;
-  const uint16_t oldest = static_cast<uint16_t>((head_ + capacity_ - count_) % capacity_);
-  // Ages relative to now are non-negative and decrease from the oldest entry to the newest.
-  const float age = seconds_between(t_us_, t_us);
-  if (age > seconds_between(t_us_, history_[oldest].t_us)) return false;
-  // Binary search for the newest entry at or before t_us (logical index lo).
+  uint16_t oldest = static_cast<uint16_t>(head_ + capacity_ - count_);
+  if (oldest >= capacity_) oldest = static_cast<uint16_t>(oldest - capacity_);
+  auto entry = [&](uint16_t logical) -> const HistoryEntry& {
+    const uint16_t k = static_cast<uint16_t>(oldest + logical);
+    return history_[k >= capacity_ ? k - capacity_ : k];
+  };
+  const uint32_t age = t_us_ - t_us;
+  if (age > t_us_ - history_[oldest].t_us) return false;
+  // Binary search for the newest entry at or before t_us (ages decrease towards the newest entry).
   uint16_t lo = 0, hi = static_cast<uint16_t>(count_ - 1);
   while (lo < hi) {
     const uint16_t mid = static_cast<uint16_t>((lo + hi + 1) / 2);
-    const HistoryEntry& e = history_[(oldest + mid) % capacity_];
-    if (seconds_between(t_us_, e.t_us) >= age) {
+    if (t_us_ - entry(mid).t_us >= age) {
       lo = mid;
     } else {
       hi = static_cast<uint16_t>(mid - 1);
     }
   }
-  const HistoryEntry& a = history_[(oldest + lo) % capacity_];
+  const HistoryEntry& a = entry(lo);
   float frac = 0.0f;
   const HistoryEntry* b = &a;
   if (lo + 1 < count_) {
-    b = &history_[(oldest + lo + 1) % capacity_];
-    const float span = seconds_between(b->t_us, a.t_us);
-    frac = span > 0.0f ? seconds_between(t_us, a.t_us) / span : 0.0f;
+    b = &entry(static_cast<uint16_t>(lo + 1));
+    const uint32_t span = b->t_us - a.t_us;
+    if (span > 0) frac = static_cast<float>(t_us - a.t_us) / static_cast<float>(span);
   }
   const float dt = seconds_between(t_us, corr_origin_us_);
   for (int i = 0; i < 3; ++i) out[i] = a.p[i] + frac * (b->p[i] - a.p[i]) + correction_position(i, dt);
   return true;
 }
 
-// The state is set at the fix's capture time (velocity unknown: zero with vel_sigma0) and carried to
-// now without input, so that fixes captured between this one and now still find a history.
 void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture_us) {
   if (initialized_) ++health_.resets;  // the first fix initialises; later ones here are resets
   const uint32_t now = t_us_;
@@ -289,9 +293,12 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   float w[2][3];
   float inv_s[2];
   const float h1 = -tau, h2 = -0.5f * tau * tau;
+  AxisCovariance q_tau[2];
+  q_tau[0] = process_noise(tau, qp_, qv_, 0.0f);
+  q_tau[1] = params_.z_accel_bias ? process_noise(tau, qp_, qv_, qb_) : q_tau[0];
   for (int c = 0; c < 2; ++c) {
     const bool bias = c == 1 && params_.z_accel_bias;
-    const AxisCovariance q = process_noise(tau, qp_, qv_, bias ? qb_ : 0.0f);
+    const AxisCovariance& q = q_tau[c];
     const AxisCovariance& p = p_[c];
     const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
     w[c][0] = dpp + h1 * dpv;
