@@ -26,7 +26,11 @@ Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt) {
 ConditionedObserver::ConditionedObserver(const ObserverParams& params) : params_(params) { cache_reference(); }
 
 void ConditionedObserver::set_params(const ObserverParams& params) {
+  // A reference learned at initialisation survives a change of gains in flight (else the heading jumps).
+  const bool keep_learned = initialized_ && params_.mag_ref_from_init && params.mag_ref_from_init;
+  const Vec3 learned = params_.mag_ref_ned;
   params_ = params;
+  if (keep_learned) params_.mag_ref_ned = learned;
   cache_reference();
 }
 

@@ -144,6 +144,19 @@ TEST(ConditionedObserver, InitialisesFromFirstSamplesAtAnyAttitude) {
   EXPECT_NEAR(euler_of(to_eigen(obs.attitude())).z(), 0.7 - declination, 1e-4);
   EXPECT_NEAR(euler_of(to_eigen(obs.attitude())).x(), 0.2, 1e-4);
   EXPECT_NEAR(obs.params().mag_ref_ned.y, 0.0f, 1e-6f);
+
+  // New gains in flight keep the learned reference: the heading does not jump.
+  const Vec3 learned = obs.params().mag_ref_ned;
+  ObserverParams faster;
+  faster.k2 = 1.0f;
+  obs.set_params(faster);
+  EXPECT_EQ(obs.params().mag_ref_ned.x, learned.x);
+  EXPECT_EQ(obs.params().mag_ref_ned.z, learned.z);
+  for (int k = 0; k < 200; ++k) {
+    const Sample s1 = sim.sample();
+    obs.update(s1.gyro, s1.accel, s1.mag, true, static_cast<float>(kDt));
+  }
+  EXPECT_NEAR(euler_of(to_eigen(obs.attitude())).z(), 0.7 - declination, 1e-3);
 }
 
 // Bias of 0.02 rad/s on every axis; the estimate starts at zero with the attitude initialised.

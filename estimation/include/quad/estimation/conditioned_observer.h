@@ -70,7 +70,8 @@ class ConditionedObserver {
   ConditionedObserver() : ConditionedObserver(ObserverParams{}) {}
   explicit ConditionedObserver(const ObserverParams& params);
 
-  // Replaces the parameters (gains, reference field, modes) without touching the state.
+  // Replaces the parameters (gains, reference field, modes) without touching the state. A reference
+  // learned by initialize() is kept while mag_ref_from_init stays set.
   void set_params(const ObserverParams& params);
   const ObserverParams& params() const { return params_; }
 
