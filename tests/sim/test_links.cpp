@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fcntl.h>
 #include <poll.h>
 #include <thread>
@@ -32,6 +33,7 @@ TEST(SerialLine, PacesABacklogToTheBaudRateInSimulatedTime) {
   uint64_t arrived = 0;
   for (int k = 1; k <= 20; ++k) line.deliver_until(0.1 * k, [&](const uint8_t*, size_t n) { arrived += n; });
   const double rate = static_cast<double>(arrived) / 2.0;
+  std::printf("simulated-time pacing: %.1f B/s at 57600 baud\n", rate);
   EXPECT_NEAR(rate / 5760.0, 1.0, 0.02) << rate << " B/s";
   EXPECT_NEAR(line.busy_until(), 12000 * 10.0 / 57600.0, 1e-9);
 }
@@ -82,6 +84,9 @@ TEST(SerialLine, LossAndBitErrorRatesAreReproduced) {
   EXPECT_EQ(s.frames_corrupted, corrupted);
   // Loss: binomial, 4 sigma.
   const double lost_fraction = static_cast<double>(s.frames_lost) / frames;
+  std::printf("loss %.4f (configured %.4f), bit errors %llu in %.0f bits = %.3g (configured %.3g)\n", lost_fraction, loss,
+              static_cast<unsigned long long>(differing_bits), 400.0 * static_cast<double>(delivered),
+              static_cast<double>(differing_bits) / (400.0 * static_cast<double>(delivered)), ber);
   EXPECT_NEAR(lost_fraction, loss, 4.0 * std::sqrt(loss * (1 - loss) / frames));
   // Bit errors: Poisson over the delivered bits, 4 sigma.
   const double bits = 400.0 * static_cast<double>(delivered);
@@ -175,6 +180,7 @@ TEST(Pty, RealTimePacingThroughAPseudoTerminalMatchesTheBaud) {
   // The first chunk arrives one frame in; the rest is paced: (total - first frame) bytes over the span.
   const double span = std::chrono::duration<double>(last - first).count();
   const double rate = static_cast<double>(total - frame.size()) / span;
+  std::printf("real-time pty pacing: %.1f B/s for %d baud (%.2f %% of baud/10)\n", rate, baud, 100.0 * rate / (baud / 10.0));
   EXPECT_NEAR(rate / (baud / 10.0), 1.0, 0.02) << rate << " B/s";
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "quad/sim/imu.h"
@@ -60,6 +61,9 @@ TEST(Mpu6000, WhiteNoiseDensityOfAStillLogMatchesTheConfiguration) {
     }
   }
   for (int a = 0; a < 3; ++a) {
+    std::printf("axis %d: gyro white noise %.4g rad/s/sqrt(Hz) (configured %.4g), accel %.4g m/s^2/sqrt(Hz) (%.4g)\n", a,
+                white_density(axes[static_cast<size_t>(a)], 1000.0), p.gyro.noise_density,
+                white_density(axes[static_cast<size_t>(3 + a)], 1000.0), p.accel.noise_density);
     EXPECT_NEAR(white_density(axes[static_cast<size_t>(a)], 1000.0) / p.gyro.noise_density, 1.0, 0.10) << "gyro " << a;
     EXPECT_NEAR(white_density(axes[static_cast<size_t>(3 + a)], 1000.0) / p.accel.noise_density, 1.0, 0.10)
         << "accel " << a;
@@ -82,6 +86,8 @@ TEST(Mpu6000, TurnOnBiasAcrossPowerUpsMatchesTheConfiguration) {
       accel.push_back(f[a]);
     }
   }
+  std::printf("turn-on bias over 300 power-ups: gyro %.4g rad/s (configured %.4g), accel %.4g m/s^2 (%.4g)\n",
+              stddev(gyro), p.gyro.turn_on_bias, stddev(accel), p.accel.turn_on_bias);
   EXPECT_NEAR(stddev(gyro) / p.gyro.turn_on_bias, 1.0, 0.10);
   EXPECT_NEAR(stddev(accel) / p.accel.turn_on_bias, 1.0, 0.10);
 }
@@ -111,6 +117,9 @@ TEST(Mpu6000, BiasRandomWalkOfLongLogsMatchesTheConfiguration) {
   auto walk = [&](double mean_sq, const ImuAxisParams& a) {
     return std::sqrt((mean_sq - 2.0 * a.noise_density * a.noise_density / tau) * 3.0 / (2.0 * tau));
   };
+  std::printf("bias random walk over 200 x 200 s: gyro %.4g (configured %.4g), accel %.4g (%.4g)\n",
+              walk(sum_gyro / count, p.gyro), p.gyro.bias_random_walk, walk(sum_accel / count, p.accel),
+              p.accel.bias_random_walk);
   EXPECT_NEAR(walk(sum_gyro / count, p.gyro) / p.gyro.bias_random_walk, 1.0, 0.10);
   EXPECT_NEAR(walk(sum_accel / count, p.accel) / p.accel.bias_random_walk, 1.0, 0.10);
 }
@@ -179,6 +188,7 @@ TEST(Hmc5883l, SeventyFiveHertzNoiseAndTheConfiguredField) {
   }
   EXPECT_NEAR(outputs, 7500, 2);
   EXPECT_TRUE((mean / outputs).isApprox(field, 1e-3)) << (mean / outputs).transpose();
+  std::printf("magnetometer: %d outputs in 100 s, noise %.4g G (configured %.4g)\n", outputs, stddev(x), p.noise_gauss);
   EXPECT_NEAR(stddev(x) / p.noise_gauss, 1.0, 0.10);
 }
 
