@@ -13,6 +13,8 @@
 #include <thread>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "quad/link/mavlink.h"
 #include "quad/vision/fix_output.h"
@@ -74,6 +76,49 @@ TEST(StationTest, WrongImageSizeIsAClearError) {
     EXPECT_NE(std::string(e.what()).find("640x480"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("728x488"), std::string::npos) << e.what();
   }
+}
+
+// video:L,R through cv::VideoCapture (OpenCV's built-in MJPEG/AVI codec): the grabber thread delivers
+// every pair of a file, the star is found in each, and the end of the files ends the source.
+TEST(StationTest, VideoSourceDeliversPairsUntilTheEnd) {
+  const StereoRig rig = thesis_stereo_rig();
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("vision_video_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string left_path = (dir / "left.avi").string(), right_path = (dir / "right.avi").string();
+  {
+    cv::VideoWriter left(left_path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30.0,
+                         rig.image_size, true);
+    cv::VideoWriter right(right_path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30.0,
+                          rig.image_size, true);
+    ASSERT_TRUE(left.isOpened() && right.isOpened());
+    cv::RNG rng(71);
+    for (int i = 0; i < 5; ++i) {
+      const auto scene = testing::random_star_scene(rig, rng, testing::StarSceneRanges{});
+      ASSERT_TRUE(scene);
+      // Colour frames, as capture devices deliver them; the source converts to grey (thesis step 1).
+      cv::Mat l, r;
+      cv::cvtColor(scene->left, l, cv::COLOR_GRAY2BGR);
+      cv::cvtColor(scene->right, r, cv::COLOR_GRAY2BGR);
+      left.write(l);
+      right.write(r);
+    }
+  }
+  const std::unique_ptr<FrameSource> source = make_frame_source("video:" + left_path + "," + right_path);
+  StereoStarLocator locator(rectify(rig), LocatorSettings{});
+  Station station(locator, *source, std::chrono::milliseconds(2000));
+  int frames = 0, fixes = 0;
+  for (StationStep step = station.step(); step.status != ReadStatus::kEnd; step = station.step()) {
+    ASSERT_EQ(step.status, ReadStatus::kFrame);
+    ++frames;
+    fixes += step.fix.found ? 1 : 0;
+  }
+  EXPECT_EQ(frames, 5);  // files deliver every pair
+  EXPECT_EQ(fixes, frames);
+  EXPECT_THROW(make_frame_source("video:" + (dir / "absent.avi").string() + "," + right_path), FrameSourceError);
+  EXPECT_THROW(make_frame_source("video:" + left_path), FrameSourceError);
+  EXPECT_THROW(make_frame_source("tcp:1234"), FrameSourceError);
+  std::filesystem::remove_all(dir);
 }
 
 // A pseudo-terminal: the station opens the slave path, the test reads and writes the master side.

@@ -69,7 +69,7 @@ class FilesSource : public FrameSource {
 // Two cv::VideoCapture streams (v4l2 devices or video files). A thread grabs both (grab() close together,
 // then retrieve(), to keep the pair in step) and hands the newest pair over; read() waits at most the
 // timeout, so a stalled camera yields kNoFrame instead of blocking the station. Live devices that fail
-// are reopened every half second.
+// are reopened every half second; video files deliver every pair in order.
 class CaptureSource : public FrameSource {
  public:
   CaptureSource(std::string left, std::string right, bool live)
@@ -81,7 +81,11 @@ class CaptureSource : public FrameSource {
     worker_ = std::thread([this] { loop(); });
   }
   ~CaptureSource() override {
-    stop_ = true;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cv_.notify_all();
     worker_.join();
   }
 
@@ -91,6 +95,7 @@ class CaptureSource : public FrameSource {
     if (!fresh_) return ReadStatus::kEnd;
     frame = std::move(latest_);
     fresh_ = false;
+    cv_.notify_all();
     return ReadStatus::kFrame;
   }
 
@@ -147,7 +152,9 @@ class CaptureSource : public FrameSource {
       }
       frame.capture_time_us = t;
       frame.sequence = ++sequence;
-      std::lock_guard<std::mutex> lock(mutex_);
+      std::unique_lock<std::mutex> lock(mutex_);
+      // Files deliver every pair (wait until the last one was taken); live cameras keep only the newest.
+      if (!live_) cv_.wait(lock, [this] { return !fresh_ || stop_; });
       latest_ = std::move(frame);
       fresh_ = true;
       problem_.clear();
