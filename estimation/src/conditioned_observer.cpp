@@ -101,23 +101,23 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
 
   bool use_mag = false;
   if (mag_valid) {
-    use_mag = is_finite(mag) && norm_sq(mag) > 0.0f && inv_mag_h_ > 0.0f;
+    use_mag = is_finite(mag) && inv_mag_h_ > 0.0f;
     if (!use_mag) ++health_.mag_rejected;
   }
 
-  Vec3 sigma_r;  // innovation of the attitude, eq. 4.9 (or 4.4)
-  Vec3 sigma_b;  // innovation of the bias, eq. 4.9
+  // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term.
+  Vec3 sigma_r, sigma_b;
   if (use_accel) {
     const Vec3 e_u = cross(u_meas, u_hat);
-    sigma_r += e_u * k.k1;
-    sigma_b -= e_u * k.k3;
+    sigma_r = e_u * k.k1;
+    sigma_b = e_u * -k.k3;
   }
   if (use_mag) {
     // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
     // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
     Vec3 v_hat;
     if (v_ref_.x != 0.0f) {
-      v_hat += Vec3{1.0f - 2.0f * (qy * qy + qz * qz), 2.0f * (qx * qy - qw * qz), 2.0f * (qx * qz + qw * qy)} * v_ref_.x;
+      v_hat = Vec3{1.0f - 2.0f * (qy * qy + qz * qz), 2.0f * (qx * qy - qw * qz), 2.0f * (qx * qz + qw * qy)} * v_ref_.x;
     }
     if (v_ref_.y != 0.0f) {
       v_hat += Vec3{2.0f * (qx * qy + qw * qz), 1.0f - 2.0f * (qx * qx + qz * qz), 2.0f * (qy * qz - qw * qx)} * v_ref_.y;
@@ -134,8 +134,8 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
       sigma_b -= e_v * (k.k4 * inv_mag_h_);
     } else {
       // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
-      const Vec3 v_meas = mag * (1.0f / sqrtf(norm_sq(mag)));
-      sigma_r += cross(v_meas, v_hat) * k.k2;
+      const float m2 = norm_sq(mag);
+      if (m2 > 0.0f) sigma_r += cross(mag, v_hat) * (k.k2 / sqrtf(m2));
     }
   }
   if (k.innovation == Innovation::Unconditioned) sigma_b = sigma_r * (-k.k_i);  // eq. 4.4: b' = -k_I sigma_R
