@@ -188,10 +188,9 @@ Session::Session(const Scenario& s, const SessionOptions& o)
       radio_up_(s.radio_baud, Rng(s.seed, "radio_up")),
       radio_down_(s.radio_baud, Rng(s.seed, "radio_down")),
       fault_active_(s.faults.size(), false),
-      metrics_(metrics_config(s, 0.0)) {
+      metrics_(metrics_config(s, vehicle_.rest_down_m())) {
   vehicle_.reset(s.initial_north_east_m, s.initial_height_m, s.initial_yaw_rad);
   if (s.initial_height_m == 0.0) vehicle_.settle_on_ground(0.5);
-  metrics_ = FlightMetrics(metrics_config(s, vehicle_.rest_down_m()));
   radio_up_.set_radio(s.radio);
   radio_down_.set_radio(s.radio);
   make_directories(o.out_dir);
