@@ -21,7 +21,9 @@
 // Phi(tau): only the predicted position at s must be remembered. The history buffer therefore holds one
 // 16-byte entry (time, position) per predict step; corrections fused after an entry was written are
 // kept as one accumulated correction per axis instead of rewriting the buffer. Fixes older than the
-// buffer, older than the last fused fix, or from before a reset are refused.
+// buffer, older than the last fused fix, or from before a reset are refused. The first fix initialises
+// the filter at its capture time; a fix after 20 consecutive gate rejections or while the position
+// sigma exceeds 5 m (dead reckoning through an outage) resets it the same way.
 //
 // Capacity: history_length(rate_hz) entries cover 250 ms at rate_hz (26 at 100 Hz: 416 bytes; 101 at
 // 400 Hz). Fixes captured before the oldest entry are rejected as too old.
@@ -35,8 +37,11 @@ namespace quad {
 namespace est {
 
 // Entries that cover `window_ms` (default 250 ms) of history at a predict rate of rate_hz, plus one so
-// that a fix captured exactly window_ms ago still has an entry at or before it.
-constexpr int history_length(int rate_hz, int window_ms = 250) { return (rate_hz * window_ms + 999) / 1000 + 1; }
+// that a fix captured exactly window_ms ago still has an entry at or before it. (32-bit arithmetic: int
+// is 16 bits on the AVR.)
+constexpr int history_length(int rate_hz, int window_ms = 250) {
+  return static_cast<int>((static_cast<int32_t>(rate_hz) * window_ms + 999) / 1000 + 1);
+}
 
 // u = g e_z + R a_B   (thesis eq. 8.7): the kinematic acceleration in NED from the specific force.
 Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd);
