@@ -111,7 +111,9 @@ class CaptureSource : public FrameSource {
       if (live_) {
         captures_[i].open(paths_[i], cv::CAP_V4L2);
       } else {
-        captures_[i].open(paths_[i]);
+        // FFmpeg reads every common container; OpenCV's own MJPEG reader covers the rest without
+        // probing camera backends.
+        if (!captures_[i].open(paths_[i], cv::CAP_FFMPEG)) captures_[i].open(paths_[i], cv::CAP_OPENCV_MJPEG);
       }
     }
   }
