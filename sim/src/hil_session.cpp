@@ -653,7 +653,7 @@ SessionResult Session::run() {
   // The firmware opens its ports, flushes them and announces itself (STATUSTEXT): wait for that, and
   // for 100 ms of quiet after it (the end of its start-up), before the first HIL_SENSOR, so that no
   // sensor message is lost to the flush or seen twice.
-  const auto hello_deadline = Clock::now() + std::chrono::seconds(3);
+  const auto hello_deadline = Clock::now() + std::chrono::milliseconds(1500);
   while (Clock::now() < hello_deadline && firmware_->running()) {
     if (uart0_.wait_readable(100)) poll_uart0(0.0);
     else if (tele_.frames > 0) break;
@@ -663,6 +663,7 @@ SessionResult Session::run() {
   // sample once per physics step).
   sample_sensors(0.0);
 
+  wall_start_ = Clock::now();  // real time runs from the first exchange
   const double period = 1.0 / s_.control_rate_hz;
   const long periods = std::lround(s_.duration_s * s_.control_rate_hz);
   // The exchange's own time on the wire: HIL_SENSOR out, HIL_ACTUATOR_CONTROLS back.

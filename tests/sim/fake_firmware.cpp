@@ -119,6 +119,10 @@ int main(int argc, char** argv) {
     }
   };
   fcntl(uart2, F_SETFL, fcntl(uart2, F_GETFL) | O_NONBLOCK);
+  // Announce ourselves, as quad_firmware does: the simulator starts the exchange after that.
+  mav::Statustext hello;
+  std::strncpy(hello.text, "fake firmware ready", sizeof hello.text);
+  send(uart0, out0, hello);
   uint8_t buf[4096];
   for (;;) {
     const ssize_t n = read(uart0, buf, sizeof buf);

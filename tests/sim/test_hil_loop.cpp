@@ -110,6 +110,76 @@ TEST(HilLoop, LockstepVisionCommandsAndTelemetry) {
   EXPECT_NEAR(log["imu_az"][50], -9.80665, 0.5);
 }
 
+// Each fault of a scenario shows in the log where, and only where, it is active. The sensor faults act
+// while the vehicle stands still on the ground; the stand-in firmware has no attitude control, so the
+// motor fault is checked on the thrusts alone.
+TEST(HilLoop, FaultsActOnTheirSubsystemDuringTheirWindow) {
+  const Scenario s = parse_scenario(R"(
+name: faults
+duration_s: 4
+seed: 9
+commands:
+  - {at_s: 2.5, arm: true}
+faults:
+  - {type: gyro_bias_step, start_s: 0.5, end_s: 1.5, bias_rad_s: [0.0, 0.0, 0.2]}
+  - {type: mag_disturbance, start_s: 1.0, end_s: 2.0, field_ned_gauss: [0.0, 0.0, 0.5]}
+  - {type: radio_loss, start_s: 2.0, end_s: 2.5}
+  - {type: vision_dropout, start_s: 3.0, end_s: 3.5}
+  - {type: rc_loss, start_s: 3.0, end_s: 3.5}
+  - {type: motor_efficiency, start_s: 3.0, end_s: 3.5, motor: 2, efficiency: 0.5}
+)", "faults.yaml", ".");
+  const std::string out = temp_dir("faults");
+  ASSERT_TRUE(fly(s, out).complete);
+  auto log = read_log(out + "/log.csv");
+  auto at = [&](const char* col, double t) { return log[col][static_cast<size_t>(std::lround(t * 100.0)) - 1]; };
+  auto mean = [&](const char* col, double t0, double t1) {
+    double sum = 0.0;
+    int n = 0;
+    for (size_t i = 0; i < log["t"].size(); ++i)
+      if (log["t"][i] > t0 && log["t"][i] <= t1) sum += log[col][i], ++n;
+    return sum / n;
+  };
+  // The gyro's z reads the step once the DLPF has settled, not before or after.
+  EXPECT_NEAR(mean("imu_gz", 0.7, 1.5), 0.2, 0.005);
+  EXPECT_NEAR(mean("imu_gz", 0.1, 0.5), 0.0, 0.01);
+  EXPECT_NEAR(mean("imu_gz", 1.7, 2.5), 0.0, 0.01);
+  // 0.5 G more along NED down reads as +0.5 G times D_33 (eq. 7.6, about 1.01) on body z, level.
+  EXPECT_NEAR(mean("mag_z", 1.1, 2.0) - mean("mag_z", 0.1, 1.0), 0.5 * 1.01, 0.01);
+  EXPECT_NEAR(mean("mag_z", 2.1, 2.5) - mean("mag_z", 0.1, 1.0), 0.0, 0.01);
+  // Radio loss: every uplink frame of the window is lost (15 at 30 Hz), none outside it.
+  EXPECT_EQ(at("radio_up_lost", 2.0), 0.0);
+  EXPECT_NEAR(at("radio_up_lost", 2.5), 15.0, 1.0);
+  EXPECT_EQ(at("radio_up_lost", 4.0), at("radio_up_lost", 2.5));
+  // Vision dropout: nothing captured in the window reaches the radio (the last earlier capture, at
+  // 2.967 s, is handed over 22 ms later); 30 Hz outside it.
+  EXPECT_EQ(at("vision_sent", 3.5) - at("vision_sent", 3.1), 0.0);
+  EXPECT_NEAR(at("vision_sent", 2.9) - at("vision_sent", 2.5), 12.0, 1.0);
+  // RC loss: UART0 carries only HIL_SENSOR (100 Hz), without MANUAL_CONTROL (50 Hz).
+  EXPECT_EQ(at("uart0_tx_frames", 3.4) - at("uart0_tx_frames", 3.1), 30.0);
+  EXPECT_EQ(at("uart0_tx_frames", 2.9) - at("uart0_tx_frames", 2.6), 45.0);
+  // Motor 2 gives half its thrust inside the window (the stand-in commands all four alike).
+  EXPECT_NEAR(at("thrust2", 3.3) / at("thrust0", 3.3), 0.5, 0.01);
+  EXPECT_NEAR(at("thrust2", 3.7) / at("thrust0", 3.7), 1.0, 0.01);
+}
+
+TEST(HilLoop, RealTimeModeFliesOnTheWallClock) {
+  Scenario s = parse_scenario(kScenario, "loop.yaml", ".");
+  s.duration_s = 1.0;
+  s.commands.clear();
+  SessionOptions o;
+  o.out_dir = temp_dir("realtime");
+  o.firmware_argv = {QUAD_SIM_FAKE_FIRMWARE};
+  o.progress = false;
+  o.realtime = true;
+  const SessionResult r = run_session(s, o);
+  ASSERT_TRUE(r.complete) << r.reason;
+  EXPECT_GT(r.wall_time_s, 0.95);
+  EXPECT_LT(r.wall_time_s, 1.5);
+  const std::string summary = slurp(o.out_dir + "/summary.json");
+  EXPECT_NE(summary.find("\"mode\": \"realtime\""), std::string::npos);
+  EXPECT_GT(json_number(summary, "lockstep_exchanges", "real_time_factor"), 80.0) << "answers used";
+}
+
 TEST(HilLoop, TheSameSeedGivesTheSameLog) {
   Scenario s = parse_scenario(kScenario, "loop.yaml", ".");
   const std::string a = temp_dir("seed_a"), b = temp_dir("seed_b"), c = temp_dir("seed_c");
