@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "quad/vision/settings_file.h"
 #include "quad/vision/stereo_locator.h"
 #include "star_scenes.h"
 
@@ -99,6 +100,39 @@ TEST_F(CalibrationFileTest, MissingKeyIsNamed) {
   EXPECT_THROW(load_calibration((dir / "absent.yaml").string()), CalibrationFileError);
   std::ofstream(dir / "garbage.yaml") << "this is : not [ yaml\n";
   EXPECT_THROW(load_calibration((dir / "garbage.yaml").string()), CalibrationFileError);
+}
+
+TEST_F(CalibrationFileTest, SettingsFileOverridesByNameAndRejectsUnknownKeys) {
+  const std::string path = (dir / "settings.yaml").string();
+  {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    fs << "min_area_px" << 500.0 << "vertex_count_tolerance" << 2 << "track_roi" << 0
+       << "camera_to_body_t" << cv::Mat(cv::Vec3d(0.1, 0.0, 0.05));
+  }
+  const StationSettings s = load_station_settings(path);
+  EXPECT_EQ(s.locator.detector.min_area_px, 500.0);
+  EXPECT_EQ(s.locator.detector.vertex_count_tolerance, 2);
+  EXPECT_FALSE(s.locator.track_roi);
+  EXPECT_EQ(s.locator.detector.min_aspect, 0.7);  // untouched keys keep the thesis defaults
+  EXPECT_EQ(s.mount.t_BC, cv::Vec3d(0.1, 0.0, 0.05));
+  EXPECT_EQ(s.mount.R_BC, thesis_camera_mount().R_BC);
+
+  const std::string bad = (dir / "bad.yaml").string();
+  {
+    cv::FileStorage fs(bad, cv::FileStorage::WRITE);
+    fs << "min_area" << 500.0;
+  }
+  try {
+    load_station_settings(bad);
+    FAIL() << "unknown key accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown setting 'min_area'"), std::string::npos) << e.what();
+  }
+  {
+    cv::FileStorage fs(bad, cv::FileStorage::WRITE);
+    fs << "min_aspect" << "wide";
+  }
+  EXPECT_THROW(load_station_settings(bad), std::runtime_error);
 }
 
 class LocatorTest : public ::testing::Test {

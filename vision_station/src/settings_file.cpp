@@ -21,7 +21,7 @@ StationSettings load_station_settings(const std::string& path) {
   const std::vector<std::pair<const char*, Field>> fields{
       {"background_cell_px", &d.background_cell_px}, {"background_window_px", &d.background_window_px},
       {"min_threshold_ratio", &d.min_threshold_ratio}, {"max_threshold_ratio", &d.max_threshold_ratio},
-      {"morphology_kernel_px", &d.morphology_kernel_px}, {"edge_margin_px", &d.edge_margin_px},
+      {"morphology_kernel_px", &d.morphology_kernel_px}, {"refine_midpoint", &d.refine_midpoint}, {"edge_margin_px", &d.edge_margin_px},
       {"min_area_px", &d.min_area_px}, {"raw_area_prefilter", &d.raw_area_prefilter},
       {"min_aspect", &d.min_aspect}, {"ideal_vertex_count", &d.ideal_vertex_count},
       {"vertex_count_tolerance", &d.vertex_count_tolerance}, {"polygon_epsilon", &d.polygon_epsilon},

@@ -1,6 +1,7 @@
 // Locator settings from an OpenCV FileStorage YAML: any subset of the keys below overrides the defaults;
 // an unknown key or a non-numeric value is an error naming the file and key.
 //   background_cell_px background_window_px min_threshold_ratio max_threshold_ratio morphology_kernel_px
+//   refine_midpoint
 //   edge_margin_px min_area_px raw_area_prefilter min_aspect ideal_vertex_count vertex_count_tolerance
 //   polygon_epsilon min_hu_distance max_hu_distance inner_ratio min_solidity max_solidity
 //   max_row_difference_px min_range_m max_range_m centroid_sigma_px track_roi roi_growth roi_margin_px
