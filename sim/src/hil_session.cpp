@@ -437,13 +437,15 @@ void Session::poll_uart2(double t) {
 void Session::wait_radio_consumed() {
   // Radio bytes for this step were written right after the last answer (run()). The firmware must have
   // read them before this step's HIL_SENSOR, as on the vehicle; two ptys give no order between them, so
-  // wait until UART2's input queue is empty. A firmware that does not read UART2 within 20 ms three
-  // times in a row is taken to ignore it, and not waited for again.
+  // wait until UART2's input queue is empty (yielding at first, then sleeping, so a loaded machine still
+  // schedules the firmware). A firmware that leaves them unread for 200 ms three times in a row is taken
+  // to ignore UART2, and not waited for again.
   if (!radio_written_ || radio_ignored_) return;
   radio_written_ = false;
   const auto start = Clock::now();
   while (uart2_.unread_by_peer() > 0) {
-    if (Clock::now() - start > std::chrono::milliseconds(20)) {
+    const auto waited = Clock::now() - start;
+    if (waited > std::chrono::milliseconds(200)) {
       ++radio_sync_timeouts_;
       if (++radio_sync_misses_in_row_ == 3) {
         radio_ignored_ = true;
@@ -451,7 +453,8 @@ void Session::wait_radio_consumed() {
       }
       return;
     }
-    std::this_thread::yield();
+    if (waited < std::chrono::microseconds(100)) std::this_thread::yield();
+    else std::this_thread::sleep_for(std::chrono::microseconds(100));
   }
   radio_sync_misses_in_row_ = 0;
 }
