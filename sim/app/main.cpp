@@ -1,7 +1,7 @@
 // quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
 //
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
-//            [--record FILE.mp4] [--no-plots] [--quiet]
+//            [--record FILE.mp4] [--ground-port LINK] [--no-plots] [--quiet]
 #include <unistd.h>
 
 #include <atomic>
@@ -28,7 +28,7 @@ int usage(const char* error) {
   if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
   std::fprintf(stderr,
                "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
-               "                [--viewer] [--record FILE.mp4] [--no-plots] [--quiet]\n"
+               "                [--viewer] [--record FILE.mp4] [--ground-port LINK] [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
@@ -37,6 +37,9 @@ int usage(const char* error) {
                "                    arguments (--uart0 ... --params FILE) are appended\n"
                "  --viewer          interactive MuJoCo window (needs a display and GLFW)\n"
                "  --record FILE     render an MP4 offscreen (OSMesa + ffmpeg), chase camera\n"
+               "  --ground-port LINK  the base-station side of the radio as a serial port (a symlink to a\n"
+               "                    pty) for the vision station or a ground station; set vision.enabled:\n"
+               "                    false in the scenario when the station sends the fixes\n"
                "  --no-plots        skip the PNG plots\n"
                "  --quiet           no progress line\n");
   return 2;
@@ -67,7 +70,7 @@ std::string utc_stamp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, out_dir, firmware, record;
+  std::string scenario_path, out_dir, firmware, record, ground_port;
   std::optional<long> seed;
   bool realtime = false, viewer = false, plots = true, quiet = false;
   for (int i = 1; i < argc; ++i) {
@@ -82,6 +85,7 @@ int main(int argc, char** argv) {
       else if (a == "--seed") seed = std::stol(value("--seed"));
       else if (a == "--firmware") firmware = value("--firmware");
       else if (a == "--record") record = value("--record");
+      else if (a == "--ground-port") ground_port = value("--ground-port");
       else if (a == "--realtime") realtime = true;
       else if (a == "--viewer") viewer = true;
       else if (a == "--no-plots") plots = false;
@@ -111,6 +115,7 @@ int main(int argc, char** argv) {
     options.realtime = realtime;
     options.progress = !quiet;
     options.stop = &g_stop;
+    options.ground_port_link = ground_port;
     const std::string default_fw = executable_dir() + "/quad_firmware";
     options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw} : split_words(firmware);
     if (firmware.empty() && access(default_fw.c_str(), X_OK) != 0) {

@@ -1,8 +1,12 @@
 #include "quad/sim/hil_session.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <sstream>
 #include <stdexcept>
@@ -53,6 +57,7 @@ class Session {
   Session(const Scenario& s, const SessionOptions& o);
   ~Session() {
     if (events_) std::fclose(events_);
+    if (ground_) unlink(o_.ground_port_link.c_str());
   }
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -79,6 +84,7 @@ class Session {
   void sample_sensors(double t);
   void poll_uart0(double t);
   void poll_uart2(double t);
+  void poll_ground_port(double t);
 
   // The world.
   void apply_faults(double t);
@@ -105,7 +111,9 @@ class Session {
   mav::Sender sensor_sender_{kVehicleSys, kSimComp};
   mav::Sender gcs_sender_{kGcsSys, mav::kCompIdMissionPlanner};
   mav::Sender vision_sender_{kVehicleSys, kVisionComp};
-  mav::Parser uart0_parser_, uart2_splitter_, ground_parser_;
+  mav::Parser uart0_parser_, uart2_splitter_, ground_parser_, ground_splitter_;
+  std::unique_ptr<Pty> ground_;  // the base-station side of the radio, for outside programs (optional)
+  uint64_t ground_dropped_ = 0;  // downlink bytes nobody read from the ground port
   std::unique_ptr<FirmwareProcess> firmware_;
 
   // Schedules.
@@ -194,6 +202,12 @@ Session::Session(const Scenario& s, const SessionOptions& o)
   radio_up_.set_radio(s.radio);
   radio_down_.set_radio(s.radio);
   make_directories(o.out_dir);
+  if (!o.ground_port_link.empty()) {
+    ground_ = std::make_unique<Pty>(s.radio_baud);
+    unlink(o.ground_port_link.c_str());  // a stale link from an earlier run
+    if (symlink(ground_->slave_path().c_str(), o.ground_port_link.c_str()) != 0)
+      throw std::runtime_error(o.ground_port_link + ": cannot create the ground port link: " + std::strerror(errno));
+  }
   log_ = std::make_unique<CsvLog>(o.out_dir + "/log.csv", log_columns());
   events_ = std::fopen((o.out_dir + "/events.log").c_str(), "w");
   if (!events_) throw std::runtime_error(o.out_dir + "/events.log: cannot create");
@@ -427,6 +441,14 @@ void Session::poll_uart0(double t) {
     uart0_parser_.feed(buf, n, [&](const mav::Frame& f) { handle_frame(f, t, "uart0"); });
 }
 
+void Session::poll_ground_port(double t) {
+  // Frames from outside programs at the base station enter the radio at the current simulated time.
+  if (!ground_) return;
+  uint8_t buf[4096];
+  for (size_t n; (n = ground_->read_some(buf, sizeof buf)) > 0;)
+    ground_splitter_.feed(buf, n, [&](const mav::Frame& f) { radio_up_.send(f.bytes, f.size, t); });
+}
+
 void Session::poll_uart2(double t) {
   // The firmware's radio output: split into frames, each crosses the radio to the ground station.
   uint8_t buf[4096];
@@ -516,6 +538,7 @@ void Session::physics_period(double t_end) {
     }
     if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
+      if (ground_) ground_dropped_ += ground_->write_or_drop(d, n);
       ground_parser_.feed(d, n, [&](const mav::Frame& f) { handle_frame(f, now, "radio"); });
     });
     if (o_.on_frame && now + 1e-9 >= next_frame_t_) {
@@ -597,6 +620,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   links.add("radio_uplink", line_json(radio_up_.stats())).add("radio_downlink", line_json(radio_down_.stats()));
   links.add("ground_station_received", ground_in).add("uart0_overruns", static_cast<long>(uart0_overruns_));
   links.add("radio_sync_timeouts", static_cast<long>(radio_sync_timeouts_));
+  if (ground_) links.add("ground_port_bytes_dropped", static_cast<long>(ground_dropped_));
   Json j;
   j.add("scenario", s_.name).add("scenario_file", s_.path).add("seed", static_cast<long>(s_.seed));
   j.add("complete", complete);
@@ -648,6 +672,7 @@ SessionResult Session::run() {
     std::string cmd;
     for (const auto& a : argv) cmd += (cmd.empty() ? "" : " ") + a;
     event(0.0, "start: " + cmd);
+    if (ground_) event(0.0, "ground port: " + o_.ground_port_link + " -> " + ground_->slave_path());
   }
   firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");
   wall_start_ = last_summary_ = Clock::now();
@@ -722,6 +747,7 @@ SessionResult Session::run() {
       deliver_radio(t + period);
     }
     poll_uart2(t);
+    poll_ground_port(t);
     physics_period(t + period);
     log_row(vehicle_.time());
     progress(vehicle_.time(), false);

@@ -71,6 +71,21 @@ void Pty::write_all(const uint8_t* data, size_t length) {
   }
 }
 
+size_t Pty::write_or_drop(const uint8_t* data, size_t length) {
+  while (length > 0) {
+    const ssize_t n = write(master_, data, length);
+    if (n > 0) {
+      data += n;
+      length -= static_cast<size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      break;  // full (EAGAIN) or no reader: the rest is lost
+    }
+  }
+  return length;
+}
+
 size_t Pty::read_some(uint8_t* out, size_t capacity) {
   const ssize_t n = read(master_, out, capacity);
   if (n > 0) return static_cast<size_t>(n);

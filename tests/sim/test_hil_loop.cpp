@@ -3,14 +3,20 @@
 // telemetry in the log, determinism for a seed, and runs cut short.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <termios.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "quad/link/mavlink.h"
 #include "quad/sim/hil_session.h"
 #include "quad/sim/scenario.h"
 #include "quad/sim/vehicle.h"
@@ -160,6 +166,57 @@ faults:
   // Motor 2 gives half its thrust inside the window (the stand-in commands all four alike).
   EXPECT_NEAR(at("thrust2", 3.3) / at("thrust0", 3.3), 0.5, 0.01);
   EXPECT_NEAR(at("thrust2", 3.7) / at("thrust0", 3.7), 1.0, 0.01);
+}
+
+// An outside program at the base station (the vision station) writes its fixes into the ground port;
+// they cross the radio to the firmware, and the firmware's radio output comes back out of the port.
+TEST(HilLoop, TheGroundPortCarriesAnOutsideStationsFixesAcrossTheRadio) {
+  Scenario s = parse_scenario(kScenario, "loop.yaml", ".");
+  s.vision.enabled = false;  // the outside station makes the fixes
+  s.commands.clear();
+  SessionOptions o;
+  o.out_dir = temp_dir("ground");
+  o.firmware_argv = {QUAD_SIM_FAKE_FIRMWARE};
+  o.progress = false;
+  o.ground_port_link = o.out_dir + "_radio";
+  std::atomic<bool> done{false};
+  std::atomic<int> heartbeats{0};
+  std::thread station([&] {
+    int fd = -1;
+    while (!done && (fd = open(o.ground_port_link.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK)) < 0)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (fd < 0) return;
+    termios tio{};
+    tcgetattr(fd, &tio);
+    cfmakeraw(&tio);
+    tcsetattr(fd, TCSANOW, &tio);
+    mavlink::Sender sender(1, mavlink::kCompIdVisualInertialOdometry);
+    mavlink::Parser parser;
+    while (!done) {
+      mavlink::LandingTarget lt;  // the star 2 m below and 0.25 m behind: vehicle at (0.25, 0, -2) NED, level
+      lt.frame = mavlink::kFrameBodyFrd;
+      lt.x = -0.25f;
+      lt.z = 2.0f;
+      lt.position_valid = 1;
+      uint8_t buf[mavlink::max_frame_length<mavlink::LandingTarget>()];
+      (void)!write(fd, buf, sender.encode(lt, buf, sizeof buf));
+      uint8_t in[512];
+      for (ssize_t n; (n = read(fd, in, sizeof in)) > 0;)
+        parser.feed(in, static_cast<size_t>(n), [&](const mavlink::Frame& f) { heartbeats += f.message_id == 0; });
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    close(fd);
+  });
+  const SessionResult r = run_session(s, o);
+  done = true;
+  station.join();
+  ASSERT_TRUE(r.complete) << r.reason;
+  auto log = read_log(o.out_dir + "/log.csv");
+  EXPECT_NEAR(log["est_n"].back(), 0.25, 1e-6) << "the fix arrived (the stand-in reports -p_B)";
+  EXPECT_NEAR(log["est_d"].back(), -2.0, 1e-6);
+  EXPECT_GT(log["radio_up_sent"].back(), 0.0);
+  EXPECT_GT(heartbeats.load(), 0) << "the firmware's radio output came out of the ground port";
+  EXPECT_NE(access(o.ground_port_link.c_str(), F_OK), 0) << "the link is removed at the end";
 }
 
 TEST(HilLoop, RealTimeModeFliesOnTheWallClock) {

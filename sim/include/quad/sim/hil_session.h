@@ -27,6 +27,10 @@ struct SessionOptions {
   double answer_timeout_s = 10.0;          // lockstep: how long to wait for HIL_ACTUATOR_CONTROLS (wall time)
   double frame_rate_hz = 30.0;             // for on_frame
   FrameCallback on_frame;                  // optional (--record)
+  // The ground side of the radio as a serial port for outside programs (the vision station, a ground
+  // station): a symlink at this path to a pseudo-terminal. Frames written there cross the emulated
+  // radio to UART2; what the firmware sends on UART2 comes out there. Empty: no ground port.
+  std::string ground_port_link;
   const std::atomic<bool>* stop = nullptr; // set (e.g. by SIGINT) to end the run early
 };
 

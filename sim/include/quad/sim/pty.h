@@ -21,6 +21,9 @@ class Pty {
 
   // Writes every byte, waiting while the pty's buffer is full (the firmware reads it).
   void write_all(const uint8_t* data, size_t length);
+  // Writes what the pty's buffer takes now and drops the rest (a port nobody may be reading, as a serial
+  // line with no listener loses its bytes). Returns the number of bytes dropped.
+  size_t write_or_drop(const uint8_t* data, size_t length);
   // Reads what is available without blocking; 0 when nothing is.
   size_t read_some(uint8_t* out, size_t capacity);
   // Waits up to timeout_ms for bytes to read; false on timeout.
