@@ -224,6 +224,8 @@ TEST(FixLinkTest, LandingTargetInBodyFrdAndTimesyncOffset) {
   const auto answer = decode_last<mavlink::Timesync>(frames);
   ASSERT_TRUE(answer);
   EXPECT_EQ(answer->ts1, 123456789);
+  EXPECT_EQ(answer->target_system, 1);
+  EXPECT_EQ(answer->target_component, 1);
   EXPECT_NEAR(static_cast<double>(answer->tc1), later * 1000.0, 1e7);
   const auto synced = decode_last<mavlink::LandingTarget>(frames);
   ASSERT_TRUE(synced);

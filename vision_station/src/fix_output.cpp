@@ -123,6 +123,8 @@ void FixLink::poll(int64_t now_us) {
         mavlink::Timesync reply;
         reply.tc1 = now_ns;
         reply.ts1 = t.ts1;
+        reply.target_system = frame.system_id;
+        reply.target_component = frame.component_id;
         uint8_t out[mavlink::max_frame_length<mavlink::Timesync>()];
         port_.write_all(out, sender_.encode(reply, out, sizeof out));
       } else if (t.ts1 > 0 && t.ts1 <= now_ns && now_ns - t.ts1 < 1'000'000'000) {
