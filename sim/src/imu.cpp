@@ -25,17 +25,15 @@ Eigen::Vector3d Mpu6000::corrupt(const Eigen::Vector3d& truth, Eigen::Vector3d& 
   Eigen::Vector3d out;
   for (int i = 0; i < 3; ++i) {
     bias[i] += rng_.normal(walk);
-    out[i] = truth[i] + bias[i] + rng_.normal(white) + (vib > 0.0 ? rng_.normal(vib) : 0.0);
+    const double raw = truth[i] + bias[i] + rng_.normal(white) + (vib > 0.0 ? rng_.normal(vib) : 0.0);
+    out[i] = std::clamp(raw, -axis.range, axis.range);  // the ADC saturates before the digital filter
   }
   return out;
 }
 
 Eigen::Vector3d Mpu6000::finish(const Eigen::Vector3d& filtered, const ImuAxisParams& axis) const {
   Eigen::Vector3d out;
-  for (int i = 0; i < 3; ++i) {
-    const double clipped = std::clamp(filtered[i], -axis.range, axis.range);
-    out[i] = axis.lsb > 0.0 ? std::round(clipped / axis.lsb) * axis.lsb : clipped;
-  }
+  for (int i = 0; i < 3; ++i) out[i] = axis.lsb > 0.0 ? std::round(filtered[i] / axis.lsb) * axis.lsb : filtered[i];
   return out;
 }
 
