@@ -375,7 +375,10 @@ void FlightApp::on_command(uint8_t port, const mav::CommandLong& cmd) {
       c = Command::kLand;
       break;
     case mav::kCmdDoSetMode:
-      switch (static_cast<int>(cmd.param2)) {
+      // Only the exact values 0..3 are modes (and a NaN or huge float must not reach the int cast).
+      switch (cmd.param2 >= 0.0f && cmd.param2 <= 3.0f && cmd.param2 == static_cast<float>(static_cast<int>(cmd.param2))
+                  ? static_cast<int>(cmd.param2)
+                  : -1) {
         case static_cast<int>(FlightMode::kDisarmed): c = Command::kDisarm; break;
         case static_cast<int>(FlightMode::kManual): c = Command::kManual; break;
         case static_cast<int>(FlightMode::kAuto): c = Command::kAuto; break;
