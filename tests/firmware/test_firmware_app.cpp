@@ -122,6 +122,12 @@ class Bench {
   std::vector<mav::ParamValue> params;
   std::vector<mav::HilActuatorControls> actuators;
   int frames_on[quad::hal::kPortCount] = {0, 0};
+  mav::Timesync timesync;
+  bool have_timesync = false;
+  bool last_timesync(mav::Timesync* out) const {
+    *out = timesync;
+    return have_timesync;
+  }
 
  private:
   static Bench* current;
@@ -151,6 +157,11 @@ class Bench {
     if (mav::decode(f, ack)) acks.push_back(ack);
     if (mav::decode(f, pv)) params.push_back(pv);
     if (mav::decode(f, act)) actuators.push_back(act);
+    mav::Timesync ts;
+    if (mav::decode(f, ts)) {
+      timesync = ts;
+      have_timesync = true;
+    }
   }
 };
 Bench* Bench::current = nullptr;
@@ -332,6 +343,48 @@ TEST(FirmwareApp, LandingTargetUsesTheAttitudeAtCaptureTime) {
   EXPECT_NEAR(est.x, p.x(), 0.03f);
   EXPECT_NEAR(est.y, p.y(), 0.03f);
   EXPECT_NEAR(est.z, p.z(), 0.03f);
+}
+
+TEST(FirmwareApp, VisionPositionEstimateFeedsTheSameUpdate) {
+  Bench b;
+  b.boot();
+  calibrate(b);
+  const Eigen::Vector3f p(-0.7f, 1.2f, -2.0f);
+  for (int i = 0; i < 150; ++i) {
+    b.still_step();
+    if (i % 3 == 0) {
+      mav::VisionPositionEstimate v;
+      v.usec = b.t_us - 30000;
+      v.x = p.x();
+      v.y = p.y();
+      v.z = p.z();
+      b.send(quad::hal::kUart2, v, b.vision);
+    }
+  }
+  const quad::Vec3 est = b.app->position();
+  EXPECT_NEAR(est.x, p.x(), 0.02f);
+  EXPECT_NEAR(est.y, p.y(), 0.02f);
+  EXPECT_NEAR(est.z, p.z(), 0.02f);
+  EXPECT_GE(b.app->counters().fixes_fused, 45u);
+}
+
+TEST(FirmwareApp, AnswersTimesyncWithTheVehicleClock) {
+  Bench b;
+  b.boot();
+  for (int i = 0; i < 5; ++i) b.still_step();
+  mav::Timesync req;
+  req.tc1 = 0;
+  req.ts1 = 123456789;
+  b.send(quad::hal::kUart2, req, b.vision);
+  mav::Timesync answer;
+  ASSERT_TRUE(b.last_timesync(&answer));
+  EXPECT_EQ(answer.ts1, 123456789);
+  EXPECT_EQ(answer.tc1, static_cast<int64_t>(b.t_us - 10000) * 1000) << "the last HIL time, in ns";
+  // An answer from someone else (tc1 != 0) is not answered.
+  const int frames = b.frames_on[quad::hal::kUart2];
+  req.tc1 = 5;
+  b.send(quad::hal::kUart2, req, b.vision);
+  EXPECT_EQ(b.frames_on[quad::hal::kUart2], frames);
 }
 
 TEST(FirmwareApp, BadFixesAreCountedNotFused) {
