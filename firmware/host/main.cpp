@@ -33,6 +33,11 @@ const char kUsage[] =
     "  --params FILE      parameter values for this run, one 'NAME VALUE' per line\n"
     "  --storage FILE     file that keeps the parameter store (default: memory only)\n";
 
+// The vehicle's STATUSTEXT lines, also on stderr (the simulator keeps them in firmware.log).
+void console(uint8_t severity, const char* text, uint8_t length) {
+  std::fprintf(stderr, "quad_firmware: [%u] %.*s\n", severity, static_cast<int>(length), text);
+}
+
 bool parse_baud(const std::string& flag, const char* text, uint32_t* out, std::string* error) {
   char* end = nullptr;
   const unsigned long v = std::strtoul(text, &end, 10);
@@ -106,7 +111,9 @@ int main(int argc, char** argv) {
   signal(SIGPIPE, SIG_IGN);
 
   static quad::fw::FlightApp app;  // large: keep it off the stack
-  app.init(quad::fw::hal_app_io(), /*hil=*/true);
+  quad::fw::AppIo io = quad::fw::hal_app_io();
+  io.console = console;
+  app.init(io, /*hil=*/true);
   for (const quad::fw::ParamOverride& o : overrides) {
     if (const char* why = app.override_param(o.index, o.value)) {
       std::fprintf(stderr, "quad_firmware: %s: %s: %s\n", options.params_path.c_str(),
@@ -120,6 +127,7 @@ int main(int argc, char** argv) {
   while (!g_stop && !quad::hal::host::port_hung_up(quad::hal::kUart0)) {
     quad::hal::idle(20000);
     quad::fw::poll_ports(app);
+    quad::hal::led_write(app.led(quad::hal::micros()));
   }
   quad::hal::host::close();
   return 0;

@@ -87,7 +87,7 @@ void FlightApp::init(const AppIo& io, bool hil) {
     params_.reset_to_defaults();
     store_in_sync_ = false;
     apply_params(params_, &error);
-    broadcast((StatusLine(mav::kSeverityError) << QUAD_TEXT("params rejected, defaults: ") << error).message());
+    send_statustext((StatusLine(mav::kSeverityError) << QUAD_TEXT("params rejected, defaults: ") << error).message());
   }
   if (store_status_ != StoreStatus::kLoaded) send_statustext(mav::kSeverityWarning, store_status_text(store_status_));
   calibration_.restart();
@@ -411,7 +411,7 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
     char name[kParamNameLength + 1];
     memcpy(name, msg.param_id, kParamNameLength);
     name[kParamNameLength] = '\0';
-    broadcast((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("no such param: ") << name).message());
+    send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("no such param: ") << name).message());
     return;
   }
   const uint8_t i = static_cast<uint8_t>(index);
@@ -420,12 +420,12 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
   const char* error = nullptr;
   if (e != ParamError::kNone) {
     const ParamInfo info = param_info(i);
-    broadcast((StatusLine(mav::kSeverityWarning)
+    send_statustext((StatusLine(mav::kSeverityWarning)
                << (e == ParamError::kNotFinite ? QUAD_TEXT("param not finite: ") : QUAD_TEXT("param out of range: "))
                << info.name)
                   .message());
   } else if (!apply_params(candidate, &error)) {
-    broadcast((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("param refused: ") << error).message());
+    send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("param refused: ") << error).message());
   } else {
     params_ = candidate;
     const bool saved = store_in_sync_ ? params_save_one(io_.storage, params_, i) : params_save_all(io_.storage, params_);
@@ -532,7 +532,7 @@ void FlightApp::handle_transition(const Transition& t) {
   const uint8_t severity = failsafe ? mav::kSeverityCritical : (t.accepted ? mav::kSeverityInfo : mav::kSeverityWarning);
   StatusLine line(severity);
   if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
-  broadcast((line << reason_text(t.reason)).message());
+  send_statustext((line << reason_text(t.reason)).message());
 }
 
 void FlightApp::enter_mode(FlightMode from, FlightMode to) {
@@ -656,7 +656,18 @@ void FlightApp::send_actuators(uint64_t time_usec) {
   send(hal::kUart0, out);
 }
 
-void FlightApp::send_statustext(uint8_t severity, FlashText text) { broadcast((StatusLine(severity) << text).message()); }
+void FlightApp::send_statustext(uint8_t severity, FlashText text) { send_statustext((StatusLine(severity) << text).message()); }
+
+void FlightApp::send_statustext(const mav::Statustext& msg) {
+  broadcast(msg);
+  if (io_.console != nullptr) io_.console(msg.severity, msg.text, static_cast<uint8_t>(strnlen(msg.text, sizeof msg.text)));
+}
+
+bool FlightApp::led(uint32_t now_us) const {
+  if (modes_.armed()) return true;
+  const uint32_t half_period_us = calibration_.done() ? 500000u : 100000u;
+  return ((now_us / half_period_us) & 1u) == 0u;
+}
 
 void FlightApp::send_param(uint8_t port, uint8_t index) {
   const ParamInfo info = param_info(index);

@@ -25,6 +25,7 @@ bool board_pass(FlightApp& app) {
   const bool mag_new = hal::mag_read(mag);
   app.step(now, imu, mag_new ? &mag : nullptr);
   hal::motors_write(app.motors());
+  hal::led_write(app.led(now));
   return true;
 }
 

@@ -36,6 +36,7 @@ void run_hil(FlightApp& app) {
   for (;;) {
     hal::idle(20000);
     poll_ports(app);
+    hal::led_write(app.led(hal::micros()));
   }
 }
 

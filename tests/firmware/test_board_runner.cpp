@@ -27,6 +27,7 @@ struct FakeBoard {
   bool rc_new = false;
   quad::hal::RcFrame rc{};
   std::vector<std::vector<float>> motor_writes;
+  std::vector<bool> led;
 };
 FakeBoard* g_board = nullptr;
 
@@ -59,7 +60,7 @@ bool storage_write(uint16_t offset, const void* src, uint16_t length) {
   std::memcpy(g_board->eeprom.data() + offset, src, length);
   return true;
 }
-void led_write(bool) {}
+void led_write(bool on) { g_board->led.push_back(on); }
 bool imu_read(ImuSample& out) {
   if (!g_board->imu_new) return false;
   out = g_board->imu;
@@ -142,6 +143,34 @@ TEST_F(BoardRunner, IterationsFollowTheLoopRateGrid) {
   receive(quad::hal::kUart0, set);
   run_for(0.01f);  // the PARAM_SET arrives
   EXPECT_NEAR(run_for(1.0f), 400, 1) << "SYS_LOOP_HZ 400: every 2.5 ms slot is met by a pass";
+}
+
+TEST_F(BoardRunner, LedBlinksFastWhileCalibratingSlowWhenReadyAndStaysOnWhenArmed) {
+  auto toggles = [&](size_t from) {
+    int n = 0;
+    for (size_t i = from + 1; i < board_.led.size(); ++i) n += board_.led[i] != board_.led[i - 1] ? 1 : 0;
+    return n;
+  };
+  run_for(1.0f);
+  EXPECT_NEAR(toggles(0), 10, 1) << "5 Hz blink (100 ms on, 100 ms off) during calibration";
+  run_for(1.5f);
+  ASSERT_TRUE(app_->calibrated());
+  size_t mark = board_.led.size();
+  run_for(2.0f);
+  EXPECT_NEAR(toggles(mark), 4, 1) << "1 Hz blink when ready";
+  rc(1000);
+  run_for(0.05f);
+  mav::CommandLong arm;
+  arm.command = mav::kCmdComponentArmDisarm;
+  arm.param1 = 1.0f;
+  arm.target_system = 1;
+  receive(quad::hal::kUart0, arm);
+  run_for(0.05f);
+  ASSERT_EQ(app_->mode(), quad::fw::FlightMode::kManual);
+  mark = board_.led.size();
+  run_for(0.5f);
+  EXPECT_EQ(toggles(mark), 0);
+  EXPECT_TRUE(board_.led.back());
 }
 
 TEST_F(BoardRunner, NoIterationWithoutANewImuSample) {

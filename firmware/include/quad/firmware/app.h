@@ -53,6 +53,8 @@ struct AppIo {
   uint16_t (*write)(uint8_t port, const uint8_t* data, uint16_t length);
   // Free-running microsecond clock used only to measure the execution time of an iteration.
   uint32_t (*micros)();
+  // Optional: every STATUSTEXT line also goes here (the host prints it on stderr); null on a board.
+  void (*console)(uint8_t severity, const char* text, uint8_t length) = nullptr;
 };
 
 // Counters reported in SYS_STATUS and used by the tests.
@@ -93,6 +95,8 @@ class FlightApp {
   const float (&motors() const)[hal::kMotorCount] { return motors_; }
 
   FlightMode mode() const { return modes_.mode(); }
+  // Status LED: fast blink while calibrating, slow blink when ready, steady when armed.
+  bool led(uint32_t now_us) const;
   bool calibrated() const { return calibration_.done(); }
   const Params& params() const { return params_; }
   StoreStatus store_status() const { return store_status_; }
@@ -130,6 +134,7 @@ class FlightApp {
   void telemetry();
 
   void send_statustext(uint8_t severity, FlashText text);
+  void send_statustext(const mavlink::Statustext& msg);
   void send_param(uint8_t port, uint8_t index);
   void send_ack(uint8_t port, uint16_t command, uint8_t result);
   void send_actuators(uint64_t time_usec);
