@@ -1,0 +1,60 @@
+# Runs the cycle bench on simavr and fails when a figure exceeds its budget (ctest avr_cycle_bench).
+#   cmake -DAVR_CYCLES=<tool> -DIMAGE=<cycle_bench.elf> -DWORST_BUDGET=<cycles> -DTYPICAL_BUDGET=<cycles>
+#         -DRAM_BUDGET=<bytes> -P check_cycle_budget.cmake
+# The bench reports each stage; a section named "check_failed:..." means a scenario did not take the
+# branches it claims (e.g. the vision fix was not fused), which also fails the test.
+foreach(var AVR_CYCLES IMAGE WORST_BUDGET TYPICAL_BUDGET RAM_BUDGET)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "check_cycle_budget.cmake: ${var} is not set")
+  endif()
+endforeach()
+if(NOT EXISTS "${IMAGE}")
+  message(FATAL_ERROR "check_cycle_budget.cmake: ${IMAGE} does not exist (build the avr-apm25 preset's cycle_bench)")
+endif()
+
+execute_process(COMMAND "${AVR_CYCLES}" "${IMAGE}" --json
+                RESULT_VARIABLE rc OUTPUT_VARIABLE json ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "avr_cycles failed (${rc}): ${err}")
+endif()
+# simavr's loader prints its own lines first: the report is the last line.
+string(REGEX MATCH "{[^\n]*}" json "${json}")
+execute_process(COMMAND "${AVR_CYCLES}" "${IMAGE}" OUTPUT_VARIABLE table)
+message(STATUS "\n${table}")
+
+string(JSON sections GET "${json}" sections)
+string(JSON count LENGTH "${sections}")
+math(EXPR last "${count} - 1")
+foreach(i RANGE ${last})
+  string(JSON name MEMBER "${sections}" ${i})
+  if(name MATCHES "^check_failed:")
+    message(FATAL_ERROR "cycle bench scenario check failed: ${name}")
+  endif()
+endforeach()
+
+set(failed "")
+foreach(pair "iteration_worst;${WORST_BUDGET}" "iteration_typical;${TYPICAL_BUDGET}")
+  list(GET pair 0 name)
+  list(GET pair 1 budget)
+  string(JSON cycles ERROR_VARIABLE missing GET "${sections}" ${name})
+  if(missing)
+    message(FATAL_ERROR "cycle bench reported no section ${name}")
+  endif()
+  if(cycles GREATER budget)
+    string(APPEND failed "${name}: ${cycles} cycles > budget ${budget}\n")
+  else()
+    message(STATUS "${name}: ${cycles} cycles <= budget ${budget}")
+  endif()
+endforeach()
+
+string(JSON static_ram GET "${json}" static_ram)
+string(JSON peak_stack GET "${json}" peak_stack)
+math(EXPR ram "${static_ram} + ${peak_stack}")
+if(ram GREATER RAM_BUDGET)
+  string(APPEND failed "data + bss + peak stack: ${ram} bytes > budget ${RAM_BUDGET}\n")
+else()
+  message(STATUS "data + bss + peak stack: ${ram} bytes <= budget ${RAM_BUDGET}")
+endif()
+if(failed)
+  message(FATAL_ERROR "${failed}")
+endif()
