@@ -164,6 +164,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   mc.rc_required = p.get(kFsRcEnable) >= 0.5f;
   mc.arm_throttle_max = p.get(kArmThrMax);
   modes_.configure(mc);
+  rc_switches_enabled_ = p.get(kRcSwitches) >= 0.5f;
 
   CalibrationConfig cc;
   cc.duration_s = p.get(kCalTime);
@@ -335,13 +336,31 @@ void FlightApp::on_manual_control(const mav::ManualControl& msg) {
   sticks.yaw = axis_to_pulse(msg.r, false);
   const int32_t throttle = 1000 + (msg.z < 0 ? 0 : static_cast<int32_t>(msg.z));
   sticks.throttle = static_cast<uint16_t>(throttle > 2000 ? 2000 : throttle);
-  rc_input(sticks, now_us_);
+  // Buttons bit 0: motor-enable switch, bit 1: manual/auto switch (used with RC_SWITCHES only).
+  RcSwitches sw;
+  sw.motors_enabled = (msg.buttons & 0x1u) != 0;
+  sw.auto_mode = (msg.buttons & 0x2u) != 0;
+  rc_input(sticks, now_us_, &sw);
 }
 
-void FlightApp::rc_input(const ctrl::RcSticks& sticks, uint32_t t_us) {
+void FlightApp::rc_input(const ctrl::RcSticks& sticks, uint32_t t_us, const RcSwitches* switches) {
   sticks_ = sticks;
   rc_seen_ = true;
   rc_time_us_ = t_us;
+  if (!rc_switches_enabled_ || switches == nullptr) return;
+  // Transitions only: a transmitter switched on with "motors enabled" does not arm the vehicle.
+  const RcSwitches before = switches_;
+  switches_ = *switches;
+  if (!switches_known_) {
+    switches_known_ = true;
+    return;
+  }
+  if (switches->motors_enabled != before.motors_enabled) {
+    handle_transition(modes_.command(switches->motors_enabled ? Command::kArm : Command::kForceDisarm, mode_inputs()));
+  }
+  if (switches->auto_mode != before.auto_mode && modes_.armed()) {
+    handle_transition(modes_.command(switches->auto_mode ? Command::kAuto : Command::kManual, mode_inputs()));
+  }
 }
 
 void FlightApp::on_setpoint(const mav::SetPositionTargetLocalNed& msg) {

@@ -15,7 +15,14 @@ bool board_pass(FlightApp& app) {
     sticks.pitch = rc.pulse_us[kRcPitch];
     sticks.throttle = rc.pulse_us[kRcThrottle];
     sticks.yaw = rc.pulse_us[kRcYaw];
-    app.rc_input(sticks, hal::micros());
+    if (rc.count > kRcAutoMode) {
+      RcSwitches switches;
+      switches.motors_enabled = rc.pulse_us[kRcMotorEnable] > 1500;
+      switches.auto_mode = rc.pulse_us[kRcAutoMode] > 1500;
+      app.rc_input(sticks, hal::micros(), &switches);
+    } else {
+      app.rc_input(sticks, hal::micros());
+    }
   }
   const uint32_t now = hal::micros();
   if (!app.loop_timer().due(now)) return false;

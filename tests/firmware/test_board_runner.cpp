@@ -110,10 +110,12 @@ class BoardRunner : public ::testing::Test {
     const size_t n = gcs_.encode(msg, buf, sizeof buf);
     board_.rx[port].insert(board_.rx[port].end(), buf, buf + n);
   }
-  void rc(uint16_t throttle) {
+  void rc(uint16_t throttle, uint16_t enable = 1000, uint16_t auto_mode = 1000) {
     board_.rc.count = 8;
     for (uint16_t& p : board_.rc.pulse_us) p = 1500;
     board_.rc.pulse_us[quad::fw::kRcThrottle] = throttle;
+    board_.rc.pulse_us[quad::fw::kRcMotorEnable] = enable;
+    board_.rc.pulse_us[quad::fw::kRcAutoMode] = auto_mode;
     board_.rc_new = true;
   }
   std::vector<mav::CommandAck> acks(uint8_t port) {
@@ -171,6 +173,24 @@ TEST_F(BoardRunner, LedBlinksFastWhileCalibratingSlowWhenReadyAndStaysOnWhenArme
   run_for(0.5f);
   EXPECT_EQ(toggles(mark), 0);
   EXPECT_TRUE(board_.led.back());
+}
+
+TEST_F(BoardRunner, MotorEnableChannelArmsAndKills) {
+  mav::ParamSet set;
+  set.target_system = 1;
+  std::strncpy(set.param_id, "RC_SWITCHES", 16);
+  set.param_value = 1.0f;
+  receive(quad::hal::kUart0, set);
+  run_for(2.5f);
+  ASSERT_TRUE(app_->calibrated());
+  rc(1000, 1000);  // channel 5 (index 4) low
+  run_for(0.05f);
+  rc(1000, 2000);  // ... to high: arm
+  run_for(0.05f);
+  EXPECT_EQ(app_->mode(), quad::fw::FlightMode::kManual);
+  rc(1000, 1000);  // ... and low again: disarm
+  run_for(0.05f);
+  EXPECT_EQ(app_->mode(), quad::fw::FlightMode::kDisarmed);
 }
 
 TEST_F(BoardRunner, NoIterationWithoutANewImuSample) {

@@ -67,10 +67,11 @@ class Bench {
     app->receive(port, buf, static_cast<uint16_t>(n), static_cast<uint32_t>(t_us));
   }
 
-  void sticks(int16_t throttle) {
+  void sticks(int16_t throttle, uint16_t buttons = 0) {
     mav::ManualControl m;
     m.target = 1;
     m.z = throttle;
+    m.buttons = buttons;
     send(quad::hal::kUart0, m, gcs);
   }
 
@@ -494,6 +495,52 @@ void into_auto(Bench& b, const Eigen::Vector3f& p) {
   }
   ASSERT_EQ(b.set_mode(FlightMode::kAuto), mav::kResultAccepted);
   EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
+}
+
+TEST(FirmwareApp, RcSwitchesArmKillAndSelectTheMode) {
+  // Thesis sec. 6.1.4: a motor-enable toggle and a manual/auto toggle (MANUAL_CONTROL buttons bits 0/1).
+  Bench b;
+  b.boot();
+  mav::ParamSet set;
+  set.target_system = 1;
+  std::strncpy(set.param_id, "RC_SWITCHES", 16);
+  set.param_value = 1.0f;
+  b.send(quad::hal::kUart0, set, b.gcs);
+  calibrate(b);
+  const Eigen::Vector3f p(0, 0, -1.0f);
+  auto fly = [&](int steps, uint16_t buttons, int16_t throttle = 0) {
+    for (int i = 0; i < steps; ++i) {
+      b.still_step();
+      if (i % 3 == 0) b.landing_target(p, Eigen::Quaternionf::Identity(), b.t_us - 20000);
+      b.sticks(throttle, buttons);
+    }
+  };
+  fly(5, 0x1);
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed) << "a switch found on at power-up does not arm";
+  fly(5, 0x0);
+  fly(5, 0x1);
+  EXPECT_EQ(b.app->mode(), FlightMode::kManual) << "off -> on arms";
+  EXPECT_TRUE(b.said("MANUAL: armed"));
+  fly(5, 0x3);
+  EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
+  fly(5, 0x1);
+  EXPECT_EQ(b.app->mode(), FlightMode::kManual);
+  fly(5, 0x1, 600);  // throttle up: in flight as far as the land detector can tell
+  EXPECT_EQ(b.command(mav::kCmdComponentArmDisarm, 0.0f), mav::kResultDenied) << "a plain disarm is refused";
+  fly(5, 0x0, 600);  // the kill switch disarms at once, in the air too
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
+  EXPECT_TRUE(b.said("DISARMED: disarmed"));
+}
+
+TEST(FirmwareApp, RcSwitchesIgnoredUnlessEnabled) {
+  Bench b;
+  b.boot();
+  calibrate(b);
+  for (uint16_t buttons : {0, 1, 0, 1, 3}) {
+    b.sticks(0, buttons);
+    b.still_step();
+  }
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
 }
 
 TEST(FirmwareApp, AutoRefusedWithoutVision) {

@@ -57,6 +57,12 @@ struct AppIo {
   void (*console)(uint8_t severity, const char* text, uint8_t length) = nullptr;
 };
 
+// The toggle switches of the RC transmitter (thesis sec. 6.1.4: 1000 or 2000 us).
+struct RcSwitches {
+  bool motors_enabled = false;
+  bool auto_mode = false;
+};
+
 // Counters reported in SYS_STATUS and used by the tests.
 struct AppCounters {
   uint32_t iterations = 0;
@@ -88,8 +94,10 @@ class FlightApp {
   // One control iteration with a sample taken at t_us (board mode; HIL calls it from HIL_SENSOR).
   void step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag);
 
-  // An RC frame from the receiver (board mode; in HIL MANUAL_CONTROL arrives through receive()).
-  void rc_input(const ctrl::RcSticks& sticks, uint32_t t_us);
+  // An RC frame from the receiver (board mode; in HIL MANUAL_CONTROL arrives through receive()). With
+  // RC_SWITCHES set, the two toggle switches of thesis sec. 6.1.4 act on their transitions: motor enable
+  // on -> arm, off -> disarm at once (the kill switch); auto on -> AUTO, off -> MANUAL.
+  void rc_input(const ctrl::RcSticks& sticks, uint32_t t_us, const RcSwitches* switches = nullptr);
 
   // Motor commands of the last iteration, 0..1 each, all 0 when disarmed.
   const float (&motors() const)[hal::kMotorCount] { return motors_; }
@@ -175,6 +183,9 @@ class FlightApp {
   ctrl::SetpointShaper shaper_;
   ctrl::PositionSetpoint setpoint_;
   ctrl::RcSticks sticks_;
+  bool rc_switches_enabled_ = false;
+  bool switches_known_ = false;  // the first frame only records the switch positions
+  RcSwitches switches_;
   float land_speed_ = 0.5f;
   float land_vz_max_ = 0.25f;
   float land_thrust_max_ = 0.0f;  // N

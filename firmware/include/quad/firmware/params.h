@@ -72,6 +72,8 @@ namespace fw {
   X(kManYawRate, "MAN_YAW_RATE", 1.5708f, 0.1f, 6.0f)                                            \
   X(kManThrMax, "MAN_THR_MAX", 1.0f, 0.1f, 1.0f)                                                 \
   X(kManDeadband, "MAN_DEADBAND", 20.0f, 0.0f, 200.0f)                                           \
+  /* RC switches (sec. 6.1.4): motor enable and manual/auto toggles; 0 = not used (simulator) */  \
+  X(kRcSwitches, "RC_SWITCHES", 0.0f, 0.0f, 1.0f)                                                \
   /* arming, landing and failsafes */                                                            \
   X(kArmThrMax, "ARM_THR_MAX", 0.1f, 0.0f, 0.5f)                                                 \
   X(kLandSpeed, "LAND_SPEED", 0.5f, 0.1f, 3.0f)                                                  \

@@ -12,8 +12,9 @@
 namespace quad {
 namespace fw {
 
-// RC channel order of the receiver (APM convention, 0-based): roll, pitch, throttle, yaw.
-constexpr uint8_t kRcRoll = 0, kRcPitch = 1, kRcThrottle = 2, kRcYaw = 3;
+// RC channel order of the receiver (APM convention, 0-based): roll, pitch, throttle, yaw, then the
+// motor-enable and manual/auto switches of thesis sec. 6.1.4 (on above 1500 us).
+constexpr uint8_t kRcRoll = 0, kRcPitch = 1, kRcThrottle = 2, kRcYaw = 3, kRcMotorEnable = 4, kRcAutoMode = 5;
 
 // The AppIo of a HAL target: storage, serial output and clock from the HAL.
 AppIo hal_app_io();
