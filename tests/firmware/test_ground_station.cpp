@@ -148,6 +148,11 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
     EXPECT_NE(r.out.find("accepted"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("vehicle: MANUAL: armed"), std::string::npos) << r.out;
 
+    r = gs(ground.path, "watch 3");  // at least 100 lockstep iterations even on a busy machine
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("mode MANUAL (armed)"), std::string::npos) << "from the 1 Hz heartbeat: " << r.out;
+    EXPECT_NE(r.out.find("p ("), std::string::npos) << "the position estimate: " << r.out;
+
     r = gs(ground.path, "mode auto");
     EXPECT_EQ(r.status, 1) << "no vision fix yet: " << r.out;
     EXPECT_NE(r.out.find("auto refused: no vision fix"), std::string::npos) << r.out;
@@ -211,6 +216,9 @@ TEST(GroundStation, UsageErrors) {
   r = gs("/dev/null", "fly");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("unknown command 'fly'"), std::string::npos) << r.out;
+  r = gs("/dev/null", "arm --baud 57600x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("--baud: '57600x' is not a supported baud rate"), std::string::npos) << r.out;
   r = gs("/dev/null", "setpoint 1 x 2");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.out.find("not a number: 'x'"), std::string::npos) << r.out;

@@ -269,8 +269,9 @@ int main(int argc, char** argv) {
       if (a == "--port") {
         config.ports[quad::hal::kUart0].path = v;
       } else {
-        config.ports[quad::hal::kUart0].baud = static_cast<uint32_t>(std::strtoul(v, nullptr, 10));
-        if (!quad::hal::host::baud_supported(config.ports[quad::hal::kUart0].baud)) {
+        char* end = nullptr;
+        config.ports[quad::hal::kUart0].baud = static_cast<uint32_t>(std::strtoul(v, &end, 10));
+        if (end == v || *end != '\0' || !quad::hal::host::baud_supported(config.ports[quad::hal::kUart0].baud)) {
           return usage((std::string("--baud: '") + v + "' is not a supported baud rate").c_str());
         }
       }
