@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "quad/link/mavlink.h"
+#include "quad/sim/faults.h"
 #include "quad/sim/firmware_process.h"
 #include "quad/sim/flight_modes.h"
 #include "quad/sim/frames.h"
@@ -23,6 +24,7 @@
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
 #include "quad/sim/vehicle.h"
+#include "quad/sim/vision_fix.h"
 
 namespace quad::sim {
 namespace mav = quad::mavlink;
@@ -33,7 +35,6 @@ namespace {
 constexpr uint8_t kVehicleSys = 1;
 constexpr uint8_t kSimComp = 200;
 constexpr uint8_t kGcsSys = 255;
-constexpr uint8_t kVisionComp = mav::kCompIdVisualInertialOdometry;
 
 // SET_POSITION_TARGET_LOCAL_NED type_mask: use position and yaw, ignore velocity, acceleration, yaw rate.
 constexpr uint16_t kPositionAndYawOnly = 0x0008 | 0x0010 | 0x0020 | 0x0040 | 0x0080 | 0x0100 | 0x0800;
@@ -74,7 +75,6 @@ class Session {
   void send_sensors(double t);
   void send_due_commands(double t);
   void send_rc(double t);
-  void capture_vision(double t);
 
   // Receiving.
   void handle_frame(const mav::Frame& f, double t, const char* port);
@@ -99,7 +99,7 @@ class Session {
   Vehicle vehicle_;
   Mpu6000 imu_;
   Hmc5883l mag_;
-  Rng vision_rng_;
+  SimulatedVisionFix vision_;
   ImuReading imu_reading_{};
   bool mag_fresh_ = false;
   Eigen::Vector3d field_ned_;
@@ -110,7 +110,6 @@ class Session {
   SerialLine radio_down_;  // firmware -> ground on UART2
   mav::Sender sensor_sender_{kVehicleSys, kSimComp};
   mav::Sender gcs_sender_{kGcsSys, mav::kCompIdMissionPlanner};
-  mav::Sender vision_sender_{kVehicleSys, kVisionComp};
   mav::Parser uart0_parser_, uart2_splitter_, ground_parser_, ground_splitter_;
   std::unique_ptr<Pty> ground_;  // the base-station side of the radio, for outside programs (optional)
   uint64_t ground_dropped_ = 0;  // downlink bytes nobody read from the ground port
@@ -119,12 +118,11 @@ class Session {
   // Schedules.
   size_t next_command_ = 0;
   double next_rc_t_ = 0.0;
-  double next_vision_t_ = 0.0;
   double next_frame_t_ = 0.0;
-  std::deque<std::pair<double, std::vector<uint8_t>>> vision_pending_;  // release time, frame
   std::optional<Eigen::Vector3d> setpoint_;
   double setpoint_yaw_ = 0.0, setpoint_time_ = -1.0;
   std::vector<bool> fault_active_;
+  FaultEffects faults_now_;
 
   // The exchange.
   std::array<double, 4> pending_commands_{};
@@ -137,7 +135,7 @@ class Session {
   int radio_sync_misses_in_row_ = 0;
   bool radio_ignored_ = false;
   std::vector<uint8_t> last_sensor_frame_;  // resent while the firmware is still starting
-  uint64_t exchanges_ = 0, vision_sent_ = 0, uart0_overruns_ = 0;
+  uint64_t exchanges_ = 0, uart0_overruns_ = 0;
   Telemetry tele_;
 
   // Outputs.
@@ -188,7 +186,7 @@ Session::Session(const Scenario& s, const SessionOptions& o)
       vehicle_(vehicle_params(s)),
       imu_(s.imu, Rng(s.seed, "imu")),
       mag_(s.mag, Rng(s.seed, "magnetometer")),
-      vision_rng_(s.seed, "vision"),
+      vision_(s.vision, Rng(s.seed, "vision")),
       field_ned_(s.field_ned_gauss),
       uart0_(s.uart0_baud),
       uart2_(s.radio_baud),
@@ -286,8 +284,7 @@ void Session::send_due_commands(double t) {
 void Session::send_rc(double t) {
   if (t + 1e-9 < next_rc_t_) return;
   next_rc_t_ += 1.0 / s_.rc_rate_hz;
-  for (size_t i = 0; i < s_.faults.size(); ++i)
-    if (s_.faults[i].type == FaultType::kRcLoss && s_.faults[i].active(t)) return;
+  if (fault_effects(s_.faults, s_.radio, t).rc_loss) return;
   RcSticks sticks;
   for (const RcSticks& r : s_.rc)
     if (r.at_s <= t) sticks = r;
@@ -321,62 +318,19 @@ void Session::send_sensors(double t) {
   uart0_out_.send(buf, n, t);
 }
 
-void Session::capture_vision(double t) {
-  if (t + 1e-9 < next_vision_t_) return;
-  next_vision_t_ += 1.0 / s_.vision.rate_hz;
-  if (!s_.vision.enabled) return;
-  for (const Fault& f : s_.faults)
-    if (f.type == FaultType::kVisionDropout && f.active(t)) return;
-  const VehicleTruth truth = vehicle_.truth();
-  Eigen::Vector3d p = truth.position_ned;
-  for (int i = 0; i < 3; ++i) p[i] += vision_rng_.normal(s_.vision.noise_m);
-  // The star sits at the NED origin: seen from the vehicle, in body FRD (thesis eq. 8.5 inverted,
-  // p_B = R_IB^T (star - p_I); the firmware computes p_I = star - R_IB p_B).
-  const Eigen::Vector3d star_b = truth.q_ib.conjugate() * (-p);
-  mav::LandingTarget lt;
-  lt.time_usec = to_usec(t);
-  lt.frame = mav::kFrameBodyFrd;
-  lt.x = static_cast<float>(star_b.x());
-  lt.y = static_cast<float>(star_b.y());
-  lt.z = static_cast<float>(star_b.z());
-  lt.distance = static_cast<float>(star_b.norm());
-  lt.q[0] = 1.0f;
-  lt.position_valid = 1;
-  uint8_t buf[mav::max_frame_length<mav::LandingTarget>()];
-  const size_t n = vision_sender_.encode(lt, buf, sizeof buf);
-  vision_pending_.emplace_back(t + s_.vision.latency_s, std::vector<uint8_t>(buf, buf + n));
-}
-
 void Session::apply_faults(double t) {
-  RadioConditions radio = s_.radio;
-  Eigen::Vector3d mag_offset = Eigen::Vector3d::Zero(), gyro_step = Eigen::Vector3d::Zero();
-  std::array<double, 4> efficiency{1.0, 1.0, 1.0, 1.0};
   for (size_t i = 0; i < s_.faults.size(); ++i) {
-    const Fault& f = s_.faults[i];
-    const bool active = f.active(t);
-    if (active != fault_active_[i]) {
-      fault_active_[i] = active;
-      static const char* kNames[] = {"vision dropout", "radio loss", "bit error rate", "radio latency",
-                                     "magnetic disturbance", "gyro bias step", "motor efficiency", "RC loss"};
-      event(t, std::string("fault: ") + kNames[static_cast<int>(f.type)] + (active ? " begins" : " ends"));
-    }
-    if (!active) continue;
-    switch (f.type) {
-      case FaultType::kRadioLoss: radio.loss = std::max(radio.loss, f.value); break;
-      case FaultType::kBitErrorRate: radio.bit_error_rate = std::max(radio.bit_error_rate, f.value); break;
-      case FaultType::kRadioLatency: radio.latency_s = f.value; break;
-      case FaultType::kMagDisturbance: mag_offset += f.vector; break;
-      case FaultType::kGyroBiasStep: gyro_step += f.vector; break;
-      case FaultType::kMotorEfficiency: efficiency[static_cast<size_t>(f.motor)] *= f.value; break;
-      case FaultType::kVisionDropout:
-      case FaultType::kRcLoss: break;  // acted on where the messages are made
-    }
+    const bool active = s_.faults[i].active(t);
+    if (active == fault_active_[i]) continue;
+    fault_active_[i] = active;
+    event(t, std::string("fault: ") + fault_name(s_.faults[i].type) + (active ? " begins" : " ends"));
   }
-  radio_up_.set_radio(radio);
-  radio_down_.set_radio(radio);
-  field_ned_ = s_.field_ned_gauss + mag_offset;
-  imu_.set_gyro_bias_step(gyro_step);
-  for (int i = 0; i < 4; ++i) vehicle_.set_motor_efficiency(i, efficiency[static_cast<size_t>(i)]);
+  faults_now_ = fault_effects(s_.faults, s_.radio, t);
+  radio_up_.set_radio(faults_now_.radio);
+  radio_down_.set_radio(faults_now_.radio);
+  field_ned_ = s_.field_ned_gauss + faults_now_.mag_offset_ned_gauss;
+  imu_.set_gyro_bias_step(faults_now_.gyro_bias_step_rad_s);
+  for (int i = 0; i < 4; ++i) vehicle_.set_motor_efficiency(i, faults_now_.motor_efficiency[static_cast<size_t>(i)]);
 }
 
 void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
@@ -529,13 +483,9 @@ void Session::physics_period(double t_end) {
     vehicle_.step();
     sample_sensors(t);
     const double now = vehicle_.time();
-    capture_vision(now);
-    while (!vision_pending_.empty() && vision_pending_.front().first <= now + 1e-9) {
-      const auto& [when, bytes] = vision_pending_.front();
-      radio_up_.send(bytes.data(), bytes.size(), when);
-      ++vision_sent_;
-      vision_pending_.pop_front();
-    }
+    const VehicleTruth truth = vehicle_.truth();
+    vision_.update(now, truth.position_ned, truth.q_ib, fault_effects(s_.faults, s_.radio, now).vision_dropout);
+    vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
     if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
       if (ground_) ground_dropped_ += ground_->write_or_drop(d, n);
@@ -566,7 +516,7 @@ void Session::log_row(double t) {
              static_cast<double>(tele_.mode), tele_.armed ? 1.0 : 0.0, imu_reading_.specific_force_frd.x(),
              imu_reading_.specific_force_frd.y(), imu_reading_.specific_force_frd.z(), imu_reading_.rate_frd.x(),
              imu_reading_.rate_frd.y(), imu_reading_.rate_frd.z(), mag_.reading().x(), mag_.reading().y(),
-             mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_sent_),
+             mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_.released()),
              static_cast<double>(u0.frames_sent), static_cast<double>(ru.frames_sent),
              static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
@@ -634,7 +584,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   else j.add_null("altitude_reached_s");
   j.add("crashed", metrics_.crashed());
   if (metrics_.crashed()) j.add("crash_time_s", metrics_.crash_time_s());
-  j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_sent_)).add("links", links);
+  j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_.released())).add("links", links);
   write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
 }
 

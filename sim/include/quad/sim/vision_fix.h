@@ -1,0 +1,56 @@
+// The simulated vision fix of issue 6, standing in for the vision station until issue 8 closes the loop
+// with rendered cameras: at `rate_hz`, the true position plus Gaussian noise becomes a LANDING_TARGET
+// (docs/hil-protocol.md: the star, at the NED origin, relative to the vehicle in body FRD; capture time
+// on the simulator clock; sysid 1, compid 197), released to the radio `latency_s` after capture.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "quad/link/mavlink.h"
+#include "quad/sim/rng.h"
+#include "quad/sim/scenario.h"
+
+namespace quad::sim {
+
+// The star (NED origin) seen from a vehicle at p_ned with attitude q_ib, in body FRD:
+// p_B = R_IB^T (star - p_I), thesis eq. 8.5 inverted (errata sign; the firmware computes
+// p_I = star - R_IB p_B).
+Eigen::Vector3d star_in_body_frd(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib);
+
+class SimulatedVisionFix {
+ public:
+  SimulatedVisionFix(const VisionParams& params, Rng rng) : p_(params), rng_(std::move(rng)) {}
+
+  // Call every physics step with the truth at time t: captures a fix when one is due (none while
+  // `dropout`, none when disabled).
+  void update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool dropout);
+
+  // Hands sink(release_time, const uint8_t*, size_t) every frame whose release time is <= t, in order.
+  template <class Sink>
+  void release_until(double t, Sink&& sink) {
+    while (!pending_.empty() && pending_.front().first <= t + 1e-9) {
+      const auto& [when, bytes] = pending_.front();
+      sink(when, bytes.data(), bytes.size());
+      ++released_;
+      pending_.pop_front();
+    }
+  }
+
+  uint64_t released() const { return released_; }
+
+ private:
+  VisionParams p_;
+  Rng rng_;
+  mavlink::Sender sender_{1, mavlink::kCompIdVisualInertialOdometry};
+  double next_capture_t_ = 0.0;
+  std::deque<std::pair<double, std::vector<uint8_t>>> pending_;  // release time, frame
+  uint64_t released_ = 0;
+};
+
+}  // namespace quad::sim
