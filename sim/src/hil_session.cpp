@@ -90,6 +90,7 @@ class Session {
   void apply_faults(double t);
   void physics_period(double t_end);
   void log_row(double t);
+  void score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estimate);
   void event(double t, const std::string& text);
   void write_summary(bool complete, const std::string& reason);
   void progress(double t, bool final_line);
@@ -143,6 +144,7 @@ class Session {
   std::FILE* events_ = nullptr;
   FlightMetrics metrics_;
   ErrorStats est_horizontal_, est_vertical_;
+  std::deque<std::pair<long long, Eigen::Vector3d>> truth_history_;  // (ms, position) of the last rows
   std::optional<double> altitude_reached_s_;
   Clock::time_point wall_start_;
   Clock::time_point last_progress_;
@@ -364,6 +366,7 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
       if (!mav::decode(f, m)) break;
       tele_.position_ned = {m.x, m.y, m.z};
       tele_.velocity_ned = {m.vx, m.vy, m.vz};
+      score_estimate(m.time_boot_ms, tele_.position_ned);
       break;
     }
     case mav::AttitudeQuaternion::kId: {
@@ -521,12 +524,22 @@ void Session::log_row(double t) {
              static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
   metrics_.add(t, tr.position_ned, tr.velocity_ned, tilt, setpoint_, setpoint_time_);
-  if (tele_.armed && !std::isnan(tele_.position_ned.x())) {
-    est_horizontal_.add((tele_.position_ned - tr.position_ned).head<2>().norm());
-    est_vertical_.add(tele_.position_ned.z() - tr.position_ned.z());
-  }
+  truth_history_.emplace_back(std::llround(t * 1000.0), tr.position_ned);
+  if (truth_history_.size() > 200) truth_history_.pop_front();  // 2 s at 100 Hz
   if (setpoint_ && !altitude_reached_s_ && std::abs(tr.position_ned.z() - setpoint_->z()) < 0.05)
     altitude_reached_s_ = t - setpoint_time_;
+}
+
+void Session::score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estimate) {
+  // Against the truth at the estimate's own time (the firmware stamps it with the HIL clock), so the
+  // telemetry's age does not count as estimation error. Only while armed: the flight, not the bench.
+  if (!tele_.armed || !estimate.allFinite()) return;
+  for (auto it = truth_history_.rbegin(); it != truth_history_.rend(); ++it) {
+    if (it->first != static_cast<long long>(time_boot_ms)) continue;
+    est_horizontal_.add((estimate - it->second).head<2>().norm());
+    est_vertical_.add(estimate.z() - it->second.z());
+    return;
+  }
 }
 
 Json stats_json(const ErrorStats& e) {
