@@ -8,10 +8,12 @@ Quat attitude_error(const Quat& q, const Quat& q_d) {
   return canonical(conjugate(q_d) * q);
 }
 
-Vec3 AttitudeController::update(const Quat& q, const Vec3& omega, const Quat& q_d, const Vec3& omega_d) const {
-  const Vec3 q_err = attitude_error(q, q_d).vec();
-  // thesis eq. 8.39: tau = -alpha sign(q~0) q~ - Gamma Omega (plus the optional rate feed-forward).
-  return q_err * (-gains_.alpha) - hadamard(gains_.gamma, omega - omega_d);
+Vec3 AttitudeController::update(const Quat& q, const Vec3& omega, const Quat& q_d) const {
+  // thesis eq. 8.38: Q~ = Q_d^-1 (x) Q, and eq. 8.39: tau = -alpha sign(q~0) q~ - Gamma Omega. The sign
+  // goes into the gain rather than onto the quaternion (errata 8.39: the short way round).
+  const Quat e = conjugate(q_d) * q;
+  const float gain = e.w < 0.0f ? gains_.alpha : -gains_.alpha;
+  return e.vec() * gain - hadamard(gains_.gamma, omega);
 }
 
 const char* validate(const AttitudeGains& g) {

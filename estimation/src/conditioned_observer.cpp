@@ -12,9 +12,10 @@ constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 // Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
 // approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
 // renormalises to round-off without the square root and division of a full normalisation.
-Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt) {
+// half_dt_sq = (dt/2)^2 comes from the caller's per-dt cache.
+Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float half_dt_sq) {
   const float half_dt = 0.5f * dt;
-  const float x2 = half_dt * half_dt * norm_sq(omega);
+  const float x2 = half_dt_sq * norm_sq(omega);
   const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
   const Quat d{1.0f - 0.5f * x2, omega.x * k, omega.y * k, omega.z * k};
   const Quat n = q * d;  // A(Omega) q = q (x) [0, Omega]
@@ -54,6 +55,19 @@ void ConditionedObserver::cache_reference() {
     inv_mag_h_ = n > 0.0f ? 1.0f / n : 0.0f;
     v_ref_ = m * inv_mag_h_;
   }
+  k2_mag_ = params_.k2 * inv_mag_h_;
+  step_dt_ = -1.0f;  // the step gains below belong to the old parameters
+}
+
+// Terms that depend only on the parameters and the step dt (the loop period on every step but the odd
+// one): computed when dt changes rather than on every sample.
+void ConditionedObserver::cache_step(float dt) {
+  step_dt_ = dt;
+  half_dt_sq_ = 0.25f * dt * dt;
+  k3_dt_ = params_.k3 * dt;
+  k4_mag_dt_ = params_.k4 * inv_mag_h_ * dt;
+  k_i_dt_ = params_.k_i * dt;
+  kb_dt_ = params_.kb * dt;
 }
 
 bool ConditionedObserver::initialize(const Vec3& accel_frd, const Vec3& mag_frd) {
@@ -71,6 +85,7 @@ bool ConditionedObserver::initialize(const Vec3& accel_frd, const Vec3& mag_frd)
 
 void ConditionedObserver::reset(const Quat& q_ib, const Vec3& gyro_bias) {
   q_ = normalized(q_ib);
+  r_ = to_dcm(q_);
   // eq. 4.9 requires ||b(0)|| < Delta.
   bias_ = is_finite(gyro_bias) ? sat_delta(gyro_bias, 0.999f * params_.delta) : Vec3{};
   rate_ = Vec3{};
@@ -84,9 +99,9 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   }
   const ObserverParams& k = params_;
   // Estimated directions in the body frame: with q = q_IB, u_hat_B = R^T u_I (the transpose of what
-  // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R (eq. 3.18).
-  const float qw = q_.w, qx = q_.x, qy = q_.y, qz = q_.z;
-  const Vec3 u_hat{2.0f * (qx * qz - qw * qy), 2.0f * (qy * qz + qw * qx), 1.0f - 2.0f * (qx * qx + qy * qy)};
+  // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R (eq. 3.18), kept
+  // from the end of the last step.
+  const Vec3 u_hat = r_.row(2);
 
   // Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
   // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm.
@@ -105,61 +120,60 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
     if (!use_mag) ++health_.mag_rejected;
   }
 
-  // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term.
-  Vec3 sigma_r, sigma_b;
+  if (dt != step_dt_) cache_step(dt);
+
+  // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
+  // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.
+  Vec3 sigma_r, db;
   if (use_accel) {
     const Vec3 e_u = cross(u_meas, u_hat);
     sigma_r = e_u * k.k1;
-    sigma_b = e_u * -k.k3;
+    db = e_u * -k3_dt_;
   }
   if (use_mag) {
     // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
     // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
     Vec3 v_hat;
-    if (v_ref_.x != 0.0f) {
-      v_hat = Vec3{1.0f - 2.0f * (qy * qy + qz * qz), 2.0f * (qx * qy - qw * qz), 2.0f * (qx * qz + qw * qy)} * v_ref_.x;
-    }
-    if (v_ref_.y != 0.0f) {
-      v_hat += Vec3{2.0f * (qx * qy + qw * qz), 1.0f - 2.0f * (qx * qx + qz * qz), 2.0f * (qy * qz - qw * qx)} * v_ref_.y;
-    }
+    if (v_ref_.x != 0.0f) v_hat = r_.row(0) * v_ref_.x;
+    if (v_ref_.y != 0.0f) v_hat += r_.row(1) * v_ref_.y;
     if (v_ref_.z != 0.0f) v_hat += u_hat * v_ref_.z;
     if (k.innovation == Innovation::Conditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.
-      // The constant 1/||pi_{u_I} m_I|| is applied to the scalar gains instead of the vector.
+      // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_) instead of the vector.
       const Vec3& axis = use_accel ? u_meas : u_hat;
       const Vec3 e_v = cross(mag - axis * dot(axis, mag), v_hat);  // sk(v_B) v_hat / inv_mag_h_
       // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.
-      sigma_r += u_hat * (k.k2 * inv_mag_h_ * dot(u_hat, e_v));
-      sigma_b -= e_v * (k.k4 * inv_mag_h_);
+      sigma_r += u_hat * (k2_mag_ * dot(u_hat, e_v));
+      db -= e_v * k4_mag_dt_;
     } else {
       // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
       const float m2 = norm_sq(mag);
       if (m2 > 0.0f) sigma_r += cross(mag, v_hat) * (k.k2 / sqrtf(m2));
     }
   }
-  if (k.innovation == Innovation::Unconditioned) sigma_b = sigma_r * (-k.k_i);  // eq. 4.4: b' = -k_I sigma_R
+  if (k.innovation == Innovation::Unconditioned) db = sigma_r * -k_i_dt_;  // eq. 4.4: b' = -k_I sigma_R
 
   // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
   const Vec3 rate = gyro - bias_;
   const Vec3 omega = rate + sigma_r;
   const Quat q_next = k.propagator == Propagator::Exact ? normalized(integrate_exact(q_, omega, dt))
-                                                        : propagate_second_order(q_, omega, dt);
+                                                        : propagate_second_order(q_, omega, dt, half_dt_sq_);
   // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
   // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
   // sat_Delta(b) - b = b (Delta/|b| - 1).
-  Vec3 b_dot = sigma_b;
   const float b2 = norm_sq(bias_);
   if (k.innovation == Innovation::Conditioned && b2 > k.delta * k.delta) {
-    b_dot += bias_ * (k.kb * (k.delta / sqrtf(b2) - 1.0f));
+    db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
   }
-  const Vec3 b_next = bias_ + b_dot * dt;
+  const Vec3 b_next = bias_ + db;
 
   if (!is_finite(q_next) || !is_finite(b_next)) {
     ++health_.state_restored;
     return;
   }
   q_ = q_next;
+  r_ = to_dcm(q_next);
   bias_ = b_next;
   rate_ = rate;
   ++health_.updates;

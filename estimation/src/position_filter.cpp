@@ -58,6 +58,13 @@ Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd) {
   return rotate(q_ib, specific_force_frd) + Vec3{0.0f, 0.0f, kGravity};
 }
 
+Vec3 kinematic_acceleration(const Mat3& r_ib, const Vec3& specific_force_frd) {
+  // thesis eq. 8.7
+  Vec3 u = r_ib * specific_force_frd;
+  u.z += kGravity;
+  return u;
+}
+
 PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params)
     : history_(storage), capacity_(capacity) {
   set_params(params);
@@ -70,11 +77,23 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
   qv_ = white ? params.q_accel : params.q_vel;
   qb_ = params.z_accel_bias ? params.q_bias : 0.0f;
   q_dt_ = -1.0f;  // the cached Q(T) belongs to the old parameters
+  if (one_class_) p_[1] = p_[0];  // z gets its own copy back before the sharing is re-decided
   if (!params.z_accel_bias) {
     x_[2].b = 0.0f;
     p_[1].pb = p_[1].vb = p_[1].bb = 0.0f;
     corr_[2].b = 0.0f;
   }
+  update_class_sharing();
+}
+
+// z shares the horizontal covariance when its model and fix noise are the same (no bias state, equal
+// sigma) and its covariance is bit-identical now: the same operations then keep it identical, so
+// computing it once is exact, not an approximation.
+void PositionFilterCore::update_class_sharing() {
+  const AxisCovariance& a = p_[0];
+  const AxisCovariance& b = p_[1];
+  one_class_ = !params_.z_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z && a.pp == b.pp &&
+               a.pv == b.pv && a.vv == b.vv && b.pb == 0.0f && b.vb == 0.0f && b.bb == 0.0f;
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
@@ -88,6 +107,7 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
     p_[c].vv = sqf(params_.vel_sigma0);
   }
   if (params_.z_accel_bias) p_[1].bb = sqf(params_.bias_sigma0);
+  update_class_sharing();
   t_us_ = t_us;
   corr_origin_us_ = t_us;
   clock_started_ = true;
@@ -99,12 +119,12 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
 }
 
 float PositionFilterCore::last_gain_p(int axis) const {
-  const float* k = gain_[axis == 2 ? 1 : 0];
+  const float* k = gain_[covariance_class(axis)];
   return k[0] - gain_tau_ * (k[1] + 0.5f * gain_tau_ * k[2]);  // K = Phi(-tau) (D h / S)
 }
 
 float PositionFilterCore::last_gain_v(int axis) const {
-  const float* k = gain_[axis == 2 ? 1 : 0];
+  const float* k = gain_[covariance_class(axis)];
   return k[1] + gain_tau_ * k[2];
 }
 
@@ -115,6 +135,7 @@ void PositionFilterCore::clear_history() {
 
 float PositionFilterCore::correction_position(int axis, float dt) const {
   const Correction& c = corr_[axis];
+  if (!has_bias(axis)) return c.p + dt * c.v;  // c.b is zero
   return c.p + dt * (c.v - 0.5f * dt * c.b);
 }
 
@@ -141,6 +162,10 @@ void PositionFilterCore::rebase_correction(uint32_t t_us) {
   const float d = seconds_between(t_us, corr_origin_us_);
   for (int i = 0; i < 3; ++i) {
     Correction& c = corr_[i];
+    if (!has_bias(i)) {
+      c.p += d * c.v;  // c.b is zero
+      continue;
+    }
     c.p += d * (c.v - 0.5f * d * c.b);
     c.v -= d * c.b;
   }
@@ -163,7 +188,7 @@ void PositionFilterCore::propagate(const Vec3& u, float dt) {
   const float h = 0.5f * dt * dt;
   for (int i = 0; i < 3; ++i) {
     AxisState& x = x_[i];
-    const float a = u[i] - x.b;
+    const float a = has_bias(i) ? u[i] - x.b : u[i];
     x.p += dt * x.v + h * a;
     x.v += dt * a;
   }
@@ -175,7 +200,7 @@ void PositionFilterCore::propagate(const Vec3& u, float dt) {
     q_dt_ = dt;
   }
   propagate_covariance(p_[0], dt, false, q_[0]);
-  propagate_covariance(p_[1], dt, bias, q_[1]);
+  if (!one_class_) propagate_covariance(p_[1], dt, bias, q_[1]);
 }
 
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
@@ -263,7 +288,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedInvalid;
   }
   const float lost = sqf(params_.reset_position_sigma);
-  const bool diverged = !(p_[0].pp <= lost) || !(p_[1].pp <= lost);  // also catches NaN
+  const bool diverged = !(p_[0].pp <= lost) || !(p_[covariance_class(2)].pp <= lost);  // also catches NaN
   const bool rejected_too_often =
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
@@ -294,9 +319,10 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   float inv_s[2];
   const float h1 = -tau, h2 = -0.5f * tau * tau;
   AxisCovariance q_tau[2];
+  const int classes = class_count();
   q_tau[0] = process_noise(tau, qp_, qv_, 0.0f);
-  q_tau[1] = params_.z_accel_bias ? process_noise(tau, qp_, qv_, qb_) : q_tau[0];
-  for (int c = 0; c < 2; ++c) {
+  if (classes == 2) q_tau[1] = params_.z_accel_bias ? process_noise(tau, qp_, qv_, qb_) : q_tau[0];
+  for (int c = 0; c < classes; ++c) {
     const bool bias = c == 1 && params_.z_accel_bias;
     const AxisCovariance& q = q_tau[c];
     const AxisCovariance& p = p_[c];
@@ -321,7 +347,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   const float gate2 = sqf(params_.gate_sigma);
   for (int i = 0; i < 3; ++i) {
     nu[i] = y[i] - p_s[i];
-    const float d2 = nu[i] * nu[i] * inv_s[i == 2 ? 1 : 0];
+    const float d2 = nu[i] * nu[i] * inv_s[covariance_class(i)];
     if (!(d2 <= gate2)) pass = false;  // also rejects a non-finite innovation
     nis += d2;
   }
@@ -334,7 +360,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
 
   rebase_correction(t_us_);
   gain_tau_ = tau;
-  for (int c = 0; c < 2; ++c) {
+  for (int c = 0; c < classes; ++c) {
     float* k = gain_[c];
     for (int j = 0; j < 3; ++j) k[j] = w[c][j] * inv_s[c];
     // thesis eq. 8.11b (errata) at capture time, carried to now: P_now -= (D h)(D h)^T / S.
@@ -350,16 +376,19 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   }
   bool fold = false;
   for (int i = 0; i < 3; ++i) {
-    const float* k = gain_[i == 2 ? 1 : 0];
+    const float* k = gain_[covariance_class(i)];
     AxisState& x = x_[i];
     Correction& c = corr_[i];
-    const float dp = k[0] * nu[i], dv = k[1] * nu[i], db = k[2] * nu[i];
+    const float dp = k[0] * nu[i], dv = k[1] * nu[i];
     x.p += dp;
     x.v += dv;
-    x.b += db;
     c.p += dp;
     c.v += dv;
-    c.b += db;
+    if (has_bias(i)) {  // elsewhere k[2] is zero
+      const float db = k[2] * nu[i];
+      x.b += db;
+      c.b += db;
+    }
     if (absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) fold = true;
   }
   if (fold) fold_correction();

@@ -3,18 +3,24 @@
 namespace quad {
 
 Mat3 to_dcm(const Quat& q) {
-  // thesis eq. 3.18
+  // thesis eq. 3.18. The factor 2 goes into one operand of each product (x2 = x + x): multiplying by two
+  // is exact in binary floating point, so the entries are bit-identical to 2 (x y - w z) etc., for nine
+  // multiplications instead of eighteen (each one ~150 cycles on the AVR).
   const float w = q.w, x = q.x, y = q.y, z = q.z;
+  const float x2 = x + x, y2 = y + y, z2 = z + z;
+  const float xx = x * x2, yy = y * y2, zz = z * z2;
+  const float xy = x * y2, xz = x * z2, yz = y * z2;
+  const float wx = w * x2, wy = w * y2, wz = w * z2;
   Mat3 r;
-  r.m[0][0] = 1.0f - 2.0f * (y * y + z * z);
-  r.m[0][1] = 2.0f * (x * y - w * z);
-  r.m[0][2] = 2.0f * (x * z + w * y);
-  r.m[1][0] = 2.0f * (x * y + w * z);
-  r.m[1][1] = 1.0f - 2.0f * (x * x + z * z);
-  r.m[1][2] = 2.0f * (y * z - w * x);
-  r.m[2][0] = 2.0f * (x * z - w * y);
-  r.m[2][1] = 2.0f * (y * z + w * x);
-  r.m[2][2] = 1.0f - 2.0f * (x * x + y * y);
+  r.m[0][0] = 1.0f - (yy + zz);
+  r.m[0][1] = xy - wz;
+  r.m[0][2] = xz + wy;
+  r.m[1][0] = xy + wz;
+  r.m[1][1] = 1.0f - (xx + zz);
+  r.m[1][2] = yz - wx;
+  r.m[2][0] = xz - wy;
+  r.m[2][1] = yz + wx;
+  r.m[2][2] = 1.0f - (xx + yy);
   return r;
 }
 

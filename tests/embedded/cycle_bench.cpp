@@ -89,7 +89,7 @@ quad::ctrl::VehicleState vehicle_state() {
 // The estimation part of one iteration (firmware: FlightApp::estimate at the position rate of 100 Hz).
 void estimate(const Sensors& s, bool mag_new) {
   g_observer.update(s.gyro, s.accel, s.mag, mag_new, kDt);
-  g_filter.predict(quad::est::kinematic_acceleration(g_observer.attitude(), s.accel), g_now_us);
+  g_filter.predict(quad::est::kinematic_acceleration(g_observer.dcm(), s.accel), g_now_us);
 }
 
 // A vision fix of the hover point, a few centimetres of noise on it.
@@ -152,8 +152,9 @@ int main() {
     const Sensors s2 = sample(g_step + 1);
     measure("observer_without_mag", [&] { g_observer.update(s2.gyro, s2.accel, s2.mag, false, kDt); });
     Vec3 u;
-    measure("kinematic_acceleration",
+    measure("kinematic_acceleration_quat",
             [&] { u = quad::est::kinematic_acceleration(g_observer.attitude(), s2.accel); });
+    measure("kinematic_acceleration", [&] { u = quad::est::kinematic_acceleration(g_observer.dcm(), s2.accel); });
     measure("kalman_predict", [&] { g_filter.predict(u, g_now_us); });
     quad::est::FixResult fix = quad::est::FixResult::RejectedInvalid;
     const Vec3 p = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs);

@@ -16,10 +16,12 @@ namespace ctrl {
 //   tanh x ~ x (945 + 105 x^2 + x^4) / (945 + 420 x^2 + 15 x^4),
 // which is odd and increasing and reaches 1 at |x| = 3.647; from there on the result is +-1, so the
 // function is continuous, bounded by 1 and has slope 1 at 0 (the linear gains of eq. 8.20 are exact).
-// Below |x| = 0.2, where a hovering vehicle's errors usually are, the Taylor series to x^7 (error
-// < 2e-8) replaces it and saves the division. Absolute error (tested against std::tanh, float round-off
-// included): below 1e-6 for |x| <= 1.2, below 1.4e-3 everywhere (largest near the clamp). AVR: about
-// 1200 cycles below 0.2, 2000 above, against 3400 for avr-libc's tanh. In the position controller the
+// Below |x| = 0.158 (x^2 < 0.025), where a hovering vehicle's errors usually are, the Taylor series to
+// x^5 replaces it and saves the division; its truncation error 17 x^7 / 315 stays below 1.3e-7 there,
+// small enough that the switch to the Pade form keeps the function monotonic up to float rounding.
+// Absolute error (tested against std::tanh, float round-off included): below 1e-6 for |x| <= 1.2,
+// below 1.4e-3 everywhere (largest near the clamp). AVR: about 1 100 cycles in the Taylor branch,
+// 2 000 above, against 3 400 for avr-libc's tanh (docs/performance.md). In the position controller the
 // error is at most 1.4e-3 (k_p + k_v) of commanded acceleration, 0.02 m/s^2 (0.1 deg of tilt) at the
 // thesis gains.
 inline float tanh_approx(float x) {
@@ -27,9 +29,7 @@ inline float tanh_approx(float x) {
   if (x >= kClamp) return 1.0f;
   if (x <= -kClamp) return -1.0f;
   const float x2 = x * x;
-  if (x2 < 0.04f) {
-    return x * (1.0f + x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f + x2 * (-17.0f / 315.0f))));
-  }
+  if (x2 < 0.025f) return x + x * x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f));
   const float num = x * (945.0f + x2 * (105.0f + x2));
   const float den = 945.0f + x2 * (420.0f + x2 * 15.0f);
   return clampf(num / den, -1.0f, 1.0f);

@@ -33,7 +33,11 @@ class AttitudeController {
 
   // Control torque (body FRD, N m) from the attitude estimate q (q_IB), the body rate omega (rad/s),
   // the desired attitude q_d and optionally a desired body rate omega_d.
-  Vec3 update(const Quat& q, const Vec3& omega, const Quat& q_d, const Vec3& omega_d = Vec3{}) const;
+  Vec3 update(const Quat& q, const Vec3& omega, const Quat& q_d, const Vec3& omega_d) const {
+    return update(q, omega - omega_d, q_d);
+  }
+  // The thesis' law: Omega_d = 0.
+  Vec3 update(const Quat& q, const Vec3& omega, const Quat& q_d) const;
 
  private:
   AttitudeGains gains_;

@@ -9,6 +9,7 @@
 //     obs.update(gyro_frd, accel_frd, mag_frd, mag_is_new_and_valid, dt);
 //     quad::Quat q = obs.attitude();            // q_IB (body FRD -> NED)
 //     quad::Vec3 w = obs.rate();                // gyro minus estimated bias, for the rate controller
+//     const quad::Mat3& r = obs.dcm();          // R(q) of eq. 3.18, e.g. for kinematic_acceleration()
 //
 // Units: gyro rad/s, accelerometer m/s^2 (specific force, reads (0,0,-g) level at rest), magnetometer any
 // unit as long as mag_ref_ned uses the same one (mag_ref_from_init learns it from the first sample).
@@ -85,6 +86,10 @@ class ConditionedObserver {
   void update(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt);
 
   const Quat& attitude() const { return q_; }           // q_IB
+  // R_IB = R(attitude()) of eq. 3.18, computed once per step and shared: the observer reads the
+  // estimated directions off it on the next step, and callers can rotate with it (one matrix-vector
+  // product instead of a quaternion rotation).
+  const Mat3& dcm() const { return r_; }
   const Vec3& gyro_bias() const { return bias_; }       // b of eq. 4.2, rad/s
   const Vec3& rate() const { return rate_; }            // Omega_m - b, rad/s (last sample)
   bool initialized() const { return initialized_; }
@@ -92,12 +97,18 @@ class ConditionedObserver {
 
  private:
   void cache_reference();
+  void cache_step(float dt);
 
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
   float inv_mag_h_ = 1.0f;  // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
+  float k2_mag_ = 0.0f;      // k2 / ||pi_{u_I} m_I|| (eq. 4.8/4.9)
+  // Cached for the step dt_: (dt/2)^2, and the bias gains times dt (eq. 4.17 takes T sigma_b).
+  float step_dt_ = -1.0f, half_dt_sq_ = 0.0f;
+  float k3_dt_ = 0.0f, k4_mag_dt_ = 0.0f, k_i_dt_ = 0.0f, kb_dt_ = 0.0f;
   float accel_lo2_ = 0.0f, accel_hi2_ = 0.0f;  // accelerometer gate on |a|^2
   Quat q_;
+  Mat3 r_ = Mat3::identity();  // R(q_)
   Vec3 bias_;
   Vec3 rate_;
   bool initialized_ = false;

@@ -5,7 +5,7 @@
 //   quad::est::PositionFilterParams p;                      // thesis table 8.1: Q = I2 T
 //   quad::est::PositionFilter<quad::est::history_length(100)> kf(p);   // 100 Hz loop
 //   every IMU sample (vehicle clock in microseconds):
-//     kf.predict(quad::est::kinematic_acceleration(observer.attitude(), accel_frd), now_us);
+//     kf.predict(quad::est::kinematic_acceleration(observer.dcm(), accel_frd), now_us);
 //   when a vision fix arrives, with the time its image was captured (same clock):
 //     kf.fuse_position(p_ned, capture_us);
 //   kf.position(), kf.velocity()
@@ -45,6 +45,9 @@ constexpr int history_length(int rate_hz, int window_ms = 250) {
 
 // u = g e_z + R a_B   (thesis eq. 8.7): the kinematic acceleration in NED from the specific force.
 Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd);
+// The same with R = R_IB given, e.g. ConditionedObserver::dcm(): nine multiplications instead of a
+// quaternion rotation's fifteen (the AVR's loop uses this form).
+Vec3 kinematic_acceleration(const Mat3& r_ib, const Vec3& specific_force_frd);
 
 enum class ProcessNoise : uint8_t {
   ThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
@@ -121,8 +124,9 @@ class PositionFilterCore {
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
   float accel_bias_z() const { return x_[2].b; }  // m/s^2; 0 unless z_accel_bias
   // x and y share one model, noise and the fusion instants, so their covariances are identical: one is
-  // kept (and computed) for both.
-  const AxisCovariance& covariance(int axis) const { return p_[axis == 2 ? 1 : 0]; }
+  // kept (and computed) for both. When z has the same fix noise and no bias (the defaults), its
+  // covariance is identical too and the one class serves all three axes.
+  const AxisCovariance& covariance(int axis) const { return p_[covariance_class(axis)]; }
   // Kalman gain of the last fused fix on each axis (position, velocity), at the fix's capture time.
   float last_gain_p(int axis) const;
   float last_gain_v(int axis) const;
@@ -145,6 +149,12 @@ class PositionFilterCore {
     float p = 0.0f, v = 0.0f, b = 0.0f;
   };
 
+  // Index into p_, q_ and gain_ of an axis' covariance class: 0 for x and y, 1 for z unless z shares.
+  int covariance_class(int axis) const { return axis == 2 && !one_class_ ? 1 : 0; }
+  int class_count() const { return one_class_ ? 1 : 2; }
+  // Only z can carry the accelerometer bias state; on the other axes b and its corrections stay zero.
+  bool has_bias(int axis) const { return axis == 2 && params_.z_accel_bias; }
+  void update_class_sharing();
   void push_history();
   void clear_history();
   void rebase_correction(uint32_t t_us);
@@ -159,7 +169,8 @@ class PositionFilterCore {
   float q_dt_ = -1.0f;                       // step of the cached process noise (the loop period)
   AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
   AxisState x_[3];
-  AxisCovariance p_[2];                      // horizontal (x and y), vertical
+  AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
+  bool one_class_ = false;                   // z's covariance is identical to x's and y's
   Correction corr_[3];
   uint32_t corr_origin_us_ = 0;
   float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // last correction gain, carried to now
