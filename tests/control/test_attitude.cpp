@@ -79,6 +79,33 @@ TEST(AttitudeController, ErrorMatchesEigen) {
   }
 }
 
+// The controller puts sign(q~0) into the gain instead of negating the error quaternion (a saving on
+// the AVR): the torque must be the law of eq. 8.39 as printed, with Eigen's product, on both sides of
+// q~0 = 0 and with a rate feed-forward.
+TEST(AttitudeController, TorqueMatchesEquation839WrittenOut) {
+  std::mt19937 rng(839);
+  std::uniform_real_distribution<double> w(-3.0, 3.0);
+  const AttitudeGains g;
+  const AttitudeController ac(g);
+  int negative_scalar = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Quaterniond q = quad_test::random_rotation(rng), qd = quad_test::random_rotation(rng);
+    const Eigen::Vector3d omega(w(rng), w(rng), w(rng)), omega_d(w(rng), w(rng), w(rng));
+    const Eigen::Quaterniond e = qd.conjugate() * q;  // eq. 8.38
+    if (e.w() < 0.0) ++negative_scalar;
+    const double s = e.w() < 0.0 ? -1.0 : 1.0;
+    const Eigen::Vector3d gamma = quad_test::to_eigen(g.gamma);
+    const Eigen::Vector3d tau = -g.alpha * s * e.vec() - gamma.cwiseProduct(omega - omega_d);  // eq. 8.39
+    const Vec3 got = ac.update(quad_test::from_eigen(q), quad_test::from_eigen(omega), quad_test::from_eigen(qd),
+                               quad_test::from_eigen(omega_d));
+    ASSERT_LT((quad_test::to_eigen(got) - tau).norm(), 1e-5) << "case " << i;
+    const Vec3 no_ff = ac.update(quad_test::from_eigen(q), quad_test::from_eigen(omega), quad_test::from_eigen(qd));
+    const Eigen::Vector3d tau0 = -g.alpha * s * e.vec() - gamma.cwiseProduct(omega);
+    ASSERT_LT((quad_test::to_eigen(no_ff) - tau0).norm(), 1e-5) << "case " << i;
+  }
+  EXPECT_GT(negative_scalar, 500);  // both signs of q~0 were exercised
+}
+
 TEST(AttitudeController, ValidationNamesTheBadField) {
   AttitudeGains g;
   EXPECT_EQ(quad::ctrl::validate(g), nullptr);

@@ -3,6 +3,7 @@
 // delayed-versus-on-arrival fusion, outliers, the z accelerometer bias, refusals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -564,3 +565,65 @@ TEST(PositionFilter, HistoryLengthCoversQuarterSecond) {
 }
 
 }  // namespace
+
+// ---- Agreement of the AVR-optimised forms -------------------------------------------------------
+
+TEST(PositionFilter, KinematicAccelerationFromTheDcmAgreesWithTheQuaternionForm) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> f(-30.0f, 30.0f);
+  for (int i = 0; i < 2000; ++i) {
+    const quad::Quat q = quad_test::from_eigen(quad_test::random_rotation(rng));
+    const Vec3 a{f(rng), f(rng), f(rng)};
+    const Vec3 by_q = quad::est::kinematic_acceleration(q, a);
+    const Vec3 by_r = quad::est::kinematic_acceleration(quad::to_dcm(q), a);
+    ASSERT_LT(quad::norm(by_q - by_r), 1e-5f * (1.0f + quad::norm(a))) << "case " << i;
+  }
+}
+
+// With equal fix noise and no bias state, z shares x's and y's covariance (computed once). Against a
+// filter whose z fix sigma is one float step larger (so z keeps its own class and the general code
+// runs): x and y bit-identical, z within the effect of that one step.
+TEST(PositionFilter, SharedVerticalCovarianceAgreesWithTheSeparateOne) {
+  Scenario sc;
+  sc.delay = 0.06;
+  const SimRun run = make_run(sc);
+  PositionFilterParams shared = tuned();
+  PositionFilterParams separate = shared;
+  separate.fix_sigma_z = std::nextafter(shared.fix_sigma_z, 1.0f);
+  Filter a(shared), b(separate);
+  size_t next = 0;
+  double worst_z = 0.0, worst_pzz = 0.0;
+  a.predict(Vec3{}, run.t_us[0]);
+  b.predict(Vec3{}, run.t_us[0]);
+  for (size_t k = 1; k < run.t_us.size(); ++k) {
+    a.predict(fvec(run.u[k - 1]), run.t_us[k]);
+    b.predict(fvec(run.u[k - 1]), run.t_us[k]);
+    while (next < run.fixes.size() && static_cast<int32_t>(run.fixes[next].arrival_us - run.t_us[k]) <= 0) {
+      const Fix& f = run.fixes[next++];
+      ASSERT_EQ(a.fuse_position(fvec(f.y), f.capture_us), b.fuse_position(fvec(f.y), f.capture_us));
+    }
+    ASSERT_EQ(a.position().x, b.position().x);
+    ASSERT_EQ(a.velocity().y, b.velocity().y);
+    ASSERT_EQ(a.covariance(0).pp, b.covariance(0).pp);
+    ASSERT_EQ(a.covariance(2).pv, a.covariance(0).pv);
+    worst_z = std::max(worst_z, static_cast<double>(std::abs(a.position().z - b.position().z)));
+    worst_pzz = std::max(worst_pzz, std::abs(a.covariance(2).pp / b.covariance(2).pp - 1.0));
+  }
+  EXPECT_GT(a.health().fused, 500u);
+  EXPECT_LT(worst_z, 1e-5);
+  EXPECT_LT(worst_pzz, 1e-5);
+  EXPECT_EQ(a.last_gain_p(2), a.last_gain_p(0));
+  EXPECT_NEAR(a.last_gain_p(2), b.last_gain_p(2), 1e-5);
+
+  // Changing z's noise in flight gives z its own class, continuing from the shared covariance.
+  const quad::est::AxisCovariance before = a.covariance(0);
+  PositionFilterParams louder = shared;
+  louder.fix_sigma_z = 0.1f;
+  a.set_params(louder);
+  EXPECT_EQ(a.covariance(2).pp, before.pp);
+  EXPECT_EQ(a.covariance(2).vv, before.vv);
+  const uint32_t t = run.t_us.back() + kStepUs;
+  a.predict(Vec3{}, t);
+  ASSERT_EQ(a.fuse_position(a.position(), t), FixResult::Fused);
+  EXPECT_GT(a.covariance(2).pp, a.covariance(0).pp);  // the noisier axis keeps more uncertainty
+}

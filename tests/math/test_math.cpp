@@ -179,6 +179,23 @@ TEST_F(MathCore, DcmFromQuaternionMatchesEigen) {
   }
 }
 
+// to_dcm() folds the factor 2 of eq. 3.18 into one operand (x * (y + y) instead of 2 (x y)) to halve its
+// multiplications on the AVR. Doubling is exact in binary floating point, so the result must be
+// bit-identical to eq. 3.18 written out, also for non-unit input.
+TEST_F(MathCore, DcmIsBitIdenticalToEquation318AsPrinted) {
+  std::uniform_real_distribution<float> c(-1.5f, 1.5f);
+  for (int i = 0; i < kCases; ++i) {
+    const Quat q{c(rng), c(rng), c(rng), c(rng)};
+    const float w = q.w, x = q.x, y = q.y, z = q.z;
+    const float ref[3][3] = {{1.0f - 2.0f * (y * y + z * z), 2.0f * (x * y - w * z), 2.0f * (x * z + w * y)},
+                             {2.0f * (x * y + w * z), 1.0f - 2.0f * (x * x + z * z), 2.0f * (y * z - w * x)},
+                             {2.0f * (x * z - w * y), 2.0f * (y * z + w * x), 1.0f - 2.0f * (x * x + y * y)}};
+    const Mat3 r = to_dcm(q);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) ASSERT_EQ(r.m[a][b], ref[a][b]) << "entry (" << a << "," << b << ") case " << i;
+  }
+}
+
 TEST_F(MathCore, QuaternionFromDcmRoundTripsIncludingNearPi) {
   for (int i = 0; i < kCases; ++i) {
     const Eigen::Quaterniond q = random_rotation(rng);
