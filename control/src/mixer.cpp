@@ -58,27 +58,31 @@ void Mixer::set_vehicle(const VehicleParams& v) {
   }
 }
 
-// The largest yaw fraction lambda in [0, 1] with 0 <= c + rp_i + lambda yaw_i <= f_max on every motor;
-// false if there is none. Only a motor that is out of range at lambda = 1 can bound lambda below 1, so
-// only those cost a division; the others are checked at the result. The yaw column sums to zero and is
+// The largest yaw fraction lambda in [0, 1] with 0 <= base_i + lambda yaw_i <= f_max on every motor, where
+// base_i = c + rp_i and yaw_i = s_i yaw_share (s_i the yaw column's sign, -1/0/+1); false if there is
+// none. Only a motor that is out of range at lambda = 1 can bound lambda below 1; every yaw_i has the
+// magnitude |yaw_share|, so one reciprocal serves all such motors. The yaw column sums to zero and is
 // orthogonal to roll and pitch, so lambda changes neither thrust nor roll/pitch torque.
-bool Mixer::max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount],
-                          float& scale, float f[kMotorCount]) const {
+bool Mixer::max_yaw_scale(const float base[kMotorCount], float yaw_share, float& scale, float f[kMotorCount]) const {
   float hi = 1.0f;
+  float inv_abs_yaw = 0.0f;  // 1 / |yaw_share|, computed when first needed
   for (int i = 0; i < kMotorCount; ++i) {
-    const float base = collective + rp[i];
-    const float full = base + yaw[i];
-    if (full > f_max_ && yaw[i] > 0.0f) {
-      hi = minf(hi, (f_max_ - base) / yaw[i]);
-    } else if (full < 0.0f && yaw[i] < 0.0f) {
-      hi = minf(hi, -base / yaw[i]);
-    }
+    const float y = signed_term(yaw_sign_[i], yaw_share);
+    const float full = base[i] + y;
+    const bool over = full > f_max_ && y > 0.0f;
+    const bool under = full < 0.0f && y < 0.0f;
+    if (!over && !under) continue;
+    // (The floor keeps the reciprocal finite for a denormal yaw share.)
+    if (inv_abs_yaw == 0.0f) inv_abs_yaw = 1.0f / maxf(absf(yaw_share), 1e-30f);
+    // (f_max - base) / y above the range, -base / y below it.
+    hi = minf(hi, (over ? f_max_ - base[i] : base[i]) * inv_abs_yaw);
   }
   hi = maxf(hi, 0.0f);
   // A relative slack of a few float epsilons keeps round-off from declaring a feasible demand infeasible.
   const float slack = kRoundOff * f_max_;
+  const float step = hi * yaw_share;
   for (int i = 0; i < kMotorCount; ++i) {
-    const float fi = collective + rp[i] + hi * yaw[i];
+    const float fi = add_signed(base[i], yaw_sign_[i], step);
     if (fi < -slack || fi > f_max_ + slack) return false;
     f[i] = clampf(fi, 0.0f, f_max_);  // the clamp only absorbs that round-off
   }
@@ -99,14 +103,14 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
   const float pitch = pitch_gain_ * torque.y;
   const float yaw_share = yaw_gain_ * torque.z;
   float rp[kMotorCount];
-  float yaw[kMotorCount];
+  float base[kMotorCount];  // c + rp_i
   float f[kMotorCount];
   const float wanted = 0.25f * thrust;
   bool fits = true;  // the common case, decided without a division
   for (int i = 0; i < kMotorCount; ++i) {
     rp[i] = add_signed(signed_term(roll_sign_[i], roll), pitch_sign_[i], pitch);
-    yaw[i] = signed_term(yaw_sign_[i], yaw_share);
-    f[i] = wanted + rp[i] + yaw[i];
+    base[i] = wanted + rp[i];
+    f[i] = add_signed(base[i], yaw_sign_[i], yaw_share);
     fits = fits && f[i] >= 0.0f && f[i] <= f_max_;
   }
 
@@ -114,7 +118,7 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
     float collective = wanted;
     float rp_scale = 1.0f;
     float yaw_scale = 1.0f;
-    if (!max_yaw_scale(collective, rp, yaw, yaw_scale, f)) {
+    if (!max_yaw_scale(base, yaw_share, yaw_scale, f)) {
       // Thrust with roll/pitch does not fit for any yaw fraction in [0, 1].
       float rp_lo = rp[0], rp_hi = rp[0];
       for (int i = 1; i < kMotorCount; ++i) {
@@ -134,10 +138,11 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
       // yaw); priority 3: then whatever yaw fits in the room left.
       collective = clampf(wanted, -rp_lo, f_max_ - rp_hi);
       out.thrust_limited = collective != wanted;
-      if (!max_yaw_scale(collective, rp, yaw, yaw_scale, f)) {
+      for (int i = 0; i < kMotorCount; ++i) base[i] = collective + rp[i];
+      if (!max_yaw_scale(base, yaw_share, yaw_scale, f)) {
         // Only round-off can get here (roll/pitch were made to fit around the collective): no yaw.
         yaw_scale = 0.0f;
-        for (int i = 0; i < kMotorCount; ++i) f[i] = clampf(collective + rp[i], 0.0f, f_max_);
+        for (int i = 0; i < kMotorCount; ++i) f[i] = clampf(base[i], 0.0f, f_max_);
       }
     }
     out.yaw_limited = yaw_scale < 1.0f;

@@ -173,6 +173,13 @@ int main() {
     quad::ctrl::MixerOutput mix;
     measure("mixer", [&] { mix = g_mixer.mix(cmd.thrust, tau); });
     quad_probe::keep(mix);
+    // The mixer's desaturation branches: yaw given up (priority 3), and roll/pitch scaled (priority 1).
+    measure("mixer_yaw_saturated", [&] { mix = g_mixer.mix(cmd.thrust, Vec3{0.3f, -0.2f, 0.6f}); });
+    check(mix.yaw_limited && !mix.roll_pitch_limited, "mixer_yaw_case");
+    measure("mixer_roll_pitch_saturated", [&] { mix = g_mixer.mix(cmd.thrust, Vec3{4.0f, -3.0f, 0.6f}); });
+    check(mix.roll_pitch_limited, "mixer_roll_pitch_case");
+    // Manual flight and a faster inner loop run the attitude PD and the mixer alone.
+    measure("attitude_and_mixer", [&] { quad_probe::keep(g_cascade.step_attitude(st, cmd)); });
     measure("cascade_hover", [&] { quad_probe::keep(g_cascade.step(st, g_setpoint)); });
 
     // Large errors: pushed 1.5 m off, moving at 1 m/s the wrong way, heading 40 deg off.

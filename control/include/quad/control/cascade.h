@@ -4,8 +4,8 @@
 // The pieces stay usable on their own (see their headers); this class only owns one of each and wires
 // them. step_attitude() starts at the attitude loop: for manual flight (ManualControl::command()), and
 // for running the attitude loop faster than the position loop (step() at the position rate, then
-// step_attitude(s, output().attitude) in between: on the ATmega2560 step() costs about 33 000 cycles
-// near hover, step_attitude() about 14 000; docs/control.md).
+// step_attitude(s, output().attitude) in between: on the ATmega2560 step() costs about 31 000 cycles
+// near hover, step_attitude() about 13 300; docs/performance.md).
 //
 // Usage:
 //   quad::ctrl::CascadeParams params;                     // Quad-C, table 8.1 gains, 35 deg tilt

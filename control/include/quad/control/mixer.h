@@ -65,8 +65,7 @@ class Mixer {
   Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
 
  private:
-  bool max_yaw_scale(float collective, const float rp[kMotorCount], const float yaw[kMotorCount], float& scale,
-                     float f[kMotorCount]) const;
+  bool max_yaw_scale(const float base[kMotorCount], float yaw_share, float& scale, float f[kMotorCount]) const;
 
   float b_ = 0.0f;
   float f_max_ = 0.0f;
