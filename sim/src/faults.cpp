@@ -1,6 +1,7 @@
 #include "quad/sim/faults.h"
 
 #include <algorithm>
+#include <limits>
 
 namespace quad::sim {
 
@@ -18,9 +19,34 @@ FaultEffects fault_effects(const std::vector<Fault>& faults, const RadioConditio
       case FaultType::kMotorEfficiency: e.motor_efficiency[static_cast<size_t>(f.motor)] *= f.value; break;
       case FaultType::kVisionDropout: e.vision_dropout = true; break;
       case FaultType::kRcLoss: e.rc_loss = true; break;
+      case FaultType::kVisionLatency: e.vision_errors.extra_latency_s += f.value; break;
+      case FaultType::kVisionScale: e.vision_errors.scale_frd = e.vision_errors.scale_frd.cwiseProduct(f.vector); break;
+      case FaultType::kVisionDecoy: e.vision_errors.decoy_ned = f.vector; break;
+      case FaultType::kImuSaturation:
+        if (e.imu == ImuSampleFault::kNone) e.imu = ImuSampleFault::kSaturated;
+        break;
+      case FaultType::kImuNonFinite: e.imu = ImuSampleFault::kNonFinite; break;
     }
   }
   return e;
+}
+
+ImuReading apply_imu_fault(const ImuReading& reading, ImuSampleFault fault, const ImuParams& params) {
+  switch (fault) {
+    case ImuSampleFault::kNone: return reading;
+    case ImuSampleFault::kSaturated: {
+      auto pin = [](const Eigen::Vector3d& v, double range) {
+        return Eigen::Vector3d(v.unaryExpr([range](double x) { return x < 0.0 ? -range : range; }));
+      };
+      return {pin(reading.specific_force_frd, params.accel.range), pin(reading.rate_frd, params.gyro.range)};
+    }
+    case ImuSampleFault::kNonFinite: {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      const double inf = std::numeric_limits<double>::infinity();
+      return {Eigen::Vector3d(nan, inf, -inf), Eigen::Vector3d(-inf, nan, inf)};
+    }
+  }
+  return reading;
 }
 
 const char* fault_name(FaultType type) {
@@ -33,6 +59,11 @@ const char* fault_name(FaultType type) {
     case FaultType::kGyroBiasStep: return "gyro bias step";
     case FaultType::kMotorEfficiency: return "motor efficiency";
     case FaultType::kRcLoss: return "RC loss";
+    case FaultType::kVisionLatency: return "vision latency";
+    case FaultType::kVisionScale: return "vision scale error";
+    case FaultType::kVisionDecoy: return "vision decoy";
+    case FaultType::kImuSaturation: return "IMU saturation";
+    case FaultType::kImuNonFinite: return "IMU non-finite samples";
   }
   return "?";
 }

@@ -462,7 +462,8 @@ bool Session::wait_for_answer(double t) {
 
 void Session::sample_sensors(double t) {
   const VehicleTruth truth = vehicle_.truth();
-  imu_reading_ = imu_.sample(truth.specific_force_frd, truth.rate_frd, vehicle_.mean_speed_fraction());
+  imu_reading_ = apply_imu_fault(imu_.sample(truth.specific_force_frd, truth.rate_frd, vehicle_.mean_speed_fraction()),
+                                 faults_now_.imu, imu_.params());
   if (mag_.update(t, truth.q_ib.conjugate() * field_ned_)) mag_fresh_ = true;
 }
 
@@ -487,7 +488,8 @@ void Session::physics_period(double t_end) {
     sample_sensors(t);
     const double now = vehicle_.time();
     const VehicleTruth truth = vehicle_.truth();
-    vision_.update(now, truth.position_ned, truth.q_ib, fault_effects(s_.faults, s_.radio, now).vision_dropout);
+    const FaultEffects faults = fault_effects(s_.faults, s_.radio, now);
+    vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
     vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
     if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {

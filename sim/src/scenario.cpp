@@ -150,8 +150,12 @@ Fault parse_fault(const Field& f, double duration) {
       {"bit_error_rate", FaultType::kBitErrorRate},  {"radio_latency", FaultType::kRadioLatency},
       {"mag_disturbance", FaultType::kMagDisturbance}, {"gyro_bias_step", FaultType::kGyroBiasStep},
       {"motor_efficiency", FaultType::kMotorEfficiency}, {"rc_loss", FaultType::kRcLoss},
+      {"vision_latency", FaultType::kVisionLatency}, {"vision_scale", FaultType::kVisionScale},
+      {"vision_decoy", FaultType::kVisionDecoy}, {"imu_saturation", FaultType::kImuSaturation},
+      {"imu_non_finite", FaultType::kImuNonFinite},
   };
-  f.expect_map({"type", "start_s", "end_s", "loss", "rate", "latency_s", "field_ned_gauss", "bias_rad_s", "motor", "efficiency"});
+  f.expect_map({"type", "start_s", "end_s", "loss", "rate", "latency_s", "field_ned_gauss", "bias_rad_s", "motor",
+                "efficiency", "scale_frd", "star_ned_m"});
   Fault fault;
   const std::string type = f["type"].text();
   std::string names;
@@ -173,7 +177,15 @@ Fault parse_fault(const Field& f, double duration) {
   switch (fault.type) {
     case FaultType::kRadioLoss: fault.value = f["loss"].defined() ? f["loss"].number(0.0, 1.0) : 1.0; break;
     case FaultType::kBitErrorRate: fault.value = required("rate").number(0.0, 0.5); break;
-    case FaultType::kRadioLatency: fault.value = required("latency_s").number(0.0, 10.0); break;
+    case FaultType::kRadioLatency:
+    case FaultType::kVisionLatency: fault.value = required("latency_s").number(0.0, 10.0); break;
+    case FaultType::kVisionScale: {
+      const Field k = required("scale_frd");
+      fault.vector = k.vec3();
+      if ((fault.vector.array() <= 0.0).any()) k.fail("must be positive scale factors");
+      break;
+    }
+    case FaultType::kVisionDecoy: fault.vector = required("star_ned_m").vec3(); break;
     case FaultType::kMagDisturbance: fault.vector = required("field_ned_gauss").vec3(); break;
     case FaultType::kGyroBiasStep: fault.vector = required("bias_rad_s").vec3(); break;
     case FaultType::kMotorEfficiency:
@@ -181,7 +193,9 @@ Fault parse_fault(const Field& f, double duration) {
       fault.value = required("efficiency").number(0.0, 1.0);
       break;
     case FaultType::kVisionDropout:
-    case FaultType::kRcLoss: break;
+    case FaultType::kRcLoss:
+    case FaultType::kImuSaturation:
+    case FaultType::kImuNonFinite: break;
   }
   return fault;
 }

@@ -53,13 +53,19 @@ enum class FaultType {
   kGyroBiasStep,
   kMotorEfficiency,
   kRcLoss,
+  kVisionLatency,   // the fix arrives later (value: extra latency, s)
+  kVisionScale,     // a mis-calibrated camera (vector: scale of the fix per body FRD axis)
+  kVisionDecoy,     // a second star-like shape taken for the star (vector: its NED position, m)
+  kImuSaturation,   // HIL_SENSOR carries accelerometer and gyro readings pinned at full scale
+  kImuNonFinite,    // HIL_SENSOR carries NaN and infinite accelerometer and gyro readings
 };
 
 struct Fault {
   FaultType type = FaultType::kVisionDropout;
   double start_s = 0.0, end_s = 0.0;
   double value = 0.0;                           // loss, bit error rate, latency_s or efficiency
-  Eigen::Vector3d vector = Eigen::Vector3d::Zero();  // mag field offset (gauss, NED) or gyro bias (rad/s)
+  Eigen::Vector3d vector = Eigen::Vector3d::Zero();  // mag field offset (gauss, NED), gyro bias (rad/s),
+                                                     // fix scale (FRD) or decoy position (NED, m)
   int motor = 0;
   bool active(double t) const { return t >= start_s && t < end_s; }
 };

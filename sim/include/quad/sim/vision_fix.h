@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -23,13 +24,23 @@ namespace quad::sim {
 // p_I = star - R_IB p_B).
 Eigen::Vector3d star_in_body_frd(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib);
 
+// What a faulty vision station does to the fix (set by faults.h): it arrives later, comes from a
+// mis-calibrated camera (the star in body FRD scaled per axis), or measures a second star-like shape
+// taken for the star (at decoy_ned) instead of the star.
+struct FixErrors {
+  double extra_latency_s = 0.0;
+  Eigen::Vector3d scale_frd = Eigen::Vector3d::Ones();
+  std::optional<Eigen::Vector3d> decoy_ned;
+};
+
 class SimulatedVisionFix {
  public:
   SimulatedVisionFix(const VisionParams& params, Rng rng) : p_(params), rng_(std::move(rng)) {}
 
   // Call every physics step with the truth at time t: captures a fix when one is due (none while
-  // `dropout`, none when disabled).
-  void update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool dropout);
+  // `dropout`, none when disabled), with the station's `errors`.
+  void update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool dropout,
+              const FixErrors& errors = {});
 
   // Hands sink(release_time, const uint8_t*, size_t) every frame whose release time is <= t, in order.
   template <class Sink>
