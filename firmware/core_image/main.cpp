@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "quad/firmware/app.h"
+#include "quad/firmware/storage_layout.h"
 
 namespace {
 
@@ -13,7 +14,8 @@ volatile float g_motor_out[quad::hal::kMotorCount];
 volatile uint8_t g_tx_sink;
 volatile uint8_t g_rx_byte;
 
-uint8_t g_storage[512];
+// Exactly the records the application keeps (storage_layout.h).
+uint8_t g_storage[quad::fw::kStorageUsed];
 
 bool storage_read(uint16_t offset, void* dst, uint16_t length) {
   if (offset + length > sizeof g_storage) return false;

@@ -80,12 +80,10 @@ void FlightApp::init(const AppIo& io, bool hil) {
   io_ = io;
   hil_ = hil;
   store_status_ = params_load(io_.storage, params_);
-  store_in_sync_ = store_status_ == StoreStatus::kLoaded;
   const char* error = nullptr;
   if (!apply_params(params_, &error)) {
     // Values that pass their ranges but not a component's own checks (a combination): defaults.
     params_.reset_to_defaults();
-    store_in_sync_ = false;
     apply_params(params_, &error);
     send_statustext((StatusLine(mav::kSeverityError) << QUAD_TEXT("params rejected, defaults: ") << error).message());
   }
@@ -447,9 +445,8 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
     send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("param refused: ") << error).message());
   } else {
     params_ = candidate;
-    const bool saved = store_in_sync_ ? params_save_one(io_.storage, params_, i) : params_save_all(io_.storage, params_);
-    store_in_sync_ = saved;
-    if (!saved) send_statustext(mav::kSeverityError, QUAD_TEXT("param storage write failed"));
+    // The store rewrites only the bytes that differ in the older copy: the value, sequence and CRC.
+    if (!params_save_all(io_.storage, params_)) send_statustext(mav::kSeverityError, QUAD_TEXT("param storage write failed"));
   }
   // Always answer with the value now in force, so the sender sees whether its value was taken.
   send_param(port, i);

@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "quad/firmware/flash.h"
-#include "quad/link/crc.h"
+#include "quad/firmware/storage_layout.h"
 #include "quad/math/scalar.h"
 
 namespace quad {
@@ -23,29 +23,14 @@ const ParamInfo kTable[kParamCount] QUAD_FLASH = {
 QUAD_PARAM_TABLE(QUAD_PARAM_CHECK)
 #undef QUAD_PARAM_CHECK
 
-constexpr uint16_t kMagic = 0x5051;  // "QP"
-constexpr uint16_t kLayoutVersion = 1;
+// Bump when the store's layout changes (2: two redundant copies).
+constexpr uint16_t kLayoutVersion = 2;
 
-struct Header {
-  uint16_t magic;
-  uint16_t version;
-  uint16_t schema;
-  uint16_t count;
-};
-constexpr uint16_t kHeaderSize = sizeof(Header);
-constexpr uint16_t kValuesOffset = kHeaderSize;
-constexpr uint16_t kCrcOffset = kValuesOffset + kParamCount * sizeof(float);
-
-uint16_t values_crc(const Params& params) {
-  uint16_t crc = mavlink::kCrcInit;
-  for (uint8_t i = 0; i < kParamCount; ++i) {
-    const float v = params.get(i);
-    crc = mavlink::crc_accumulate(reinterpret_cast<const uint8_t*>(&v), sizeof v, crc);
-  }
-  return crc;
+RecordLayout store_layout() {
+  // The tag mixes the layout version into the schema hash: either change makes the store foreign.
+  return RecordLayout{kParamsStoreOffset, kParamCount * sizeof(float),
+                      static_cast<uint16_t>(params_schema_hash() ^ (kLayoutVersion * 0x9E37u))};
 }
-
-Header current_header() { return Header{kMagic, kLayoutVersion, params_schema_hash(), kParamCount}; }
 
 }  // namespace
 
@@ -104,53 +89,31 @@ uint16_t params_schema_hash() {
   return static_cast<uint16_t>((h >> 16) ^ (h & 0xFFFFu));
 }
 
-uint16_t params_store_size() { return kCrcOffset + sizeof(uint16_t); }
+uint16_t params_store_size() { return record_footprint(kParamCount * sizeof(float)); }
 
 StoreStatus params_load(const StorageIo& io, Params& params) {
   params.reset_to_defaults();
-  Header header;
-  if (!io.read(0, &header, sizeof header)) return StoreStatus::kIoError;
-  if (header.magic == 0xFFFF && header.version == 0xFFFF) return StoreStatus::kEmpty;
-  const Header expected = current_header();
-  if (header.magic != expected.magic || header.version != expected.version) return StoreStatus::kCorrupt;
-  if (header.schema != expected.schema || header.count != expected.count) return StoreStatus::kSchemaChanged;
-
-  Params loaded;
-  for (uint8_t i = 0; i < kParamCount; ++i) {
-    float v;
-    if (!io.read(static_cast<uint16_t>(kValuesOffset + i * sizeof(float)), &v, sizeof v)) return StoreStatus::kIoError;
-    if (loaded.set(i, v) != ParamError::kNone) return StoreStatus::kCorrupt;
+  float stored[kParamCount];
+  switch (record_load(io, store_layout(), stored)) {
+    case RecordStatus::kLoaded: break;
+    case RecordStatus::kEmpty: return StoreStatus::kEmpty;
+    case RecordStatus::kTagMismatch: return StoreStatus::kSchemaChanged;
+    case RecordStatus::kCorrupt: return StoreStatus::kCorrupt;
+    case RecordStatus::kIoError: return StoreStatus::kIoError;
   }
-  uint16_t crc;
-  if (!io.read(kCrcOffset, &crc, sizeof crc)) return StoreStatus::kIoError;
-  if (crc != values_crc(loaded)) return StoreStatus::kCorrupt;
-  for (uint8_t i = 0; i < kParamCount; ++i) params.set(i, loaded.get(i));
+  // A complete record with a value outside today's range (a range narrowed by an update): defaults
+  // rather than a half-old configuration.
+  for (uint8_t i = 0; i < kParamCount; ++i) {
+    if (params.set(i, stored[i]) != ParamError::kNone) {
+      params.reset_to_defaults();
+      return StoreStatus::kCorrupt;
+    }
+  }
   return StoreStatus::kLoaded;
 }
 
 bool params_save_all(const StorageIo& io, const Params& params) {
-  const Header header = current_header();
-  if (!io.write(0, &header, sizeof header)) return false;
-  for (uint8_t i = 0; i < kParamCount; ++i) {
-    const float v = params.get(i);
-    if (!io.write(static_cast<uint16_t>(kValuesOffset + i * sizeof(float)), &v, sizeof v)) return false;
-  }
-  const uint16_t crc = values_crc(params);
-  return io.write(kCrcOffset, &crc, sizeof crc);
-}
-
-bool params_save_one(const StorageIo& io, const Params& params, uint8_t index) {
-  if (index >= kParamCount) return false;
-  Header header;
-  const Header expected = current_header();
-  // A store that is not ours yet (first save after defaults) is written whole.
-  if (!io.read(0, &header, sizeof header) || memcmp(&header, &expected, sizeof header) != 0) {
-    return params_save_all(io, params);
-  }
-  const float v = params.get(index);
-  const uint16_t crc = values_crc(params);
-  return io.write(static_cast<uint16_t>(kValuesOffset + index * sizeof(float)), &v, sizeof v) &&
-         io.write(kCrcOffset, &crc, sizeof crc);
+  return record_save(io, store_layout(), params.values());
 }
 
 }  // namespace fw

@@ -3,12 +3,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <set>
 #include <string>
 #include <vector>
 
 #include "quad/firmware/params.h"
+#include "quad/firmware/storage_layout.h"
 
 namespace {
 
@@ -120,33 +123,64 @@ TEST_F(ParamStore, RoundTripKeepsEveryValue) {
   EXPECT_LE(quad::fw::params_store_size(), 512u) << "keep the store small for the 4 KiB EEPROM";
 }
 
-TEST_F(ParamStore, SaveOneWritesOnlyTheValueAndCrc) {
+// A set that differs from the defaults in every value.
+Params distinct_set(float fraction) {
   Params p;
-  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
+  for (uint8_t i = 0; i < quad::fw::kParamCount; ++i) {
+    const quad::fw::ParamInfo info = quad::fw::param_info(i);
+    EXPECT_EQ(p.set(i, info.min + fraction * (info.max - info.min)), ParamError::kNone);
+  }
+  return p;
+}
+
+bool same_values(const Params& a, const Params& b) {
+  for (uint8_t i = 0; i < quad::fw::kParamCount; ++i) {
+    if (std::memcmp(&a.values()[i], &b.values()[i], sizeof(float)) != 0) return false;
+  }
+  return true;
+}
+
+TEST_F(ParamStore, ChangingOneValueWritesOnlyThatValueSequenceAndCrc) {
+  Params p;
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));  // slot 0
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));  // slot 1, identical values
   eeprom_.writes = 0;
   p.set(quad::fw::kPosKpZ, 2.0f);
-  ASSERT_TRUE(quad::fw::params_save_one(kIo, p, quad::fw::kPosKpZ));
-  EXPECT_EQ(eeprom_.writes, 6) << "4 value bytes + 2 CRC bytes";
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));  // back into slot 0
+  // 4 value bytes (fewer if some happen to agree), 1-2 sequence bytes, 2 CRC bytes (fewer by chance).
+  EXPECT_LE(eeprom_.writes, 8);
+  EXPECT_GE(eeprom_.writes, 3);
   Params loaded;
   EXPECT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kLoaded);
   EXPECT_FLOAT_EQ(loaded.get(quad::fw::kPosKpZ), 2.0f);
 }
 
-TEST_F(ParamStore, SaveOneOnAForeignStoreWritesEverything) {
-  Params p;
-  p.set(quad::fw::kPosKpZ, 2.0f);
-  ASSERT_TRUE(quad::fw::params_save_one(kIo, p, quad::fw::kPosKpZ));
-  Params loaded;
-  EXPECT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kLoaded);
-  EXPECT_FLOAT_EQ(loaded.get(quad::fw::kPosKpZ), 2.0f);
+TEST_F(ParamStore, SavesAlternateSlotsAndTheNewestWins) {
+  for (int k = 0; k < 6; ++k) {
+    const Params p = distinct_set(0.1f * static_cast<float>(k + 1));
+    ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
+    Params loaded;
+    ASSERT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kLoaded);
+    ASSERT_TRUE(same_values(loaded, p)) << "save " << k;
+  }
+  EXPECT_EQ(quad::fw::params_store_size(), 2u * (quad::fw::kParamCount * 4u + 6u));
 }
 
-TEST_F(ParamStore, EverySingleBitFlipIsDetected) {
+TEST_F(ParamStore, SequenceNumbersWrapAround) {
+  // 70 000 saves pass the 16-bit sequence's wrap; the newest set must still win after it.
+  Params a = distinct_set(0.2f), b = distinct_set(0.7f);
+  for (uint32_t k = 0; k < 70000u; ++k) ASSERT_TRUE(quad::fw::params_save_all(kIo, (k & 1u) ? b : a));
+  Params loaded;
+  ASSERT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kLoaded);
+  EXPECT_TRUE(same_values(loaded, b));
+}
+
+TEST_F(ParamStore, EverySingleBitFlipOfTheOnlyCopyIsDetected) {
   Params p;
   p.set(quad::fw::kVehMass, 1.7f);
   ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
   const std::vector<uint8_t> good = eeprom_.bytes;
-  for (uint16_t byte = 0; byte < quad::fw::params_store_size(); ++byte) {
+  for (uint16_t byte = 0; byte < quad::fw::params_store_size() / 2; ++byte) {
     for (int bit = 0; bit < 8; ++bit) {
       eeprom_.bytes = good;
       eeprom_.bytes[byte] ^= static_cast<uint8_t>(1u << bit);
@@ -159,29 +193,140 @@ TEST_F(ParamStore, EverySingleBitFlipIsDetected) {
   }
 }
 
+TEST_F(ParamStore, ABitFlipInEitherCopyFallsBackToTheOtherCopy) {
+  const Params older = distinct_set(0.3f), newer = distinct_set(0.6f);
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, older));
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, newer));
+  const std::vector<uint8_t> good = eeprom_.bytes;
+  const uint16_t slot = quad::fw::params_store_size() / 2;
+  for (uint16_t byte = 0; byte < 2 * slot; ++byte) {
+    for (int bit = 0; bit < 8; bit += 3) {
+      eeprom_.bytes = good;
+      eeprom_.bytes[byte] ^= static_cast<uint8_t>(1u << bit);
+      Params loaded;
+      ASSERT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kLoaded) << "byte " << byte;
+      // Slot 0 holds the older set, slot 1 the newer: damage to one leaves the other.
+      ASSERT_TRUE(same_values(loaded, byte < slot ? newer : older)) << "byte " << byte << " bit " << bit;
+    }
+  }
+}
+
+// Storage that loses power after `budget` more bytes: the write in progress stops there.
+struct PowerCut {
+  static long budget;
+  static bool write(uint16_t offset, const void* src, uint16_t length) {
+    const uint8_t* bytes = static_cast<const uint8_t*>(src);
+    for (uint16_t i = 0; i < length; ++i) {
+      if (budget <= 0) return false;
+      --budget;
+      g_eeprom->bytes[offset + i] = bytes[i];
+      ++g_eeprom->writes;
+    }
+    return true;
+  }
+};
+long PowerCut::budget = 0;
+constexpr quad::fw::StorageIo kCutIo{eeprom_read, PowerCut::write};
+
+// Saves `next` over the current store, cut after every possible byte count; each time the store must
+// load as `before` (or defaults when it held no valid copy) or as `next`, never a mix.
+void expect_atomic_save(FakeEeprom& eeprom, const Params& next, const Params* before, int* outcomes_old,
+                        int* outcomes_new) {
+  const std::vector<uint8_t> start = eeprom.bytes;
+  eeprom.writes = 0;
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, next));
+  const int full = eeprom.writes;
+  ASSERT_GT(full, 0);
+  for (int n = 0; n <= full; ++n) {
+    eeprom.bytes = start;
+    PowerCut::budget = n;
+    const bool completed = quad::fw::params_save_all(kCutIo, next);
+    ASSERT_EQ(completed, n == full) << n;
+    Params loaded;
+    const StoreStatus status = quad::fw::params_load(kIo, loaded);
+    if (status == StoreStatus::kLoaded && same_values(loaded, next)) {
+      ++*outcomes_new;
+      continue;
+    }
+    ASSERT_LT(n, full) << "a completed save must load the new set";
+    if (before != nullptr) {
+      ASSERT_EQ(status, StoreStatus::kLoaded) << "cut after " << n << " of " << full << " bytes lost the valid copy";
+      ASSERT_TRUE(same_values(loaded, *before)) << "cut after " << n << " of " << full << " bytes: a mix";
+    } else {
+      ASSERT_NE(status, StoreStatus::kLoaded) << n;
+      ASSERT_TRUE(same_values(loaded, Params())) << "no valid copy: defaults";
+    }
+    ++*outcomes_old;
+  }
+}
+
+TEST_F(ParamStore, PowerLossAtEveryByteOfASaveKeepsTheOldOrTheNewSet) {
+  const Params a = distinct_set(0.25f), b = distinct_set(0.5f), c = distinct_set(0.75f);
+  int old_count = 0, new_count = 0;
+  // First save on erased storage: nothing to keep yet.
+  expect_atomic_save(eeprom_, a, nullptr, &old_count, &new_count);
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, a));
+  // Second save (into the erased slot 1), third save (over the older copy in slot 0).
+  expect_atomic_save(eeprom_, b, &a, &old_count, &new_count);
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, b));
+  expect_atomic_save(eeprom_, c, &b, &old_count, &new_count);
+  // A one-value change over a store whose two copies differ in that value.
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, c));
+  Params d = c;
+  d.set(quad::fw::kVehMass, 2.5f);
+  expect_atomic_save(eeprom_, d, &c, &old_count, &new_count);
+  // The new set appears only once the last byte (the CRC's) has landed: one cut point per save.
+  EXPECT_EQ(new_count, 4);
+  EXPECT_GT(old_count, static_cast<int>(quad::fw::params_store_size() / 2)) << "the first save alone writes a whole slot";
+  std::printf("power-loss cuts: %d kept the old set, %d the new one\n", old_count, new_count);
+}
+
+TEST_F(ParamStore, RandomChangesWithRandomPowerCutsNeverMixSets) {
+  std::srand(7);
+  Params current;  // what the store holds (defaults = nothing yet)
+  bool stored = false;
+  for (int k = 0; k < 300; ++k) {
+    Params next = current;
+    for (int j = 0; j < 1 + std::rand() % 4; ++j) {
+      const uint8_t i = static_cast<uint8_t>(std::rand() % quad::fw::kParamCount);
+      const quad::fw::ParamInfo info = quad::fw::param_info(i);
+      next.set(i, info.min + static_cast<float>(std::rand() % 1000) / 1000.0f * (info.max - info.min));
+    }
+    PowerCut::budget = std::rand() % 12;  // most saves of a few values are cut
+    const bool completed = quad::fw::params_save_all(kCutIo, next);
+    Params loaded;
+    const StoreStatus status = quad::fw::params_load(kIo, loaded);
+    if (completed) {
+      ASSERT_EQ(status, StoreStatus::kLoaded);
+      ASSERT_TRUE(same_values(loaded, next)) << k;
+    } else if (status == StoreStatus::kLoaded && same_values(loaded, next)) {
+      // The cut came after the last byte that differed.
+    } else {
+      ASSERT_EQ(status == StoreStatus::kLoaded, stored) << k;
+      ASSERT_TRUE(same_values(loaded, current)) << k;
+      continue;
+    }
+    current = next;
+    stored = true;
+  }
+}
+
 TEST_F(ParamStore, OutOfRangeValueWithValidCrcIsCorrupt) {
   // A store written by a buggy tool: right CRC, impossible value.
   Params p;
-  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
-  // Find the loop rate's slot by saving a recognisable value.
   p.set(quad::fw::kLoopHz, 123.0f);
-  ASSERT_TRUE(quad::fw::params_save_one(kIo, p, quad::fw::kLoopHz));
-  const float marker = 123.0f;
-  auto it = std::search(eeprom_.bytes.begin(), eeprom_.bytes.end(), reinterpret_cast<const uint8_t*>(&marker),
-                        reinterpret_cast<const uint8_t*>(&marker) + 4);
-  ASSERT_NE(it, eeprom_.bytes.end());
+  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
   const float bad = 5000.0f;
-  std::memcpy(&*it, &bad, 4);
-  // Recompute a valid CRC by re-saving through a Params that cannot hold 5000 ... impossible, so patch
-  // the CRC by hand with the MAVLink X.25 CRC the store uses.
+  std::memcpy(&eeprom_.bytes[quad::fw::kLoopHz * 4], &bad, 4);
+  // Recompute the slot's CRC (CRC-16/MCRF4XX over payload, sequence and tag).
+  const size_t crc_at = quad::fw::params_store_size() / 2 - 2u;
   uint16_t crc = 0xFFFF;
-  const size_t values = 8;  // header size
-  for (size_t i = values; i < quad::fw::params_store_size() - 2u; ++i) {
+  for (size_t i = 0; i < crc_at; ++i) {
     uint8_t tmp = static_cast<uint8_t>(eeprom_.bytes[i] ^ (crc & 0xFF));
     tmp ^= static_cast<uint8_t>(tmp << 4);
     crc = static_cast<uint16_t>((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4));
   }
-  std::memcpy(&eeprom_.bytes[quad::fw::params_store_size() - 2u], &crc, 2);
+  std::memcpy(&eeprom_.bytes[crc_at], &crc, 2);
   Params loaded;
   EXPECT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kCorrupt);
   EXPECT_FLOAT_EQ(loaded.get(quad::fw::kLoopHz), 100.0f);
@@ -198,14 +343,20 @@ TEST_F(ParamStore, DeviceFailureFallsBackToDefaults) {
   EXPECT_FALSE(quad::fw::params_save_all(kIo, p));
 }
 
-TEST_F(ParamStore, DifferentSchemaIsNotLoaded) {
-  Params p;
-  ASSERT_TRUE(quad::fw::params_save_all(kIo, p));
-  // The schema hash sits after magic and version.
-  eeprom_.bytes[4] ^= 0x5A;
+TEST_F(ParamStore, ARecordOfAnotherTableIsNotLoaded) {
+  // Another firmware's complete record: valid CRC, another tag.
+  const quad::fw::RecordLayout foreign{0, quad::fw::kParamCount * 4u, 0x1234};
+  const Params p = distinct_set(0.5f);
+  ASSERT_TRUE(quad::fw::record_save(kIo, foreign, p.values()));
   Params loaded;
   EXPECT_EQ(quad::fw::params_load(kIo, loaded), StoreStatus::kSchemaChanged);
+  EXPECT_TRUE(same_values(loaded, Params()));
   EXPECT_STRNE(quad::fw::store_status_text(StoreStatus::kSchemaChanged).p, "");
+}
+
+TEST_F(ParamStore, EverythingFitsTheAvrEeprom) {
+  EXPECT_LE(quad::fw::kStorageUsed, 4096u);
+  EXPECT_EQ(quad::fw::kSigningKeyOffset, quad::fw::params_store_size());
 }
 
 }  // namespace

@@ -156,7 +156,6 @@ class FlightApp {
   bool hil_ = false;
   Params params_;
   StoreStatus store_status_ = StoreStatus::kEmpty;
-  bool store_in_sync_ = false;
 
   mavlink::Parser parsers_[hal::kPortCount];
   mavlink::Sender senders_[hal::kPortCount];

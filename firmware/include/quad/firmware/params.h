@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "quad/firmware/flash.h"
+#include "quad/firmware/redundant_record.h"
 
 namespace quad {
 namespace fw {
@@ -121,6 +122,8 @@ class Params {
 
   float get(ParamId id) const { return values_[id]; }
   float get(uint8_t index) const { return values_[index]; }
+  // All values in table order (the store's payload).
+  const float* values() const { return values_; }
 
   // Sets a value after checking it is finite and within the table's range.
   ParamError set(uint8_t index, float value);
@@ -135,35 +138,29 @@ class Params {
   uint16_t generation_ = 0;
 };
 
-// Persistent store: header (magic, layout version, schema hash of the table's names, count) and the
-// values, protected by a CRC-16. The storage is accessed through two functions so the same code
-// serves the AVR EEPROM, the host file and the tests.
-struct StorageIo {
-  bool (*read)(uint16_t offset, void* dst, uint16_t length);
-  bool (*write)(uint16_t offset, const void* src, uint16_t length);
-};
-
+// Persistent store: the values as one redundant record (redundant_record.h: two copies with sequence
+// numbers and a CRC, so power lost during a save leaves either the old or the new complete set), tagged
+// with the layout version and a hash of the table's names, so another firmware's values are never read
+// into the wrong slots.
 enum class StoreStatus : uint8_t {
   kLoaded,         // every value came from the store
   kEmpty,          // erased storage (first boot): defaults
   kSchemaChanged,  // written by firmware with another parameter table: defaults
-  kCorrupt,        // CRC mismatch or a value out of range: defaults
+  kCorrupt,        // no valid copy, or a value out of range: defaults
   kIoError,        // the storage could not be read: defaults
 };
 
 FlashText store_status_text(StoreStatus status);
 
 uint16_t params_schema_hash();
+// Bytes of storage the two copies take, from params_store_offset().
 uint16_t params_store_size();
 
-// Loads every value from the store, or resets `params` to the defaults and says why.
+// Loads every value from the newest valid copy, or resets `params` to the defaults and says why.
 StoreStatus params_load(const StorageIo& io, Params& params);
 
-// Writes the whole store (header, values, CRC).
+// Saves every value into the copy that is not the newest (only the bytes that changed are written).
 bool params_save_all(const StorageIo& io, const Params& params);
-
-// Rewrites one value and the CRC only (an EEPROM byte takes 3.3 ms to write on the AVR).
-bool params_save_one(const StorageIo& io, const Params& params, uint8_t index);
 
 }  // namespace fw
 }  // namespace quad
