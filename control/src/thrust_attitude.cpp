@@ -22,6 +22,7 @@ void ThrustAttitude::set_params(const ThrustAttitudeParams& p) {
   tan_max_tilt_ = tanf(p.max_tilt);
   min_accel_ = p.min_thrust / p.mass;
   max_accel_ = p.max_thrust / p.mass;
+  max_accel_sq_ = max_accel_ * max_accel_;
   cached_yaw_ = 0.0f;
   cached_yaw_quat_ = Quat::identity();
 }
@@ -61,17 +62,19 @@ AttitudeCommand ThrustAttitude::update(const Vec3& mu_d, float yaw_d) {
 
   // Limits 2 and 3: tilt = atan(|h| / a_z) <= max_tilt, and |(h, a_z)| <= max thrust / m with the
   // vertical part kept.
-  const float h_sq = h_x * h_x + h_y * h_y;
+  float h_sq = h_x * h_x + h_y * h_y;
+  const float a_z_sq = a_z * a_z;
   const float tilt_cap = tan_max_tilt_ * a_z;
-  const float h_max_sq = minf(tilt_cap * tilt_cap, maxf(max_accel_ * max_accel_ - a_z * a_z, 0.0f));
+  const float h_max_sq = minf(tilt_cap * tilt_cap, maxf(max_accel_sq_ - a_z_sq, 0.0f));
   if (h_sq > h_max_sq) {
     const float s = sqrtf(h_max_sq / h_sq);
     h_x *= s;
     h_y *= s;
+    h_sq = h_max_sq;  // |s h|^2, up to rounding
     limited = true;
   }
 
-  const float n = sqrtf(h_x * h_x + h_y * h_y + a_z * a_z);  // N = ||g e_z - mu_d|| >= min_accel > 0
+  const float n = sqrtf(h_sq + a_z_sq);  // N = ||g e_z - mu_d|| >= min_accel > 0
   cmd.thrust = params_.mass * n;                              // thesis eq. 8.30
 
   // thesis eq. 8.37a/b as corrected in the errata (u = (g e_z - mu_d)/N, v = e_z in eq. 8.35):

@@ -6,11 +6,14 @@ namespace est {
 namespace {
 
 constexpr float kMaxStep = 0.5f;        // s: a longer predict step is a gap, not a sample period
-constexpr float kRebaseAfter = 1.0f;    // s: re-express the accumulated correction at a newer origin
+constexpr int32_t kRebaseAfterUs = 1000000;  // 1 s: re-express the accumulated correction at a newer origin
 constexpr float kFoldThreshold = 1.0f;  // m: fold the accumulated correction into the history beyond this
 
 // Signed microseconds a - b on the wrapping 32-bit vehicle clock, in seconds.
 float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static_cast<int32_t>(a - b)) * 1e-6f; }
+// Signed microseconds a - b, for comparisons that need no float (a conversion and a multiplication
+// fewer on the AVR).
+int32_t micros_between(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
 
 // Q(T) = int_0^T Phi(t) diag(qp, qv, qb) Phi(t)^T dt for Phi(t) = [[1, t, -t^2/2], [0, 1, -t], [0, 0, 1]]:
 // the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12.
@@ -153,7 +156,7 @@ void PositionFilterCore::push_history() {
     uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);
     if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
     const HistoryEntry& oldest = history_[k];
-    if (seconds_between(oldest.t_us, last_fix_us_) > 0.0f) have_fix_ = false;
+    if (micros_between(oldest.t_us, last_fix_us_) > 0) have_fix_ = false;
   }
 }
 
@@ -227,7 +230,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     corr_origin_us_ = t_us;
     have_fix_ = false;
     clear_history();
-  } else if (seconds_between(t_us, corr_origin_us_) > kRebaseAfter) {
+  } else if (micros_between(t_us, corr_origin_us_) > kRebaseAfterUs) {
     rebase_correction(t_us);
   }
   push_history();
@@ -302,7 +305,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     capture_us = t_us_;
   }
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
-  if (have_fix_ && seconds_between(capture_us, last_fix_us_) < 0.0f) {
+  if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
     ++health_.rejected_out_of_order;
     return FixResult::RejectedOutOfOrder;
   }

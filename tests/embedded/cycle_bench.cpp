@@ -11,6 +11,7 @@
 // Each branch the worst case claims to take is checked; a section named "check_failed:..." makes the
 // ctest fail. Sensor inputs come from volatile memory so the compiler cannot fold them.
 #include "cycle_probe.h"
+#include "quad/control/approx.h"
 #include "quad/control/cascade.h"
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/conditioned_observer.h"
@@ -134,6 +135,9 @@ int main() {
   measure("sqrtf", [] { quad_probe::keep(sqrtf(g_in[4])); });
   measure("sinf", [] { quad_probe::keep(sinf(g_in[4])); });
   measure("atan2f", [] { quad_probe::keep(atan2f(g_in[4], g_in[5])); });
+  measure("tanhf", [] { quad_probe::keep(tanhf(g_in[4])); });
+  measure("tanh_approx_small", [] { quad_probe::keep(quad::ctrl::tanh_approx(g_in[5])); });
+  measure("tanh_approx_large", [] { quad_probe::keep(quad::ctrl::tanh_approx(g_in[4])); });
   {
     const Quat q = g_observer.attitude();
     const Vec3 w{g_in[0], g_in[1], g_in[2]};

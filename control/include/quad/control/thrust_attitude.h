@@ -64,6 +64,7 @@ class ThrustAttitude {
   float tan_max_tilt_ = 0.0f;
   float min_accel_ = 0.0f;  // min_thrust / m
   float max_accel_ = 0.0f;  // max_thrust / m
+  float max_accel_sq_ = 0.0f;
   float cached_yaw_ = 0.0f;
   Quat cached_yaw_quat_;
 };
