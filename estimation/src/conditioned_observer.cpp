@@ -56,6 +56,7 @@ void ConditionedObserver::cache_reference() {
     v_ref_ = m * inv_mag_h_;
   }
   k2_mag_ = params_.k2 * inv_mag_h_;
+  inner_delta_ = params_.delta * 0.57735f;  // just below Delta / sqrt(3) (1/sqrt(3) = 0.5773503)
   step_dt_ = -1.0f;  // the step gains below belong to the old parameters
 }
 
@@ -162,9 +163,12 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
   // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
   // sat_Delta(b) - b = b (Delta/|b| - 1).
-  const float b2 = norm_sq(bias_);
-  if (k.innovation == Innovation::Conditioned && b2 > k.delta * k.delta) {
-    db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
+  // Inside the cube |b_i| <= Delta/sqrt(3) the norm cannot exceed Delta: three comparisons decide the
+  // usual case without the squared norm.
+  if (k.innovation == Innovation::Conditioned && !(absf(bias_.x) <= inner_delta_ && absf(bias_.y) <= inner_delta_ &&
+                                                   absf(bias_.z) <= inner_delta_)) {
+    const float b2 = norm_sq(bias_);
+    if (b2 > k.delta * k.delta) db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
   }
   const Vec3 b_next = bias_ + db;
 

@@ -103,6 +103,7 @@ class ConditionedObserver {
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
   float inv_mag_h_ = 1.0f;  // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
   float k2_mag_ = 0.0f;      // k2 / ||pi_{u_I} m_I|| (eq. 4.8/4.9)
+  float inner_delta_ = 0.0f;  // Delta / sqrt(3): a bias inside this cube is inside the Delta ball
   // Cached for the step dt_: (dt/2)^2, and the bias gains times dt (eq. 4.17 takes T sigma_b).
   float step_dt_ = -1.0f, half_dt_sq_ = 0.0f;
   float k3_dt_ = 0.0f, k4_mag_dt_ = 0.0f, k_i_dt_ = 0.0f, kb_dt_ = 0.0f;
