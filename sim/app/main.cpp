@@ -1,7 +1,7 @@
 // quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
 //
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
-//            [--record FILE.mp4] [--ground-port LINK] [--no-plots] [--quiet]
+//            [--record FILE.mp4] [--ground-port LINK] [--station CMD] [--no-plots] [--quiet]
 #include <unistd.h>
 
 #include <atomic>
@@ -30,7 +30,8 @@ int usage(const char* error) {
   if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
   std::fprintf(stderr,
                "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
-               "                [--viewer] [--record FILE.mp4] [--ground-port LINK] [--no-plots] [--quiet]\n"
+               "                [--viewer] [--record FILE.mp4] [--ground-port LINK] [--station CMD] [--no-plots]\n"
+               "                [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
@@ -42,6 +43,9 @@ int usage(const char* error) {
                "  --ground-port LINK  the base-station side of the radio as a serial port (a symlink to a\n"
                "                    pty) for the vision station or a ground station; set vision.enabled:\n"
                "                    false in the scenario when the station sends the fixes\n"
+               "  --station CMD     vision station command for scenarios with camera.enabled (default:\n"
+               "                    'vision_station run' next to quad_sim); --calib --source sim:SOCKET --out\n"
+               "                    PTY --baud B --status-s 10 are appended\n"
                "  --no-plots        skip the PNG plots\n"
                "  --quiet           no progress line\n");
   return 2;
@@ -72,7 +76,7 @@ std::string utc_stamp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, out_dir, firmware, record, ground_port;
+  std::string scenario_path, out_dir, firmware, record, ground_port, station;
   std::optional<long> seed;
   bool realtime = false, viewer = false, plots = true, quiet = false;
   for (int i = 1; i < argc; ++i) {
@@ -88,6 +92,7 @@ int main(int argc, char** argv) {
       else if (a == "--firmware") firmware = value("--firmware");
       else if (a == "--record") record = value("--record");
       else if (a == "--ground-port") ground_port = value("--ground-port");
+      else if (a == "--station") station = value("--station");
       else if (a == "--realtime") realtime = true;
       else if (a == "--viewer") viewer = true;
       else if (a == "--no-plots") plots = false;
@@ -123,6 +128,15 @@ int main(int argc, char** argv) {
     if (firmware.empty() && access(default_fw.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "quad_sim: %s is not built (cmake --build build/host --target quad_firmware), "
                            "or pass --firmware CMD\n", default_fw.c_str());
+      return 1;
+    }
+
+    const std::string default_station = executable_dir() + "/vision_station";
+    options.station_argv = station.empty() ? std::vector<std::string>{default_station, "run"} : split_words(station);
+    if (scenario.camera.enabled && station.empty() && access(default_station.c_str(), X_OK) != 0) {
+      std::fprintf(stderr, "quad_sim: the scenario renders the cameras but %s is not built "
+                           "(cmake --build build/host --target vision_station), or pass --station CMD\n",
+                   default_station.c_str());
       return 1;
     }
 

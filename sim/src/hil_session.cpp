@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -23,6 +24,7 @@
 #include "quad/sim/pty.h"
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
+#include "quad/sim/station_loop.h"
 #include "quad/sim/vehicle.h"
 #include "quad/sim/vision_fix.h"
 
@@ -94,6 +96,7 @@ class Session {
   void event(double t, const std::string& text);
   void write_summary(bool complete, const std::string& reason);
   void progress(double t, bool final_line);
+  uint64_t vision_sent() const { return station_ ? station_->figures().fixes : vision_.released(); }
 
   const Scenario& s_;
   const SessionOptions& o_;
@@ -115,6 +118,7 @@ class Session {
   std::unique_ptr<Pty> ground_;  // the base-station side of the radio, for outside programs (optional)
   uint64_t ground_dropped_ = 0;  // downlink bytes nobody read from the ground port
   std::unique_ptr<FirmwareProcess> firmware_;
+  std::unique_ptr<StationLoop> station_;  // rendered cameras and the vision station (camera.enabled)
 
   // Schedules.
   size_t next_command_ = 0;
@@ -489,8 +493,14 @@ void Session::physics_period(double t_end) {
     const double now = vehicle_.time();
     const VehicleTruth truth = vehicle_.truth();
     const FaultEffects faults = fault_effects(s_.faults, s_.radio, now);
-    vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
-    vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
+    if (station_) {
+      // Rendered cameras and the vision station (issue 8); a vision dropout hides the star.
+      station_->update(now, truth.position_ned, truth.q_ib, faults.vision_dropout,
+                       [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
+    } else {
+      vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
+      vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
+    }
     if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
       if (ground_) ground_dropped_ += ground_->write_or_drop(d, n);
@@ -521,7 +531,7 @@ void Session::log_row(double t) {
              static_cast<double>(tele_.mode), tele_.armed ? 1.0 : 0.0, imu_reading_.specific_force_frd.x(),
              imu_reading_.specific_force_frd.y(), imu_reading_.specific_force_frd.z(), imu_reading_.rate_frd.x(),
              imu_reading_.rate_frd.y(), imu_reading_.rate_frd.z(), mag_.reading().x(), mag_.reading().y(),
-             mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_.released()),
+             mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_sent()),
              static_cast<double>(u0.frames_sent), static_cast<double>(ru.frames_sent),
              static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
@@ -542,6 +552,26 @@ void Session::score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estim
     est_vertical_.add(estimate.z() - it->second.z());
     return;
   }
+}
+
+// Median, 95th percentile and maximum of a sample (null-free: an empty sample gives zeros).
+Json percentiles_json(std::vector<double> v) {
+  Json j;
+  std::sort(v.begin(), v.end());
+  auto at = [&](double q) { return v.empty() ? 0.0 : v[static_cast<size_t>(std::lround(q * (v.size() - 1)))]; };
+  j.add("median", at(0.5)).add("p95", at(0.95)).add("max", at(1.0)).add("count", static_cast<long>(v.size()));
+  return j;
+}
+
+Json station_json(const StationFigures& f, const Scenario& s) {
+  Json j;
+  j.add("pairs_captured", static_cast<long>(f.pairs_captured)).add("pairs_lost", static_cast<long>(f.pairs_lost));
+  j.add("pairs_answered", static_cast<long>(f.pairs_answered)).add("fixes", static_cast<long>(f.fixes));
+  j.add("fix_rate", f.pairs_answered ? static_cast<double>(f.fixes) / static_cast<double>(f.pairs_answered) : 0.0);
+  j.add("fix_error_m", percentiles_json(f.fix_error_m));
+  j.add("processing_us", percentiles_json(f.processing_us));
+  j.add("configured_latency_s", s.vision.latency_s).add("late_answers", static_cast<long>(f.late_answers));
+  return j;
 }
 
 Json stats_json(const ErrorStats& e) {
@@ -600,6 +630,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   j.add("crashed", metrics_.crashed());
   if (metrics_.crashed()) j.add("crash_time_s", metrics_.crash_time_s());
   j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_.released())).add("links", links);
+  if (station_) j.add("vision_station", station_json(station_->figures(), s_));
   write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
 }
 
@@ -638,6 +669,11 @@ SessionResult Session::run() {
     for (const auto& a : argv) cmd += (cmd.empty() ? "" : " ") + a;
     event(0.0, "start: " + cmd);
     if (ground_) event(0.0, "ground port: " + o_.ground_port_link + " -> " + ground_->slave_path());
+  }
+  if (s_.camera.enabled) {
+    if (o_.station_argv.empty()) throw std::runtime_error(s_.path + ": camera.enabled needs the vision station command");
+    station_ = std::make_unique<StationLoop>(s_, o_.out_dir, o_.station_argv);
+    event(0.0, "vision station: rendered cameras in the loop (station.log)");
   }
   firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");
   wall_start_ = last_summary_ = Clock::now();
@@ -713,7 +749,12 @@ SessionResult Session::run() {
     }
     poll_uart2(t);
     poll_ground_port(t);
-    physics_period(t + period);
+    try {
+      physics_period(t + period);
+    } catch (const StationError& e) {
+      reason = e.what();
+      break;
+    }
     log_row(vehicle_.time());
     progress(vehicle_.time(), false);
     if (Clock::now() - last_summary_ > std::chrono::seconds(2)) {
@@ -730,6 +771,7 @@ SessionResult Session::run() {
   write_summary(result.complete, reason);
   if (!reason.empty()) event(vehicle_.time(), "cut short: " + reason);
   firmware_.reset();
+  if (station_) station_->finish();
   return result;
 }
 

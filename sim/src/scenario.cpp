@@ -32,12 +32,19 @@ class Field {
   bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
   const std::string& key() const { return key_; }
 
+  // The name of a mapping key of this node; a key that is not a plain scalar (YAML allows lists and
+  // mappings as keys) is refused here rather than escaping as a yaml-cpp conversion error.
+  std::string key_name(const YAML::Node& key) const {
+    if (!key.IsScalar()) Field(key, key_, file_).fail("has a key that is not a plain name");
+    return key.Scalar();
+  }
+
   // A mapping whose keys must all be in `allowed`.
   void expect_map(std::initializer_list<const char*> allowed) const {
     if (!node_.IsMap()) fail("must be a mapping");
     const std::set<std::string> ok(allowed.begin(), allowed.end());
     for (const auto& kv : node_) {
-      const std::string k = kv.first.as<std::string>();
+      const std::string k = key_name(kv.first);
       if (!ok.count(k)) {
         std::string list;
         for (const auto& a : ok) list += (list.empty() ? "" : ", ") + a;
@@ -225,7 +232,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   s.path = name;
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "vision", "camera", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
                   "rc", "faults", "metrics", "firmware_params"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);
@@ -262,6 +269,19 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
     f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
     f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
     f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
+  }
+  if (const Field f = top["camera"]; f.defined()) {
+    f.expect_map({"enabled", "star_tip_to_tip_m", "distractors", "floor_grey", "star_grey", "noise_grey",
+                  "exposure_variation", "vignetting", "frame_loss"});
+    f["enabled"].get(s.camera.enabled);
+    f["star_tip_to_tip_m"].get(s.camera.star_tip_to_tip_m, 0.05, 5.0);
+    if (f["distractors"].defined()) s.camera.distractors = f["distractors"].integer(0, 50);
+    f["floor_grey"].get(s.camera.floor_grey, 1.0, 255.0);
+    f["star_grey"].get(s.camera.star_grey, 0.0, 255.0);
+    f["noise_grey"].get(s.camera.noise_grey, 0.0, 40.0);
+    f["exposure_variation"].get(s.camera.exposure_variation, 0.0, 0.5);
+    f["vignetting"].get(s.camera.vignetting, 0.0, 0.9);
+    f["frame_loss"].get(s.camera.frame_loss, 0.0, 1.0);
   }
   if (const Field f = top["motors"]; f.defined()) {
     f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});
@@ -345,7 +365,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   if (const Field f = top["firmware_params"]; f.defined()) {
     if (!root["firmware_params"].IsMap()) f.fail("must be a mapping of parameter names to values");
     for (const auto& kv : root["firmware_params"]) {
-      const std::string k = kv.first.as<std::string>();
+      const std::string k = f.key_name(kv.first);
       s.firmware_params.emplace_back(k, f[k.c_str()].number());  // names are checked by the firmware
     }
   }

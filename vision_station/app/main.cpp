@@ -38,8 +38,9 @@ const char* kUsage =
     "  vision_station calibrate (--images DIR | --source v4l2:/dev/A,/dev/B [--count N]) [--board 9x6]\n"
     "                           [--square 0.025] --out calib.yaml\n"
     "  vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]\n"
-    "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L,R) [--out PATH]\n"
-    "                     [--baud 57600] [--show] [--settings FILE] [--timeout-ms 500] [--status-s 1]\n";
+    "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L,R | sim:SOCKET)\n"
+    "                     [--out PATH]"
+    " [--baud 57600] [--show] [--settings FILE] [--timeout-ms 500] [--status-s 1]\n";
 
 // --key value options; flags listed in `flags` take no value.
 std::map<std::string, std::string> parse_options(int argc, char** argv, const std::vector<std::string>& flags) {
@@ -228,7 +229,7 @@ int run(const std::map<std::string, std::string>& options) {
   std::unique_ptr<FixLink> link;
   if (options.count("--out")) {
     port = std::make_unique<SerialPort>(options.at("--out"), static_cast<int>(number(options, "--baud", 57600)));
-    link = std::make_unique<FixLink>(*port);
+    link = std::make_unique<FixLink>(*port, !source->vehicle_clock());
   }
   const bool display = options.count("--show") > 0;
   if (display && std::getenv("DISPLAY") == nullptr && std::getenv("WAYLAND_DISPLAY") == nullptr) {
@@ -258,6 +259,7 @@ int run(const std::map<std::string, std::string>& options) {
       status.add(step.fix);
       total.add(step.fix);
       if (step.fix.found && link) link->send(step.fix, settings.mount, step.frame.capture_time_us);
+      source->answered(step.fix.found, link ? link->frames_sent() : 0);
       if (display) show(step.frame, step.fix);
     }
     const int64_t now = monotonic_us();

@@ -109,9 +109,11 @@ size_t SerialPort::read_some(uint8_t* data, size_t capacity) {
   return n > 0 ? static_cast<size_t>(n) : 0;
 }
 
-FixLink::FixLink(SerialPort& port) : port_(port), sender_(1, mavlink::kCompIdVisualInertialOdometry) {}
+FixLink::FixLink(SerialPort& port, bool timesync)
+    : port_(port), sender_(1, mavlink::kCompIdVisualInertialOdometry), timesync_(timesync) {}
 
 void FixLink::poll(int64_t now_us) {
+  if (!timesync_) return;
   uint8_t buffer[256];
   for (size_t n; (n = port_.read_some(buffer, sizeof buffer)) > 0;) {
     parser_.feed(buffer, n, [&](const mavlink::Frame& frame) {

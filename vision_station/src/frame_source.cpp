@@ -13,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "quad/vision/pair_list.h"
+#include "quad/vision/sim_source.h"
 
 namespace quad::vision {
 
@@ -201,9 +202,10 @@ std::unique_ptr<FrameSource> make_frame_source(const std::string& spec) {
     return std::make_unique<CaptureSource>(left, right, false);
   }
   if (scheme == "sim") {
-    throw FrameSourceError("source '" + spec + "': the sim: source is not built yet (closed-loop issue)");
+    if (rest.empty()) throw FrameSourceError("source '" + spec + "': needs the simulator's socket path, sim:PATH");
+    return make_sim_source(rest);
   }
-  throw FrameSourceError("source '" + spec + "': unknown kind (use files:DIR, v4l2:/dev/A,/dev/B, video:L,R)");
+  throw FrameSourceError("source '" + spec + "': unknown kind (use files:DIR, v4l2:/dev/A,/dev/B, video:L,R, sim:PATH)");
 }
 
 }  // namespace quad::vision

@@ -77,6 +77,19 @@ struct VisionParams {
   bool enabled = true;
 };
 
+// The rendered stereo cameras (`camera:`, issue 8; quad/sim/stereo_camera.h).
+struct CameraParams {
+  bool enabled = false;               // true: rendered cameras and the vision station replace the simulated fix
+  double star_tip_to_tip_m = 0.40;    // the marker (issue 7 star, inner ratio 0.4)
+  int distractors = 8;                // dark squares, discs and triangles scattered around the star
+  double floor_grey = 205.0;          // albedo of the floor (0..255 at nominal exposure)
+  double star_grey = 40.0;            // albedo of the star
+  double noise_grey = 3.0;            // Gaussian sensor noise, grey levels (σ)
+  double exposure_variation = 0.10;   // frame-to-frame exposure wander (relative σ of a slow random walk)
+  double vignetting = 0.25;           // brightness lost at the image corners
+  double frame_loss = 0.0;            // fraction of captured pairs that never reach the station
+};
+
 struct Scenario {
   std::string path;  // where it was loaded from
   std::string name;
@@ -95,6 +108,7 @@ struct Scenario {
   double rc_rate_hz = 50.0;
 
   VisionParams vision;
+  CameraParams camera;
   MotorParams motor;
   ImuParams imu;
   MagParams mag;

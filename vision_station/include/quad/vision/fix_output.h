@@ -34,10 +34,12 @@ class SerialPort {
 
 // LANDING_TARGET out, TIMESYNC both ways: the station asks once a second (tc1 = 0, ts1 = its clock) and
 // estimates the vehicle clock offset from the reply (offset = tc1 − (ts1 + now)/2, ns); it also answers
-// the vehicle's requests. Until a reply has arrived time_usec is on the station clock.
+// the vehicle's requests. Until a reply has arrived time_usec is on the station clock. With `timesync`
+// false (a source whose capture times are already on the vehicle clock, the simulator's) no TIMESYNC is
+// sent or answered and time_usec is the capture time as is.
 class FixLink {
  public:
-  explicit FixLink(SerialPort& port);
+  explicit FixLink(SerialPort& port, bool timesync = true);
   void poll(int64_t now_us);  // reads replies, sends the periodic request
   bool send(const StarFix& fix, const CameraMount& mount, int64_t capture_time_us);
   bool synchronised() const { return synchronised_; }
@@ -50,6 +52,7 @@ class FixLink {
   mavlink::Sender sender_;
   mavlink::Parser parser_;
   int64_t last_request_us_ = -1;
+  bool timesync_ = true;
   bool synchronised_ = false;
   int64_t offset_ns_ = 0;
   uint64_t sent_ = 0, dropped_ = 0;

@@ -3,7 +3,7 @@
 //   files:DIR                  image pairs in DIR (pairs.csv with columns left,right, or left*/right* names)
 //   v4l2:/dev/videoA,/dev/videoB  two capture devices
 //   video:LEFT.mp4,RIGHT.mp4   two video files
-//   sim:ENDPOINT               the simulator's rendered cameras (closed-loop issue; a new FrameSource class)
+//   sim:ENDPOINT               the simulator's rendered cameras, lockstep over a Unix socket (sim_source.h)
 #pragma once
 
 #include <chrono>
@@ -42,6 +42,11 @@ class FrameSource {
   // Called once the station has processed `frame`, with its processing time: a lockstep source (the
   // simulator's) accounts it in simulated time before releasing the next frame.
   virtual void processed(const StereoFrame& /*frame*/, double /*processing_us*/) {}
+  // Called once the station's output for the last processed frame has been written (a fix on the radio
+  // port, or nothing): a lockstep source tells its simulator it may collect that output now.
+  virtual void answered(bool /*fix_found*/, uint64_t /*fixes_sent_total*/) {}
+  // True when capture_time_us is already on the vehicle's clock (the simulator's): no TIMESYNC needed.
+  virtual bool vehicle_clock() const { return false; }
 };
 
 // Throws FrameSourceError with a message naming the problem (unknown scheme, missing files...).

@@ -1,0 +1,193 @@
+#include "quad/sim/station_loop.h"
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <thread>
+
+#include "quad/sim/vision_fix.h"
+#include "quad/vision/sim_protocol.h"
+#include "quad/vision/stereo_calibration.h"
+
+namespace quad::sim {
+namespace wire = quad::vision::sim_protocol;
+namespace mav = quad::mavlink;
+
+namespace {
+
+constexpr int kAnswerTimeoutMs = 10000;
+
+std::string socket_path_for_this_run() {
+  // Unix socket paths are limited to 108 bytes, so the socket lives in /tmp rather than the run folder.
+  static std::atomic<int> counter{0};
+  return "/tmp/quad_sim-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
+}
+
+void send_all(int fd, const void* data, size_t length) {
+  const auto* p = static_cast<const uint8_t*>(data);
+  while (length > 0) {
+    const ssize_t n = ::send(fd, p, length, MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw StationError(std::string("vision station: sending a frame pair failed: ") + std::strerror(errno));
+    }
+    p += n;
+    length -= static_cast<size_t>(n);
+  }
+}
+
+}  // namespace
+
+StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
+                         const std::vector<std::string>& station_argv)
+    : s_(scenario),
+      renderer_(scenario.camera, make_floor_scene(scenario.camera, Rng(scenario.seed, "floor_scene")),
+                Rng(scenario.seed, "camera")),
+      loss_rng_(scenario.seed, "camera_frame_loss"),
+      port_(scenario.radio_baud),
+      socket_path_(socket_path_for_this_run()) {
+  // The station is calibrated with the rig the cameras are rendered through (a perfect calibration).
+  const std::string calib = out_dir + "/station_calib.yaml";
+  quad::vision::save_calibration(quad::vision::rectify(renderer_.rig()), calib);
+
+  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::memcpy(address.sun_path, socket_path_.c_str(), socket_path_.size());
+  ::unlink(socket_path_.c_str());
+  if (listen_fd_ < 0 || ::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
+      ::listen(listen_fd_, 1) != 0) {
+    throw StationError(socket_path_ + ": cannot listen for the vision station: " + std::strerror(errno));
+  }
+  std::vector<std::string> argv = station_argv;
+  for (const std::string& a : {std::string("--calib"), calib, std::string("--source"), "sim:" + socket_path_,
+                               std::string("--out"), port_.slave_path(), std::string("--baud"),
+                               std::to_string(scenario.radio_baud), std::string("--status-s"), std::string("10")})
+    argv.push_back(a);
+  process_ = std::make_unique<FirmwareProcess>(argv, out_dir + "/station.log");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (fd_ < 0) {
+    pollfd p{listen_fd_, POLLIN, 0};
+    if (::poll(&p, 1, 100) > 0) fd_ = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+    if (fd_ >= 0) break;
+    if (!process_->running())
+      throw StationError("the vision station " + process_->status() + " before connecting (see " + out_dir + "/station.log)");
+    if (std::chrono::steady_clock::now() > deadline)
+      throw StationError("the vision station did not connect to " + socket_path_ + " within 10 s");
+  }
+}
+
+StationLoop::~StationLoop() {
+  finish();
+  if (listen_fd_ >= 0) ::close(listen_fd_);
+  ::unlink(socket_path_.c_str());
+}
+
+void StationLoop::finish() {
+  if (fd_ >= 0) {
+    ::close(fd_);  // the station's source sees the end of the stream and the station exits
+    fd_ = -1;
+    for (int i = 0; i < 100 && process_ && process_->running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  process_.reset();
+}
+
+void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool star_hidden,
+                         const RadioSink& to_radio) {
+  while (!pending_.empty() && t + 1e-9 >= pending_.front().capture_t + s_.vision.latency_s) {
+    collect(pending_.front(), to_radio);
+    pending_.pop_front();
+  }
+  if (t + 1e-9 < next_capture_t_) return;
+  next_capture_t_ += 1.0 / s_.vision.rate_hz;
+  const uint64_t sequence = next_sequence_++;
+  ++figures_.pairs_captured;
+  if (loss_rng_.bernoulli(s_.camera.frame_loss)) {
+    ++figures_.pairs_lost;
+    return;
+  }
+  renderer_.render(p_ned, q_ib, star_hidden, left_, right_);
+  send_pair(sequence, t);
+  pending_.push_back(Pending{sequence, t, star_in_body_frd(p_ned, q_ib)});
+}
+
+void StationLoop::send_pair(uint64_t sequence, double t) {
+  wire::FrameHeader header;
+  header.width = static_cast<uint32_t>(left_.cols);
+  header.height = static_cast<uint32_t>(left_.rows);
+  header.sequence = sequence;
+  header.capture_time_us = std::llround(t * 1e6);
+  send_all(fd_, &header, sizeof header);
+  send_all(fd_, left_.data, left_.total());
+  send_all(fd_, right_.data, right_.total());
+}
+
+void StationLoop::read_exact(void* data, size_t length, const char* what) {
+  auto* p = static_cast<uint8_t*>(data);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
+  while (length > 0) {
+    pollfd pfd{fd_, POLLIN, 0};
+    if (::poll(&pfd, 1, 100) > 0) {
+      const ssize_t n = ::recv(fd_, p, length, 0);
+      if (n == 0) throw StationError(std::string("the vision station closed its socket while the simulator waited for ") + what);
+      if (n < 0 && errno != EINTR) throw StationError(std::string("vision station socket: ") + std::strerror(errno));
+      if (n > 0) {
+        p += n;
+        length -= static_cast<size_t>(n);
+      }
+      continue;
+    }
+    if (!process_->running()) throw StationError("the vision station " + process_->status() + " (see station.log)");
+    if (std::chrono::steady_clock::now() > deadline)
+      throw StationError(std::string("the vision station did not send ") + what + " within 10 s");
+  }
+}
+
+void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
+  wire::FrameAnswer answer;
+  read_exact(&answer, sizeof answer, "its answer");
+  if (answer.magic != wire::kAnswerMagic || answer.sequence != pending.sequence)
+    throw StationError("the vision station answered pair " + std::to_string(answer.sequence) + ", expected " +
+                       std::to_string(pending.sequence));
+  ++figures_.pairs_answered;
+  figures_.processing_us.push_back(answer.processing_us);
+  if (answer.processing_us > s_.vision.latency_s * 1e6) ++figures_.late_answers;
+  // The answer follows the station's write to its port; the pty may hand the bytes over a little later.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
+  while (frames_read_ < answer.fixes_sent) {
+    if (!port_.wait_readable(100)) {
+      if (std::chrono::steady_clock::now() > deadline)
+        throw StationError("the vision station reported a fix that did not arrive on its radio port");
+      continue;
+    }
+    uint8_t buf[1024];
+    for (size_t n; (n = port_.read_some(buf, sizeof buf)) > 0;)
+      parser_.feed(buf, n, [&](const mav::Frame& f) {
+        frames_.emplace_back(f.bytes, f.bytes + f.size);
+        if (f.message_id == mav::LandingTarget::kId) ++frames_read_;
+      });
+  }
+  // Release this pair's output only (a later pair's fix may already be in the pty).
+  const double release_t = pending.capture_t + s_.vision.latency_s;
+  while (figures_.fixes < answer.fixes_sent && !frames_.empty()) {
+    const std::vector<uint8_t> bytes = std::move(frames_.front());
+    frames_.pop_front();
+    mav::Parser check;
+    check.feed(bytes.data(), bytes.size(), [&](const mav::Frame& f) {
+      mav::LandingTarget lt;
+      if (!mav::decode(f, lt)) return;
+      ++figures_.fixes;
+      figures_.fix_error_m.push_back((Eigen::Vector3d(lt.x, lt.y, lt.z) - pending.star_body_frd).norm());
+    });
+    to_radio(release_t, bytes.data(), bytes.size());
+  }
+}
+
+}  // namespace quad::sim
