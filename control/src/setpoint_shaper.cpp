@@ -30,9 +30,10 @@ void SetpointShaper::update(float dt, PositionSetpoint& sp) {
   Vec3 a;
   if (dt > 0.0f && is_finite(dt) && is_finite(target_)) {
     const Vec3 to_target = target_ - p_;
-    const float dist = norm(to_target);
+    const float dist_sq = norm_sq(to_target);
     Vec3 v_cmd;
-    if (dist > 1e-6f) {
+    if (dist_sq > 1e-12f) {  // beyond a micrometre (no square root spent while holding the target)
+      const float dist = sqrtf(dist_sq);
       const float speed = minf(params_.max_speed, approach_speed(dist, params_.max_accel, params_.final_gain, linear_dist_));
       v_cmd = to_target * (speed / dist);
     }

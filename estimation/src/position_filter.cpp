@@ -188,19 +188,20 @@ void PositionFilterCore::fold_correction() {
 
 // thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u_z - b on z).
 void PositionFilterCore::propagate(const Vec3& u, float dt) {
-  const float h = 0.5f * dt * dt;
+  // Q(T) and T^2/2 depend only on T, which is the loop period on every step but the odd one: cache them.
+  const bool bias = params_.z_accel_bias;
+  if (dt != q_dt_) {
+    q_[0] = process_noise(dt, qp_, qv_, 0.0f);
+    q_[1] = bias ? process_noise(dt, qp_, qv_, qb_) : q_[0];
+    half_dt_sq_ = 0.5f * dt * dt;
+    q_dt_ = dt;
+  }
+  const float h = half_dt_sq_;
   for (int i = 0; i < 3; ++i) {
     AxisState& x = x_[i];
     const float a = has_bias(i) ? u[i] - x.b : u[i];
     x.p += dt * x.v + h * a;
     x.v += dt * a;
-  }
-  // Q(T) depends only on T, which is the loop period on every step but the odd one: cache it.
-  const bool bias = params_.z_accel_bias;
-  if (dt != q_dt_) {
-    q_[0] = process_noise(dt, qp_, qv_, 0.0f);
-    q_[1] = bias ? process_noise(dt, qp_, qv_, qb_) : q_[0];
-    q_dt_ = dt;
   }
   propagate_covariance(p_[0], dt, false, q_[0]);
   if (!one_class_) propagate_covariance(p_[1], dt, bias, q_[1]);

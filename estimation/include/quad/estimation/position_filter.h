@@ -168,6 +168,7 @@ class PositionFilterCore {
   float qp_ = 0.0f, qv_ = 0.0f, qb_ = 0.0f;  // spectral densities of position, velocity, z bias
   float q_dt_ = -1.0f;                       // step of the cached process noise (the loop period)
   AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
+  float half_dt_sq_ = 0.0f;                  // q_dt_^2 / 2
   AxisState x_[3];
   AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
   bool one_class_ = false;                   // z's covariance is identical to x's and y's
