@@ -108,7 +108,9 @@ MixerOutput Mixer::mix(float thrust, const Vec3& torque) const {
   const float wanted = 0.25f * thrust;
   bool fits = true;  // the common case, decided without a division
   for (int i = 0; i < kMotorCount; ++i) {
-    rp[i] = add_signed(signed_term(roll_sign_[i], roll), pitch_sign_[i], pitch);
+    // (On the plus frame each motor has only a roll or only a pitch arm: no addition.)
+    rp[i] = roll_sign_[i] == 0 ? signed_term(pitch_sign_[i], pitch)
+                               : add_signed(signed_term(roll_sign_[i], roll), pitch_sign_[i], pitch);
     base[i] = wanted + rp[i];
     f[i] = add_signed(base[i], yaw_sign_[i], yaw_share);
     fits = fits && f[i] >= 0.0f && f[i] <= f_max_;
