@@ -2,6 +2,8 @@
 
 #include <string.h>
 
+#include "quad/firmware/setup_signing.h"
+
 namespace quad {
 namespace fw {
 namespace mav = ::quad::mavlink;
@@ -80,6 +82,7 @@ void FlightApp::init(const AppIo& io, bool hil) {
   io_ = io;
   hil_ = hil;
   store_status_ = params_load(io_.storage, params_);
+  const bool key_ok = radio_.load(io_.storage);
   const char* error = nullptr;
   if (!apply_params(params_, &error)) {
     // Values that pass their ranges but not a component's own checks (a combination): defaults.
@@ -88,6 +91,8 @@ void FlightApp::init(const AppIo& io, bool hil) {
     send_statustext((StatusLine(mav::kSeverityError) << QUAD_TEXT("params rejected, defaults: ") << error).message());
   }
   if (store_status_ != StoreStatus::kLoaded) send_statustext(mav::kSeverityWarning, store_status_text(store_status_));
+  if (!key_ok) send_statustext(mav::kSeverityError, QUAD_TEXT("signing: key store corrupt, no key"));
+  if (radio_.enabled() && !radio_.has_key()) send_statustext(mav::kSeverityError, QUAD_TEXT("signing: no key, radio closed"));
   calibration_.restart();
   send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrating: keep the vehicle still"));
 }
@@ -163,6 +168,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   mc.arm_throttle_max = p.get(kArmThrMax);
   modes_.configure(mc);
   rc_switches_enabled_ = p.get(kRcSwitches) >= 0.5f;
+  radio_.set_enabled(p.get(kSignEnable) >= 0.5f);
 
   CalibrationConfig cc;
   cc.duration_s = p.get(kCalTime);
@@ -209,7 +215,11 @@ const char* FlightApp::override_param(uint8_t index, float value) {
 void FlightApp::receive(uint8_t port, const uint8_t* data, uint16_t length, uint32_t now_us) {
   if (port >= hal::kPortCount) return;
   if (!hil_) now_us_ = now_us;
-  parsers_[port].feed(data, length, [this, port](const mav::Frame& frame) { on_frame(port, frame); });
+  parsers_[port].feed(data, length, [this, port](const mav::Frame& frame) {
+    // The radio is where strangers can talk: its frames pass the signature check first (counted).
+    if (port == hal::kUart2 && !mav::accepted(radio_.check(frame))) return;
+    on_frame(port, frame);
+  });
 }
 
 void FlightApp::on_frame(uint8_t port, const mav::Frame& frame) {
@@ -284,6 +294,13 @@ void FlightApp::on_frame(uint8_t port, const mav::Frame& frame) {
     case mav::Timesync::kId: {
       mav::Timesync msg;
       if (mav::decode(frame, msg)) on_timesync(port, msg);
+      break;
+    }
+    case SetupSigning::kId: {
+      SetupSigning msg;
+      if (mav::decode(frame, msg) && (msg.target_system == kVehicleSystemId || msg.target_system == 0)) {
+        on_setup_signing(port, msg);
+      }
       break;
     }
     default:
@@ -377,6 +394,26 @@ void FlightApp::on_timesync(uint8_t port, const mav::Timesync& msg) {
   reply.tc1 = static_cast<int64_t>(hil_ ? hil_time_usec_ : now_us_) * 1000;
   reply.ts1 = msg.ts1;
   send(port, reply);
+}
+
+void FlightApp::on_setup_signing(uint8_t port, const SetupSigning& msg) {
+  if (port != hal::kUart0) {
+    // Keys are provisioned over the USB cable only, even by someone who holds the current key.
+    radio_.refuse_provisioning();
+    send_statustext(mav::kSeverityWarning, QUAD_TEXT("signing: key refused on radio"));
+    return;
+  }
+  switch (radio_.provision(io_.storage, msg)) {
+    case RadioSigning::Provisioned::kKeySet:
+      send_statustext(mav::kSeverityInfo, QUAD_TEXT("signing: key set"));
+      break;
+    case RadioSigning::Provisioned::kSigningOff:
+      send_statustext(mav::kSeverityWarning, QUAD_TEXT("signing: key removed"));
+      break;
+    case RadioSigning::Provisioned::kStorageFailed:
+      send_statustext(mav::kSeverityError, QUAD_TEXT("signing: key in use, not stored"));
+      break;
+  }
 }
 
 void FlightApp::on_command(uint8_t port, const mav::CommandLong& cmd) {
@@ -475,6 +512,8 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   }
 
   handle_transition(modes_.update(mode_inputs()));
+  // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground.
+  if (!modes_.armed()) radio_.persist_clock(io_.storage, now_us_, false);
   control(dt);
   detect_landing(dt);
   telemetry();
@@ -557,6 +596,7 @@ void FlightApp::enter_mode(FlightMode from, FlightMode to) {
   switch (to) {
     case FlightMode::kDisarmed:
       landed_ = true;
+      radio_.persist_clock(io_.storage, now_us_, true);
       break;
     case FlightMode::kManual:
       manual_.reset(yaw);
@@ -643,8 +683,9 @@ void FlightApp::detect_landing(float dt) {
 
 template <class Msg>
 void FlightApp::send(uint8_t port, const Msg& msg) {
-  uint8_t buffer[mav::max_frame_length<Msg>()];
-  const size_t n = senders_[port].encode(msg, buffer, sizeof buffer);
+  uint8_t buffer[mav::max_frame_length<Msg>(true)];
+  const size_t n = port == hal::kUart2 ? radio_.encode(senders_[port], msg, buffer, sizeof buffer)
+                                       : senders_[port].encode(msg, buffer, sizeof buffer);
   if (n == 0) return;
   const uint16_t written = io_.write(port, buffer, static_cast<uint16_t>(n));
   counters_.tx_dropped_bytes += static_cast<uint32_t>(n - written);
@@ -770,7 +811,14 @@ void FlightApp::telemetry() {
     st.errors_count1 = static_cast<uint16_t>(loop_timer_.overruns() > UINT16_MAX ? UINT16_MAX : loop_timer_.overruns());
     st.errors_count2 = static_cast<uint16_t>(counters_.fixes_rejected > UINT16_MAX ? UINT16_MAX : counters_.fixes_rejected);
     st.errors_count3 = static_cast<uint16_t>(counters_.tx_dropped_bytes > UINT16_MAX ? UINT16_MAX : counters_.tx_dropped_bytes);
+    const uint32_t rejected = radio_.stats().rejected();
+    st.errors_count4 = static_cast<uint16_t>(rejected > UINT16_MAX ? UINT16_MAX : rejected);
     broadcast(st);
+    // At most one line per status period however many frames a stranger sends.
+    if (rejected != radio_rejected_reported_) {
+      radio_rejected_reported_ = rejected;
+      send_statustext(mav::kSeverityWarning, QUAD_TEXT("signing: radio frames rejected"));
+    }
   }
 }
 

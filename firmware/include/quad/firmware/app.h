@@ -26,6 +26,7 @@
 #include "quad/firmware/calibration.h"
 #include "quad/firmware/modes.h"
 #include "quad/firmware/params.h"
+#include "quad/firmware/radio_signing.h"
 #include "quad/firmware/scheduler.h"
 #include "quad/firmware/vision.h"
 #include "quad/hal/hal.h"
@@ -115,6 +116,7 @@ class FlightApp {
   Vec3 velocity() const { return filter_.velocity(); }
   Quat attitude() const { return observer_.attitude(); }
   const mavlink::Parser& parser(uint8_t port) const { return parsers_[port]; }
+  const RadioSigning& radio_signing() const { return radio_; }
   uint32_t now_us() const { return now_us_; }
 
  private:
@@ -131,6 +133,7 @@ class FlightApp {
   void on_manual_control(const mavlink::ManualControl& msg);
   void on_fix(const Vec3& p_ned, uint32_t capture_us);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg);
+  void on_setup_signing(uint8_t port, const SetupSigning& msg);
 
   void calibrate(const hal::ImuSample& imu, const hal::MagSample* mag);
   void estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt);
@@ -157,7 +160,13 @@ class FlightApp {
   Params params_;
   StoreStatus store_status_ = StoreStatus::kEmpty;
 
-  mavlink::Parser parsers_[hal::kPortCount];
+  // Parsers that also know SETUP_SIGNING (so the radio's can refuse it explicitly).
+  struct FirmwareParser : mavlink::Parser {
+    FirmwareParser() : mavlink::Parser(firmware_message_info) {}
+  };
+  FirmwareParser parsers_[hal::kPortCount];
+  RadioSigning radio_;
+  uint32_t radio_rejected_reported_ = 0;
   mavlink::Sender senders_[hal::kPortCount];
 
   LoopTimer loop_timer_;

@@ -84,6 +84,8 @@ namespace fw {
   X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                         \
   X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                            \
   X(kFsRcEnable, "FS_RC_ENABLE", 1.0f, 0.0f, 1.0f)                                               \
+  /* radio link (UART2) MAVLink signing: 1 = sign and require signatures (key set over USB only) */ \
+  X(kSignEnable, "SIGN_ENABLE", 0.0f, 0.0f, 1.0f)                                                \
   /* telemetry rates (Hz; 0 turns a stream off) */                                               \
   X(kTelHbHz, "TEL_HB_HZ", 1.0f, 0.0f, 50.0f)                                                    \
   X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                                \

@@ -1,0 +1,191 @@
+// The world around one FlightApp for in-process tests: storage, clock, and everything it sends, decoded.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quad/firmware/app.h"
+
+namespace quad {
+namespace fw {
+namespace test {
+
+namespace mav = ::quad::mavlink;
+using ::quad::fw::FlightMode;
+
+constexpr float kG = 9.80665f;
+
+// The world around one FlightApp: storage, clock, and everything it sends, decoded.
+class Bench {
+ public:
+  Bench() : storage(4096, 0xFF) { current = this; }
+  ~Bench() { current = nullptr; }
+
+  void boot(bool hil = true) {
+    app = std::make_unique<quad::fw::FlightApp>();
+    quad::fw::AppIo io;
+    io.storage = quad::fw::StorageIo{&Bench::storage_read, &Bench::storage_write};
+    io.write = &Bench::write;
+    io.micros = &Bench::micros;
+    app->init(io, hil);
+  }
+
+  // One HIL step of a vehicle with attitude q, body rate w, specific force f_b (FRD).
+  void hil_step(const Eigen::Quaternionf& q, const Eigen::Vector3f& f_b, const Eigen::Vector3f& w_b = Eigen::Vector3f::Zero()) {
+    const Eigen::Vector3f mag_ned(0.21f, 0.0f, 0.43f);
+    const Eigen::Vector3f m_b = q.conjugate() * mag_ned;
+    mav::HilSensor s;
+    s.time_usec = t_us;
+    s.xacc = f_b.x() + accel_bias.x();
+    s.yacc = f_b.y() + accel_bias.y();
+    s.zacc = f_b.z() + accel_bias.z();
+    s.xgyro = w_b.x() + gyro_bias.x();
+    s.ygyro = w_b.y() + gyro_bias.y();
+    s.zgyro = w_b.z() + gyro_bias.z();
+    s.xmag = m_b.x();
+    s.ymag = m_b.y();
+    s.zmag = m_b.z();
+    s.fields_updated = 0x1FF;
+    send(quad::hal::kUart0, s, sim);
+    t_us += 10000;
+  }
+  void still_step(const Eigen::Quaternionf& q = Eigen::Quaternionf::Identity()) {
+    hil_step(q, q.conjugate() * Eigen::Vector3f(0, 0, -kG));
+  }
+
+  template <class Msg>
+  void send(uint8_t port, const Msg& msg, mav::Sender& from) {
+    uint8_t buf[mav::max_frame_length<Msg>()];
+    const size_t n = from.encode(msg, buf, sizeof buf);
+    app->receive(port, buf, static_cast<uint16_t>(n), static_cast<uint32_t>(t_us));
+  }
+  // The frame's bytes too, so a test can replay them.
+  template <class Msg>
+  std::vector<uint8_t> send_signed(uint8_t port, const Msg& msg, mav::Sender& from, mav::Signer& signer) {
+    uint8_t buf[mav::max_frame_length<Msg>(true)];
+    const size_t n = mav::encode_signed(from, signer, msg, buf, sizeof buf);
+    EXPECT_GT(n, 0u);
+    app->receive(port, buf, static_cast<uint16_t>(n), static_cast<uint32_t>(t_us));
+    return std::vector<uint8_t>(buf, buf + n);
+  }
+  void receive_bytes(uint8_t port, const std::vector<uint8_t>& bytes) {
+    app->receive(port, bytes.data(), static_cast<uint16_t>(bytes.size()), static_cast<uint32_t>(t_us));
+  }
+
+  void sticks(int16_t throttle, uint16_t buttons = 0) {
+    mav::ManualControl m;
+    m.target = 1;
+    m.z = throttle;
+    m.buttons = buttons;
+    send(quad::hal::kUart0, m, gcs);
+  }
+
+  uint8_t command(uint16_t cmd, float p1 = 0.0f, float p2 = 0.0f) {
+    mav::CommandLong c;
+    c.command = cmd;
+    c.param1 = p1;
+    c.param2 = p2;
+    c.target_system = 1;
+    c.target_component = 1;
+    const size_t before = acks.size();
+    send(quad::hal::kUart0, c, gcs);
+    EXPECT_EQ(acks.size(), before + 1) << "every command is acknowledged";
+    return acks.empty() ? 255 : acks.back().result;
+  }
+  uint8_t arm() { return command(mav::kCmdComponentArmDisarm, 1.0f); }
+  uint8_t set_mode(FlightMode m) { return command(mav::kCmdDoSetMode, 1.0f, static_cast<float>(m)); }
+
+  // The star seen from a vehicle at p (NED) with attitude q, as the vision station reports it.
+  void landing_target(const Eigen::Vector3f& p, const Eigen::Quaternionf& q, uint64_t capture_us,
+                      const Eigen::Vector3f& star = Eigen::Vector3f::Zero()) {
+    const Eigen::Vector3f p_b = q.conjugate() * (star - p);
+    mav::LandingTarget lt;
+    lt.time_usec = capture_us;
+    lt.frame = mav::kFrameBodyFrd;
+    lt.position_valid = 1;
+    lt.x = p_b.x();
+    lt.y = p_b.y();
+    lt.z = p_b.z();
+    send(quad::hal::kUart2, lt, vision);
+  }
+
+  bool said(const std::string& needle) const {
+    return std::any_of(texts.begin(), texts.end(), [&](const std::string& t) { return t.find(needle) != std::string::npos; });
+  }
+
+  std::unique_ptr<quad::fw::FlightApp> app;
+  std::vector<uint8_t> storage;
+  bool storage_fails = false;
+  uint64_t t_us = 1000000;
+  Eigen::Vector3f gyro_bias{0.02f, -0.015f, 0.01f};
+  Eigen::Vector3f accel_bias{0.15f, -0.1f, 0.2f};
+  mav::Sender sim{1, 200};
+  mav::Sender gcs{255, 190};
+  mav::Sender vision{1, 197};
+  mav::Parser out[quad::hal::kPortCount];
+  std::vector<std::string> texts;
+  std::vector<mav::CommandAck> acks;
+  std::vector<mav::ParamValue> params;
+  std::vector<mav::HilActuatorControls> actuators;
+  int frames_on[quad::hal::kPortCount] = {0, 0};
+  int signed_frames_on[quad::hal::kPortCount] = {0, 0};
+  std::vector<mav::SysStatus> statuses;
+  // When set, every frame the vehicle sends on the radio is checked as a ground station would.
+  mav::SignatureVerifier* radio_verifier = nullptr;
+  mav::SignatureCheck last_radio_check = mav::SignatureCheck::kAcceptedUnsigned;
+  mav::Timesync timesync;
+  bool have_timesync = false;
+  bool last_timesync(mav::Timesync* out) const {
+    *out = timesync;
+    return have_timesync;
+  }
+
+ private:
+  static inline Bench* current = nullptr;
+  static bool storage_read(uint16_t offset, void* dst, uint16_t length) {
+    if (current->storage_fails || offset + length > current->storage.size()) return false;
+    std::memcpy(dst, current->storage.data() + offset, length);
+    return true;
+  }
+  static bool storage_write(uint16_t offset, const void* src, uint16_t length) {
+    if (current->storage_fails || offset + length > current->storage.size()) return false;
+    std::memcpy(current->storage.data() + offset, src, length);
+    return true;
+  }
+  static uint32_t micros() { return static_cast<uint32_t>(current->t_us); }
+  static uint16_t write(uint8_t port, const uint8_t* data, uint16_t length) {
+    current->out[port].feed(data, length, [port](const mav::Frame& f) { current->on_frame(port, f); });
+    return length;
+  }
+  void on_frame(uint8_t port, const mav::Frame& f) {
+    ++frames_on[port];
+    if (f.is_signed()) ++signed_frames_on[port];
+    if (radio_verifier != nullptr && port == quad::hal::kUart2) last_radio_check = radio_verifier->check(f);
+    mav::Statustext text;
+    mav::CommandAck ack;
+    mav::ParamValue pv;
+    mav::HilActuatorControls act;
+    // STATUSTEXT goes to both ports; keep one copy.
+    if (mav::decode(f, text) && port == quad::hal::kUart0) texts.emplace_back(text.text, strnlen(text.text, 50));
+    if (mav::decode(f, ack)) acks.push_back(ack);
+    if (mav::decode(f, pv)) params.push_back(pv);
+    if (mav::decode(f, act)) actuators.push_back(act);
+    mav::SysStatus st;
+    if (mav::decode(f, st)) statuses.push_back(st);
+    mav::Timesync ts;
+    if (mav::decode(f, ts)) {
+      timesync = ts;
+      have_timesync = true;
+    }
+  }
+};
+
+}  // namespace test
+}  // namespace fw
+}  // namespace quad
