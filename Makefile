@@ -47,9 +47,10 @@ fuzz: setup
 fuzz-short:
 	tools/fuzz.sh 12
 
+# The default flight is issue 8's closed loop (sim/scenarios/flight.yaml); SCENARIO=... picks another.
 flight: setup
 	$(MAKE) --no-print-directory build
-	tools/flight.sh $(SCENARIO)
+	tools/flight.sh $(if $(filter command line environment,$(origin SCENARIO)),$(SCENARIO),sim/scenarios/flight.yaml)
 
 clean:
 	rm -rf build

