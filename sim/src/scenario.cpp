@@ -272,7 +272,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   }
   if (const Field f = top["camera"]; f.defined()) {
     f.expect_map({"enabled", "star_tip_to_tip_m", "distractors", "floor_grey", "star_grey", "noise_grey",
-                  "exposure_variation", "vignetting", "frame_loss"});
+                  "exposure_variation", "vignetting", "frame_loss", "calibration_focal_error"});
     f["enabled"].get(s.camera.enabled);
     f["star_tip_to_tip_m"].get(s.camera.star_tip_to_tip_m, 0.05, 5.0);
     if (f["distractors"].defined()) s.camera.distractors = f["distractors"].integer(0, 50);
@@ -282,6 +282,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
     f["exposure_variation"].get(s.camera.exposure_variation, 0.0, 0.5);
     f["vignetting"].get(s.camera.vignetting, 0.0, 0.9);
     f["frame_loss"].get(s.camera.frame_loss, 0.0, 1.0);
+    f["calibration_focal_error"].get(s.camera.calibration_focal_error, -0.5, 0.5);
   }
   if (const Field f = top["motors"]; f.defined()) {
     f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});

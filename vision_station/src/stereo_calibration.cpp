@@ -39,6 +39,15 @@ namespace {
 cv::Mat read_matrix(const cv::FileStorage& fs, const std::string& path, const char* key, int rows, int cols) {
   const cv::FileNode node = fs[key];
   if (node.empty()) throw CalibrationFileError(path + ": missing key '" + key + "'");
+  // OpenCV allocates rows x cols x channels before it reads `data`: check the declared shape first, so
+  // a damaged file gets this error instead of a multi-gigabyte allocation.
+  const cv::FileNode r = node["rows"], c = node["cols"], data = node["data"];
+  if (!node.isMap() || !r.isInt() || !c.isInt() || static_cast<int>(r) <= 0 || static_cast<int>(c) <= 0 ||
+      static_cast<long long>(static_cast<int>(r)) * static_cast<int>(c) != static_cast<long long>(rows) * cols ||
+      !data.isSeq() || data.size() != static_cast<size_t>(rows) * static_cast<size_t>(cols)) {
+    throw CalibrationFileError(path + ": key '" + key + "' must be a " + std::to_string(rows) + "x" +
+                               std::to_string(cols) + " OpenCV matrix (rows, cols, dt, data)");
+  }
   cv::Mat m;
   try {
     node >> m;
