@@ -211,6 +211,9 @@ int main(int argc, char** argv) {
   }
   avr_init(avr);
   avr->frequency = 16000000;
+  // simavr's default sleep handler usleep()s for the time the AVR sleeps: the firmware's idle() would
+  // pace the bridge to the wall clock. Sleep costs nothing here; --realtime paces below.
+  avr->sleep = [](avr_t*, avr_cycle_count_t) {};
   avr_load_firmware(avr, &fw);
 
   UartBridge u0, u2;
@@ -234,7 +237,7 @@ int main(int argc, char** argv) {
   while (!g_stop) {
     for (int i = 0; i < kSlice; ++i) {
       state = avr_run(avr);
-      if (state == cpu_Done || state == cpu_Crashed) break;
+      if (state == cpu_Done || state == cpu_Crashed || state == cpu_Sleeping) break;  // sleeping: feed it
     }
     if (state == cpu_Done || state == cpu_Crashed) break;
     if (!pump(u0) || !pump(u2)) break;

@@ -1,0 +1,18 @@
+// APM 2.5 flight image: MPU-6000, HMC5883L, PPM receiver and ESCs through the board HAL, the control
+// loop at SYS_LOOP_HZ. Flashed with `make flash PORT=/dev/ttyACM0` (docs/targets.md).
+#include "quad/firmware/runner.h"
+#include "quad/hal/avr.h"
+#include "quad/hal/hal.h"
+
+namespace {
+quad::fw::FlightApp g_app;
+}  // namespace
+
+int main() {
+  quad::hal::init();
+  // A sensor that does not answer leaves its driver silent; the application's sensor health check
+  // then refuses to arm and reports it over MAVLink, which is more useful than stopping here.
+  quad::hal::avr::init_board();
+  g_app.init(quad::fw::hal_app_io(), /*hil=*/false);
+  quad::fw::run_board(g_app);
+}

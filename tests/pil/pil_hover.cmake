@@ -1,0 +1,83 @@
+# Processor-in-the-loop hover (ctest pil_hover_*): flies SCENARIO once with the host firmware and once
+# with FIRMWARE (an emulated processor running the cross image), same seed, and checks the emulated
+# flight: complete, no crash, take-off (altitude reached), hold (settled in the band), and horizontal
+# standard deviation over the hold within MAX_STD_RATIO of the host firmware's.
+#   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
+#         -P pil_hover.cmake
+foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "pil_hover.cmake: ${var} is not set")
+  endif()
+endforeach()
+
+function(fly name firmware_args)
+  file(REMOVE_RECURSE "${OUT}/${name}")
+  execute_process(COMMAND "${QUAD_SIM}" --scenario "${SCENARIO}" --out "${OUT}/${name}" --no-plots --quiet
+                          ${firmware_args}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT EXISTS "${OUT}/${name}/summary.json")
+    message(FATAL_ERROR "${name}: quad_sim wrote no summary (exit ${rc}): ${out}${err}")
+  endif()
+  file(READ "${OUT}/${name}/summary.json" json)
+  set(${name}_json "${json}" PARENT_SCOPE)
+  message(STATUS "${name}: ${out}")
+endfunction()
+
+function(get_number json out)
+  string(JSON value ERROR_VARIABLE error GET "${json}" ${ARGN})
+  if(error OR value STREQUAL "null" OR value STREQUAL "")
+    set(${out} "" PARENT_SCOPE)
+  else()
+    set(${out} "${value}" PARENT_SCOPE)
+  endif()
+endfunction()
+
+fly(host "")
+fly(target "--firmware;${FIRMWARE}")
+
+set(failures "")
+foreach(run host target)
+  string(JSON complete GET "${${run}_json}" complete)
+  string(JSON crashed GET "${${run}_json}" crashed)
+  get_number("${${run}_json}" reached altitude_reached_s)
+  get_number("${${run}_json}" settled settling_time_s)
+  get_number("${${run}_json}" std hold horizontal std_2d)
+  get_number("${${run}_json}" est_rms estimate_vs_truth horizontal_rms_m)
+  set(${run}_std "${std}")
+  message(STATUS "${run}: complete ${complete}, crashed ${crashed}, altitude reached at ${reached} s, "
+                 "settled after ${settled} s, horizontal std ${std} m, estimate horizontal rms ${est_rms} m")
+  if(NOT complete)
+    string(JSON reason GET "${${run}_json}" reason)
+    list(APPEND failures "${run}: run not complete (${reason}; see ${OUT}/${run}/firmware.log)")
+  endif()
+  if(crashed)
+    list(APPEND failures "${run}: crashed")
+  endif()
+  if(reached STREQUAL "")
+    list(APPEND failures "${run}: never took off to the setpoint altitude")
+  endif()
+  if(settled STREQUAL "")
+    list(APPEND failures "${run}: never settled in the hold band")
+  endif()
+  if(std STREQUAL "")
+    list(APPEND failures "${run}: no hold statistics")
+  endif()
+endforeach()
+
+if(NOT host_std STREQUAL "" AND NOT target_std STREQUAL "")
+  # CMake has no floating-point arithmetic: compare in micrometres (awk does the conversion).
+  foreach(v host_std target_std)
+    execute_process(COMMAND awk "BEGIN { printf \"%d\", ${${v}} * 1e6 + 0.5 }" OUTPUT_VARIABLE ${v}_um)
+  endforeach()
+  execute_process(COMMAND awk "BEGIN { printf \"%d\", ${host_std_um} * ${MAX_STD_RATIO} + 0.5 }" OUTPUT_VARIABLE bound_um)
+  message(STATUS "horizontal std: target ${target_std_um} um, host ${host_std_um} um, bound ${bound_um} um "
+                 "(${MAX_STD_RATIO} x host)")
+  if(target_std_um GREATER bound_um)
+    list(APPEND failures "horizontal std ${target_std_um} um exceeds ${MAX_STD_RATIO} x the host's ${host_std_um} um")
+  endif()
+endif()
+
+if(failures)
+  string(REPLACE ";" "\n  " failures "${failures}")
+  message(FATAL_ERROR "processor-in-the-loop hover failed:\n  ${failures}")
+endif()
