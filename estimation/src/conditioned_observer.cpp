@@ -141,7 +141,7 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
     if (k.innovation == Innovation::Conditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.
-      // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_) instead of the vector.
+      // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_dt_) instead of the vector.
       const Vec3& axis = use_accel ? u_meas : u_hat;
       const Vec3 e_v = cross(mag - axis * dot(axis, mag), v_hat);  // sk(v_B) v_hat / inv_mag_h_
       // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.

@@ -80,7 +80,10 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
   qv_ = white ? params.q_accel : params.q_vel;
   qb_ = params.z_accel_bias ? params.q_bias : 0.0f;
   q_dt_ = -1.0f;  // the cached Q(T) belongs to the old parameters
-  if (one_class_) p_[1] = p_[0];  // z gets its own copy back before the sharing is re-decided
+  if (one_class_) {  // z gets its own copy back before the sharing is re-decided
+    p_[1] = p_[0];
+    for (int j = 0; j < 3; ++j) gain_[1][j] = gain_[0][j];
+  }
   if (!params.z_accel_bias) {
     x_[2].b = 0.0f;
     p_[1].pb = p_[1].vb = p_[1].bb = 0.0f;

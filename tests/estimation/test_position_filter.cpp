@@ -617,11 +617,13 @@ TEST(PositionFilter, SharedVerticalCovarianceAgreesWithTheSeparateOne) {
 
   // Changing z's noise in flight gives z its own class, continuing from the shared covariance.
   const quad::est::AxisCovariance before = a.covariance(0);
+  const float gain_before = a.last_gain_p(0);
   PositionFilterParams louder = shared;
   louder.fix_sigma_z = 0.1f;
   a.set_params(louder);
   EXPECT_EQ(a.covariance(2).pp, before.pp);
   EXPECT_EQ(a.covariance(2).vv, before.vv);
+  EXPECT_EQ(a.last_gain_p(2), gain_before);
   const uint32_t t = run.t_us.back() + kStepUs;
   a.predict(Vec3{}, t);
   ASSERT_EQ(a.fuse_position(a.position(), t), FixResult::Fused);
