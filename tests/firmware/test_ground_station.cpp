@@ -52,13 +52,18 @@ struct Pty {
 // and every byte copied between the firmware's UART2 and the ground station's terminal.
 class World {
  public:
-  World(int uart0, int radio_vehicle, int radio_ground)
-      : uart0_(uart0), radio_vehicle_(radio_vehicle), radio_ground_(radio_ground), thread_([this] { run(); }) {}
+  // usb_ground (optional): a terminal for a tool on the USB cable, sharing UART0 with the simulator; the
+  // firmware's frames other than the HIL answers are copied to it.
+  World(int uart0, int radio_vehicle, int radio_ground, int usb_ground = -1)
+      : uart0_(uart0), radio_vehicle_(radio_vehicle), radio_ground_(radio_ground), usb_ground_(usb_ground),
+        thread_([this] { run(); }) {}
   ~World() {
     stop_ = true;
     thread_.join();
   }
   int steps() const { return steps_; }
+  // Set when a tool is on the USB terminal (else the terminal would queue older status lines).
+  std::atomic<bool> forward_usb{false};
 
  private:
   void run() {
@@ -85,6 +90,9 @@ class World {
         while ((got = read(uart0_, in, sizeof in)) > 0) {
           parser.feed(in, static_cast<size_t>(got), [&](const mav::Frame& f) {
             if (f.message_id == mav::HilActuatorControls::kId) answered = true;
+            else if (usb_ground_ >= 0 && forward_usb && write(usb_ground_, f.bytes, f.size) < 0) {
+              // nobody on the USB terminal: nothing to deliver
+            }
           });
         }
       }
@@ -92,6 +100,7 @@ class World {
       ++steps_;
       copy(radio_vehicle_, radio_ground_);
       copy(radio_ground_, radio_vehicle_);
+      if (usb_ground_ >= 0) copy(usb_ground_, uart0_);
       std::this_thread::sleep_for(std::chrono::milliseconds(3));
     }
   }
@@ -104,7 +113,7 @@ class World {
     }
   }
 
-  int uart0_, radio_vehicle_, radio_ground_;
+  int uart0_, radio_vehicle_, radio_ground_, usb_ground_;
   std::atomic<bool> stop_{false};
   std::atomic<int> steps_{0};
   std::thread thread_;
@@ -207,6 +216,63 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
     waitpid(pid, &status, 0);
     ADD_FAILURE() << "the firmware did not end when UART0 hung up";
   }
+}
+
+// The signed radio: the key goes in over the USB cable (quad_gs signing-setup), SIGN_ENABLE is set, and
+// from then on only a quad_gs holding the key commands the vehicle over the radio.
+TEST(GroundStation, SignedRadioSession) {
+  Pty uart0, uart2, ground, usb;
+  ASSERT_FALSE(usb.path.empty());
+  const std::string params = ::testing::TempDir() + "gs_sign_test.params";
+  const std::string storage = ::testing::TempDir() + "gs_sign_test.storage";
+  std::remove(storage.c_str());
+  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
+          "--params", params.c_str(), "--storage", storage.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ASSERT_GT(pid, 0);
+  {
+    World world(uart0.master, uart2.master, ground.master, usb.master);
+    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    const std::string key = "--key 'correct horse battery staple' ";
+
+    Result r = gs(ground.path, key + "signing-setup");
+    EXPECT_EQ(r.status, 1) << "refused on the radio: " << r.out;
+    EXPECT_NE(r.out.find("signing: key refused on radio"), std::string::npos) << r.out;
+
+    world.forward_usb = true;
+    r = gs(usb.path, key + "signing-setup");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("vehicle: signing: key set"), std::string::npos) << r.out;
+    r = gs(usb.path, "set SIGN_ENABLE 1");
+    EXPECT_EQ(r.status, 0) << r.out;
+
+    r = gs(ground.path, "arm");
+    EXPECT_EQ(r.status, 1) << "unsigned: no answer " << r.out;
+    r = gs(ground.path, "--key 'wrong horse' arm");
+    EXPECT_EQ(r.status, 1) << "wrong key: no answer " << r.out;
+    EXPECT_NE(r.out.find("frames with a wrong signature dropped"), std::string::npos) << "the vehicle's telemetry fails our check too: " << r.out;
+
+    r = gs(ground.path, key + "arm");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("vehicle: MANUAL: armed"), std::string::npos) << r.out;
+    r = gs(ground.path, key + "disarm");
+    EXPECT_EQ(r.status, 0) << r.out;
+    r = gs(ground.path, key + "get SIGN_ENABLE");
+    EXPECT_EQ(r.status, 0) << r.out;
+  }
+  close(uart0.master);
+  uart0.master = -1;
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (waitpid(pid, &status, WNOHANG) == 0) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+  }
+  std::remove(storage.c_str());
 }
 
 TEST(GroundStation, UsageErrors) {

@@ -3,12 +3,16 @@
 // the signing clock across reboots, and the radio closed when SIGN_ENABLE is set without a key.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "app_bench.h"
 #include "quad/firmware/setup_signing.h"
 #include "quad/firmware/storage_layout.h"
+#include "quad/link/sha256.h"
 
 namespace {
 
@@ -214,6 +218,66 @@ TEST(RadioSigning, RemovingTheKeyOverUsbAndEnableWithoutKeyClosesTheRadio) {
   EXPECT_EQ(b.app->radio_signing().stats().rejected_no_key, 2u);
   b.boot();
   EXPECT_TRUE(b.said("signing: no key, radio closed"));
+}
+
+// Frames made by node-mavlink (tests/firmware/signing_peer.js): NAME -> bytes.
+std::map<std::string, std::vector<uint8_t>> node_frames(const std::string& passphrase) {
+  const std::string cmd = std::string("NODE_PATH='") + QUAD_NODE_DIR + "/node_modules' '" + QUAD_NODE_EXECUTABLE + "' '" +
+                          QUAD_FIRMWARE_TEST_DIR + "/signing_peer.js' '" + passphrase + "'";
+  std::map<std::string, std::vector<uint8_t>> frames;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (p == nullptr) return frames;
+  char name[32];
+  char hex[1024];
+  while (std::fscanf(p, "%31s %1023s", name, hex) == 2) {
+    std::vector<uint8_t> bytes;
+    for (size_t i = 0; hex[i] != '\0' && hex[i + 1] != '\0'; i += 2) {
+      bytes.push_back(static_cast<uint8_t>(std::stoi(std::string(hex + i, 2), nullptr, 16)));
+    }
+    frames[name] = bytes;
+  }
+  pclose(p);
+  return frames;
+}
+
+TEST(RadioSigning, NodeMavlinkSetupSigningAndSignedCommandsAreUnderstood) {
+  const std::string passphrase = "correct horse battery staple";
+  auto frames = node_frames(passphrase);
+  ASSERT_EQ(frames.size(), 3u) << "node or node-mavlink missing (make setup)";
+
+  // SETUP_SIGNING: node-mavlink's id, CRC_EXTRA and layout agree with ours (the CRC would fail otherwise).
+  mav::Parser parser(quad::fw::firmware_message_info);
+  SetupSigning decoded;
+  int got = 0;
+  parser.feed(frames["setup"].data(), frames["setup"].size(), [&](const mav::Frame& f) {
+    got += mav::decode(f, decoded) ? 1 : 0;
+  });
+  ASSERT_EQ(got, 1);
+  uint8_t key[32];
+  quad::mavlink::sha256(reinterpret_cast<const uint8_t*>(passphrase.data()), passphrase.size(), key);
+  EXPECT_EQ(std::memcmp(decoded.secret_key, key, 32), 0) << "node-mavlink's key = SHA-256(passphrase), as quad_gs";
+  EXPECT_EQ(decoded.target_system, 1);
+  EXPECT_EQ(decoded.target_component, 1);
+  EXPECT_EQ(decoded.initial_timestamp, (1767225600000ull - 1420070400000ull) * 100ull - 1000000ull);
+
+  // The vehicle takes node-mavlink's provisioning over USB and its signed arm over the radio.
+  Bench b;
+  b.boot();
+  b.receive_bytes(kUsb, frames["setup"]);
+  ASSERT_TRUE(b.said("signing: key set"));
+  set_param(b, kUsb, "SIGN_ENABLE", 1.0f);
+  calibrate(b);
+  b.sticks(0);
+  b.receive_bytes(kRadio, frames["arm_wrong"]);
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
+  b.receive_bytes(kRadio, frames["arm"]);
+  EXPECT_EQ(b.app->mode(), FlightMode::kManual);
+  const quad::fw::RadioSigningStats st = b.app->radio_signing().stats();
+  EXPECT_EQ(st.verifier.bad_signature, 1u);
+  EXPECT_EQ(st.verifier.accepted_signed, 1u);
+  // And node-mavlink's frame replayed: rejected.
+  b.receive_bytes(kRadio, frames["arm"]);
+  EXPECT_EQ(b.app->radio_signing().stats().verifier.replayed, 1u);
 }
 
 TEST(RadioSigning, KeyRecordFitsWithTheParametersInTheEeprom) {

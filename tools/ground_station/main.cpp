@@ -2,12 +2,18 @@
 // over a serial port: arm, disarm, switch mode, send a position setpoint, list / read / set parameters,
 // and watch the telemetry. It speaks MAVLink v2 as system 255, component 190 (docs/hil-protocol.md).
 //
-//   quad_gs --port PATH [--baud N] COMMAND [ARGS]
+//   quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]
 //     arm | disarm [force] | mode manual|auto|land | land
 //     setpoint NORTH EAST DOWN [YAW_DEG]
 //     params                      every parameter as "NAME VALUE" (the quad_firmware --params format)
 //     get NAME | set NAME VALUE
 //     watch [SECONDS]             print STATUSTEXT, mode changes and the position estimate
+//     signing-setup               send the --key to the vehicle (SETUP_SIGNING; the vehicle takes it on
+//                                 its USB port only); signing-off removes it
+//
+// --key SECRET signs every frame sent (MAVLink v2 signing, timestamps from the wall clock) and drops
+// received frames whose signature is wrong. SECRET is 64 hex digits (the 32-byte key) or a passphrase,
+// whose SHA-256 is the key (MAVProxy's "signing setup" convention).
 //
 // Exit status: 0 done, 1 refused or no answer, 2 usage error or the port cannot be opened.
 #include <algorithm>
@@ -19,8 +25,13 @@
 #include <string>
 #include <vector>
 
+#include <sys/time.h>
+
+#include "quad/firmware/setup_signing.h"
 #include "quad/hal/host.h"
 #include "quad/link/mavlink.h"
+#include "quad/link/sha256.h"
+#include "quad/link/signing.h"
 
 namespace {
 
@@ -32,22 +43,65 @@ constexpr uint32_t kModeManual = 1, kModeAuto = 2, kModeLanding = 3;
 const char* const kModeNames[] = {"DISARMED", "MANUAL", "AUTO", "LANDING"};
 
 const char kUsage[] =
-    "usage: quad_gs --port PATH [--baud N] COMMAND [ARGS]\n"
+    "usage: quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]\n"
     "  arm | disarm [force] | mode manual|auto|land | land\n"
     "  setpoint NORTH EAST DOWN [YAW_DEG]   position setpoint in NED metres (AUTO)\n"
     "  params                               list every parameter as 'NAME VALUE'\n"
     "  get NAME | set NAME VALUE            read or set one parameter\n"
-    "  watch [SECONDS]                      print status text, mode and position (default 10 s)\n";
+    "  watch [SECONDS]                      print status text, mode and position (default 10 s)\n"
+    "  signing-setup | signing-off          provision (over USB) or remove the --key on the vehicle\n"
+    "  --key SECRET: sign with this key: 64 hex digits, or a passphrase (key = its SHA-256)\n";
+
+// The link id of this tool's signatures (the vehicle tracks streams per link, system and component).
+constexpr uint8_t kSigningLinkId = 0;
+
+// The signing timestamp of now (10 us since 2015-01-01, MAVLink's epoch).
+uint64_t signing_now() {
+  timeval tv;
+  gettimeofday(&tv, nullptr);
+  return mav::signing_timestamp_from_unix_microseconds(static_cast<uint64_t>(tv.tv_sec) * 1000000u +
+                                                       static_cast<uint64_t>(tv.tv_usec));
+}
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// 64 hex digits are the key itself; anything else is a passphrase.
+bool key_from_secret(const std::string& secret, mav::SigningKey* key) {
+  if (secret.empty()) return false;
+  bool hex = secret.size() == 2 * mav::kSigningKeyLength;
+  for (size_t i = 0; hex && i < secret.size(); ++i) hex = hex_digit(secret[i]) >= 0;
+  if (hex) {
+    for (size_t i = 0; i < mav::kSigningKeyLength; ++i) {
+      key->bytes[i] = static_cast<uint8_t>(hex_digit(secret[2 * i]) * 16 + hex_digit(secret[2 * i + 1]));
+    }
+  } else {
+    mav::sha256(reinterpret_cast<const uint8_t*>(secret.data()), secret.size(), key->bytes);
+  }
+  return true;
+}
 
 // The link to the vehicle: the host HAL's UART0 on the given device, a parser and our identity.
 class Link {
  public:
-  Link() : sender_(255, mav::kCompIdMissionPlanner) {}
+  // With a key every frame is signed and vehicle frames with a wrong signature are dropped.
+  explicit Link(const mav::SigningKey* key)
+      : sender_(255, mav::kCompIdMissionPlanner),
+        key_(key != nullptr ? *key : mav::SigningKey{}),
+        clock_(signing_now()),
+        signer_(key_, clock_, kSigningLinkId),
+        verifier_(key_, clock_),
+        signing_(key != nullptr) {}
 
   template <class Msg>
   void send(const Msg& msg) {
-    uint8_t buf[mav::max_frame_length<Msg>()];
-    const size_t n = sender_.encode(msg, buf, sizeof buf);
+    uint8_t buf[mav::max_frame_length<Msg>(true)];
+    clock_.advance_to(signing_now());
+    const size_t n = signing_ ? mav::encode_signed(sender_, signer_, msg, buf, sizeof buf) : sender_.encode(msg, buf, sizeof buf);
     size_t done = 0;
     while (done < n) {
       const uint16_t w = quad::hal::serial_write(quad::hal::kUart0, buf + done, static_cast<uint16_t>(n - done));
@@ -70,6 +124,10 @@ class Link {
       while ((n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
         parser_.feed(buf, n, [&](const mav::Frame& f) {
           if (f.system_id != kVehicleSystem) return;
+          if (signing_ && !mav::accepted(verifier_.check(f))) {
+            ++rejected_;
+            return;
+          }
           // Status text is always shown, also when it follows the awaited frame in the same read.
           print_statustext(f);
           if (!done) done = on_frame(f);
@@ -90,7 +148,44 @@ class Link {
 
   mav::Sender sender_;
   mav::Parser parser_;
+  mav::SigningKey key_;
+  mav::SigningClock clock_;
+  mav::Signer signer_;
+  mav::SignatureVerifier verifier_;
+  bool signing_;
+  uint32_t rejected_ = 0;
+
+ public:
+  uint32_t rejected() const { return rejected_; }
 };
+
+// SETUP_SIGNING carries no acknowledgement: the vehicle's STATUSTEXT says whether it took the key.
+int setup_signing(Link& link, const mav::SigningKey& key, bool off) {
+  quad::fw::SetupSigning msg;
+  msg.target_system = kVehicleSystem;
+  msg.target_component = kVehicleComponent;
+  if (!off) {
+    msg.initial_timestamp = signing_now();
+    std::memcpy(msg.secret_key, key.bytes, sizeof msg.secret_key);
+  }
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    link.send(msg);
+    bool refused = false;
+    const bool answered = link.receive(1500, [&](const mav::Frame& f) {
+      mav::Statustext text;
+      if (!mav::decode(f, text)) return false;
+      const std::string line(text.text, strnlen(text.text, sizeof text.text));
+      refused = line.find("signing: key refused") != std::string::npos || line.find("not stored") != std::string::npos;
+      return refused || line.find("signing: key set") != std::string::npos ||
+             line.find("signing: key removed") != std::string::npos;
+    });
+    if (!answered) continue;
+    std::printf(refused ? "refused\n" : "accepted\n");
+    return refused ? 1 : 0;
+  }
+  std::fprintf(stderr, "quad_gs: no answer from the vehicle (SETUP_SIGNING is taken on its USB port only)\n");
+  return 1;
+}
 
 void set_name(char (&dst)[16], const std::string& name) {
   std::memset(dst, 0, sizeof dst);
@@ -257,11 +352,21 @@ int main(int argc, char** argv) {
   quad::hal::host::Config config;
   config.ports[quad::hal::kUart0].baud = 57600;
   std::vector<std::string> args;
+  std::string key_secret;
+  bool has_key = false;
+  mav::SigningKey key{};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       return 0;
+    }
+    if (a == "--key") {
+      if (i + 1 >= argc) return usage("--key: missing value");
+      key_secret = argv[++i];
+      has_key = true;
+      if (!key_from_secret(key_secret, &key)) return usage("--key: empty secret");
+      continue;
     }
     if (a == "--port" || a == "--baud") {
       if (i + 1 >= argc) return usage((a + ": missing value").c_str());
@@ -305,6 +410,9 @@ int main(int argc, char** argv) {
     if (!parse_float(args[2].c_str(), &f[0])) return usage(("not a number: '" + args[2] + "'").c_str());
   } else if (cmd == "watch") {
     if (args.size() > 2 || (args.size() == 2 && !parse_float(args[1].c_str(), &f[0]))) return usage("watch [SECONDS]");
+  } else if (cmd == "signing-setup" || cmd == "signing-off") {
+    if (args.size() != 1) return usage((cmd + " takes no arguments").c_str());
+    if (cmd == "signing-setup" && !has_key) return usage("signing-setup needs --key SECRET");
   } else {
     return usage(("unknown command '" + cmd + "'").c_str());
   }
@@ -314,7 +422,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quad_gs: %s\n", error.c_str());
     return 2;
   }
-  Link link;
+  Link link(has_key && cmd != "signing-setup" ? &key : nullptr);
   int status = 0;
   if (cmd == "arm") status = command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
   else if (cmd == "disarm") status = command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
@@ -327,6 +435,8 @@ int main(int argc, char** argv) {
   else if (cmd == "get") status = get_param(link, args[1]);
   else if (cmd == "set") status = set_param(link, args[1], f[0]);
   else if (cmd == "watch") status = watch(link, args.size() == 2 ? f[0] : 10.0);
+  else if (cmd == "signing-setup" || cmd == "signing-off") status = setup_signing(link, key, cmd == "signing-off");
+  if (link.rejected() > 0) std::fprintf(stderr, "quad_gs: %u frames with a wrong signature dropped\n", link.rejected());
   quad::hal::host::close();
   return status;
 }
