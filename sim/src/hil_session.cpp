@@ -495,8 +495,10 @@ void Session::physics_period(double t_end) {
     const FaultEffects faults = fault_effects(s_.faults, s_.radio, now);
     if (station_) {
       // Rendered cameras and the vision station (issue 8); a vision dropout hides the star.
+      const auto& decoy = faults.vision_errors.decoy_ned;
       station_->update(now, truth.position_ned, truth.q_ib, faults.vision_dropout,
-                       [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
+                       [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); },
+                       decoy ? std::optional<Eigen::Vector2d>(decoy->head<2>()) : std::nullopt);
     } else {
       vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
       vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });

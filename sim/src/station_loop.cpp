@@ -53,9 +53,15 @@ StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
       loss_rng_(scenario.seed, "camera_frame_loss"),
       port_(scenario.radio_baud),
       socket_path_(socket_path_for_this_run()) {
-  // The station is calibrated with the rig the cameras are rendered through (a perfect calibration).
+  // The station is calibrated with the rig the cameras are rendered through (a perfect calibration),
+  // unless the scenario gives it focal lengths off by `calibration_focal_error` (fault campaign).
   const std::string calib = out_dir + "/station_calib.yaml";
-  quad::vision::save_calibration(quad::vision::rectify(renderer_.rig()), calib);
+  quad::vision::StereoRig calibrated = renderer_.rig();
+  for (quad::vision::CameraIntrinsics* c : {&calibrated.left, &calibrated.right}) {
+    c->K(0, 0) *= 1.0 + scenario.camera.calibration_focal_error;
+    c->K(1, 1) *= 1.0 + scenario.camera.calibration_focal_error;
+  }
+  quad::vision::save_calibration(quad::vision::rectify(calibrated), calib);
 
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_un address{};
@@ -100,7 +106,7 @@ void StationLoop::finish() {
 }
 
 void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool star_hidden,
-                         const RadioSink& to_radio) {
+                         const RadioSink& to_radio, const std::optional<Eigen::Vector2d>& decoy_ne) {
   while (!pending_.empty() && t + 1e-9 >= pending_.front().capture_t + s_.vision.latency_s) {
     collect(pending_.front(), to_radio);
     pending_.pop_front();
@@ -113,6 +119,7 @@ void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Qu
     ++figures_.pairs_lost;
     return;
   }
+  renderer_.set_decoy(decoy_ne);
   renderer_.render(p_ned, q_ib, star_hidden, left_, right_);
   send_pair(sequence, t);
   pending_.push_back(Pending{sequence, t, star_in_body_frd(p_ned, q_ib)});

@@ -126,12 +126,20 @@ std::optional<cv::Point2d> project_point(const vis::CameraIntrinsics& camera, do
 }
 
 StereoCameraRenderer::StereoCameraRenderer(const CameraParams& params, std::vector<FloorShape> scene, Rng rng)
-    : p_(params), scene_(std::move(scene)), rng_(std::move(rng)), rig_(vis::thesis_stereo_rig()),
+    : p_(params), scene_(std::move(scene)), scene_shapes_(scene_.size()), rng_(std::move(rng)), rig_(vis::thesis_stereo_rig()),
       mount_(vis::thesis_camera_mount()), valid_left_(fold_radius(rig_.left)), valid_right_(fold_radius(rig_.right)) {
   lighting_left_ = lighting_map(rig_.left, rig_.image_size, p_.vignetting);
   lighting_right_ = lighting_map(rig_.right, rig_.image_size, p_.vignetting);
   noise_.resize(kNoiseTable);
   for (int8_t& n : noise_) n = static_cast<int8_t>(std::clamp(std::lround(rng_.normal(p_.noise_grey)), -127L, 127L));
+}
+
+void StereoCameraRenderer::set_decoy(const std::optional<Eigen::Vector2d>& north_east) {
+  scene_.resize(scene_shapes_);
+  if (!north_east || scene_.empty()) return;
+  FloorShape decoy = scene_.front();
+  for (Eigen::Vector2d& v : decoy.outline) v += *north_east;
+  scene_.push_back(std::move(decoy));
 }
 
 void StereoCameraRenderer::render(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool hide_star,

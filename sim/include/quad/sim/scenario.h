@@ -88,6 +88,7 @@ struct CameraParams {
   double exposure_variation = 0.10;   // frame-to-frame exposure wander (relative σ of a slow random walk)
   double vignetting = 0.25;           // brightness lost at the image corners
   double frame_loss = 0.0;            // fraction of captured pairs that never reach the station
+  double calibration_focal_error = 0.0;  // the station's focal lengths are (1 + this) x the true ones
 };
 
 struct Scenario {

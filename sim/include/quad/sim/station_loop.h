@@ -14,6 +14,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -56,8 +57,9 @@ class StationLoop {
   // Every physics step, with the truth at time t: captures a pair when one is due, and hands the
   // station's output for pairs whose release time has come to `to_radio`. Throws StationError when the
   // station dies or does not answer within 10 s.
+  // `decoy_ne`: a second star-like shape on the floor at this north/east position (fault campaign).
   void update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool star_hidden,
-              const RadioSink& to_radio);
+              const RadioSink& to_radio, const std::optional<Eigen::Vector2d>& decoy_ne = std::nullopt);
 
   const StationFigures& figures() const { return figures_; }
   // Ends the stream (the station then exits) and waits for the process.

@@ -64,6 +64,10 @@ class StereoCameraRenderer {
   void render(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool hide_star, cv::Mat& left,
               cv::Mat& right);
 
+  // A second star-like shape, the star's copy centred at `north_east` (m), drawn from now on; nullopt
+  // removes it (fault campaign: a decoy entering the view).
+  void set_decoy(const std::optional<Eigen::Vector2d>& north_east);
+
   const quad::vision::StereoRig& rig() const { return rig_; }
   const std::vector<FloorShape>& scene() const { return scene_; }
 
@@ -73,6 +77,7 @@ class StereoCameraRenderer {
 
   CameraParams p_;
   std::vector<FloorShape> scene_;
+  size_t scene_shapes_;  // the scene without the decoy
   Rng rng_;
   quad::vision::StereoRig rig_;
   quad::vision::CameraMount mount_;
