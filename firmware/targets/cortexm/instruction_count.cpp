@@ -1,0 +1,213 @@
+// Instruction count of the control iteration on the Cortex-M4F, run on QEMU's mps2-an386 with
+// `-icount shift=0` (ctest cortexm_instruction_count, docs/targets.md).
+//
+// Method: with -icount shift=0 QEMU advances its virtual clock by exactly 1 ns per executed guest
+// instruction, and SysTick counts that clock at the board's 25 MHz: one tick per 40 instructions.
+// SysTick runs free from its 24-bit reload with its interrupt off, and a section's count is its tick
+// difference times 40. Two calibration loops of known instruction counts check the method on every
+// run. Means over many iterations resolve below one tick; a single iteration is known to +-40
+// instructions.
+//
+// The iteration is the one of docs/performance.md's cycle table, at the Cortex-M's 400 Hz: observer
+// step, kinematic acceleration, position-filter predict (and a vision fix when one arrives), setpoint
+// shaper, position control, thrust and attitude, attitude PD, mixer; no I/O. Sensor inputs come from
+// volatile memory so the compiler cannot fold them. Results go to UART0 as "name instructions" lines,
+// then the image exits through semihosting (QEMU's -semihosting).
+#include <stdint.h>
+
+#include "quad/control/cascade.h"
+#include "quad/control/setpoint_shaper.h"
+#include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/position_filter.h"
+#include "quad/math/math.h"
+
+namespace {
+
+using quad::Vec3;
+
+// ---- measurement --------------------------------------------------------------------------------
+volatile uint32_t& kSystCsr = *reinterpret_cast<volatile uint32_t*>(0xE000E010u);
+volatile uint32_t& kSystRvr = *reinterpret_cast<volatile uint32_t*>(0xE000E014u);
+volatile uint32_t& kSystCvr = *reinterpret_cast<volatile uint32_t*>(0xE000E018u);
+constexpr uint32_t kInstructionsPerTick = 40;  // 25 MHz SysTick, 1 ns per instruction
+
+void start_counter() {
+  kSystRvr = 0x00FFFFFFu;
+  kSystCvr = 0;
+  kSystCsr = (1u << 2) | 1u;  // core clock, enabled, no interrupt
+}
+// SysTick counts down; sections stay far below one 24-bit period (16.7 M ticks).
+uint32_t ticks_between(uint32_t start, uint32_t end) { return (start - end) & 0x00FFFFFFu; }
+
+template <typename T>
+void keep(const T& value) {
+  __asm volatile("" : : "r"(&value) : "memory");
+}
+
+// ---- output (polled CMSDK UART0; the HAL is not needed here) -------------------------------------
+volatile uint32_t* const kUart0 = reinterpret_cast<volatile uint32_t*>(0x40004000u);
+
+void put(char c) {
+  while (kUart0[1] & 1u) {
+  }
+  kUart0[0] = static_cast<uint8_t>(c);
+}
+void put(const char* s) {
+  while (*s) put(*s++);
+}
+void put_number(uint32_t v) {
+  char digits[10];
+  int n = 0;
+  do {
+    digits[n++] = static_cast<char>('0' + v % 10u);
+    v /= 10u;
+  } while (v != 0);
+  while (n > 0) put(digits[--n]);
+}
+
+// Runs `f` `repeat` times and reports the mean instruction count per run, the loop's own two or three
+// instructions per run included (reported as loop_overhead).
+template <typename F>
+void measure(const char* name, uint32_t repeat, F&& f) {
+  const uint32_t start = kSystCvr;
+  for (uint32_t i = 0; i < repeat; ++i) f();
+  const uint32_t ticks = ticks_between(start, kSystCvr);
+  put(name);
+  put(' ');
+  put_number((ticks * kInstructionsPerTick + repeat / 2u) / repeat);
+  put('\n');
+}
+
+void calibrate(const char* name, uint32_t passes) {
+  const uint32_t start = kSystCvr;
+  uint32_t n = passes;
+  __asm volatile("1: nop\n nop\n subs %0, %0, #1\n bne 1b" : "+r"(n) : : "cc");
+  const uint32_t ticks = ticks_between(start, kSystCvr);
+  put(name);
+  put(' ');
+  put_number(ticks * kInstructionsPerTick);
+  put('\n');
+}
+
+void semihosting_exit() {
+  // SYS_EXIT (0x18) with ADP_Stopped_ApplicationExit.
+  __asm volatile("mov r0, #0x18\n ldr r1, =0x20026\n bkpt 0xAB" ::: "r0", "r1", "memory");
+}
+
+// ---- the flight core, as in the cycle bench ------------------------------------------------------
+constexpr uint32_t kPeriodUs = 2500;  // 400 Hz
+constexpr float kDt = 1e-6f * kPeriodUs;
+constexpr uint32_t kFixDelayUs = 40000;
+
+volatile float g_noise_scale = 1.0f;
+uint32_t g_seed = 12345u;
+float noise(float amplitude) {
+  g_seed = g_seed * 1664525u + 1013904223u;
+  return amplitude * g_noise_scale *
+         (static_cast<float>(static_cast<int32_t>(g_seed >> 8) - 8388608L) * (1.0f / 8388608.0f));
+}
+
+struct Sensors {
+  Vec3 gyro, accel, mag;
+};
+Sensors sample(uint32_t k) {
+  const float phase = 0.02f * static_cast<float>(k % 300u) - 3.0f;
+  Sensors s;
+  s.gyro = Vec3{0.05f * phase + noise(0.01f), -0.03f + noise(0.01f), 0.02f + noise(0.01f)};
+  s.accel = Vec3{0.3f + noise(0.2f), -0.2f + noise(0.2f), -quad::kGravity + noise(0.2f)};
+  s.mag = Vec3{0.21f + noise(0.005f), 0.02f + noise(0.005f), 0.43f + noise(0.005f)};
+  return s;
+}
+
+quad::est::ConditionedObserver g_observer;
+quad::est::PositionFilter<quad::est::history_length(400)> g_filter;
+quad::ctrl::SetpointShaper g_shaper;
+quad::ctrl::Cascade g_cascade;
+quad::ctrl::PositionSetpoint g_setpoint;
+uint32_t g_now_us = 1000000;
+uint32_t g_step = 0;
+const Vec3 kHoverPoint{0.0f, 0.0f, -1.5f};
+
+quad::ctrl::VehicleState vehicle_state() {
+  return {g_filter.position(), g_filter.velocity(), g_observer.attitude(), g_observer.rate()};
+}
+void estimate(const Sensors& s, bool mag_new) {
+  g_observer.update(s.gyro, s.accel, s.mag, mag_new, kDt);
+  g_filter.predict(quad::est::kinematic_acceleration(g_observer.dcm(), s.accel), g_now_us);
+}
+void iteration(bool mag_new, bool fix) {
+  g_now_us += kPeriodUs;
+  ++g_step;
+  estimate(sample(g_step), mag_new);
+  if (fix) g_filter.fuse_position(kHoverPoint + Vec3{noise(0.03f), noise(0.03f), noise(0.03f)}, g_now_us - kFixDelayUs);
+  g_shaper.update(kDt, g_setpoint);
+  keep(g_cascade.step(vehicle_state(), g_setpoint));
+}
+
+}  // namespace
+
+int main() {
+  kUart0[4] = 16u;  // BAUDDIV: the smallest legal divider
+  kUart0[2] = 1u;   // CTRL: transmitter on
+  start_counter();
+  // Calibration: n passes of a 4-instruction loop body (nop, nop, subs, bne) = 4 n instructions, at two
+  // lengths so a fixed offset of the reads shows apart from the slope.
+  calibrate("calibration_4000", 1000);
+  calibrate("calibration_40000", 10000);
+  measure("loop_overhead", 10000, [] { __asm volatile("" ::: "memory"); });
+
+  const Sensors s0 = sample(0);
+  g_observer.initialize(s0.accel, s0.mag);
+  g_setpoint.p_d = kHoverPoint;
+  g_shaper.set_target(kHoverPoint);
+  // Warm-up: two seconds of hover, magnetometer on 3 of 16 steps (75 of 400 Hz), a fix every 16th (25 Hz).
+  for (uint32_t k = 0; k < 800; ++k) iteration(k % 16u < 3u, k % 16u == 8u);
+
+  // Means over one simulated second each.
+  measure("iteration_typical", 400, [] { iteration(false, false); });
+  measure("iteration_with_mag", 400, [] { iteration(true, false); });
+  measure("iteration_with_mag_and_fix", 400, [] { iteration(true, true); });
+  {
+    // Worst case, once (+-40 instructions): magnetometer sample, a fix fused, the shaper moving towards
+    // a far target, large tracking errors and a new heading (tilt limited, mixer desaturating).
+    g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
+    g_now_us += kPeriodUs;
+    ++g_step;
+    const Sensors sw = sample(g_step);
+    const Vec3 fix = g_filter.position() + Vec3{-0.02f, 0.01f, 0.015f};
+    measure("iteration_worst", 1, [&] {
+      estimate(sw, true);
+      g_filter.fuse_position(fix, g_now_us - kFixDelayUs);
+      g_shaper.update(kDt, g_setpoint);
+      quad::ctrl::PositionSetpoint far = g_setpoint;
+      far.p_d += Vec3{1.5f, -1.2f, 0.8f};
+      far.v_d.x -= 1.0f;
+      far.yaw_d = 0.7f;
+      keep(g_cascade.step(vehicle_state(), far));
+    });
+    put(g_cascade.output().attitude.limited && g_cascade.output().motors.yaw_limited ? "worst_case_saturated 1\n"
+                                                                                     : "worst_case_saturated 0\n");
+  }
+  // Stages on the live state.
+  const Sensors s = sample(g_step + 1);
+  measure("observer_with_mag", 100, [&] { g_observer.update(s.gyro, s.accel, s.mag, true, kDt); });
+  measure("observer_without_mag", 100, [&] { g_observer.update(s.gyro, s.accel, s.mag, false, kDt); });
+  Vec3 u;
+  measure("kinematic_acceleration", 100, [&] { u = quad::est::kinematic_acceleration(g_observer.dcm(), s.accel); });
+  measure("kalman_predict", 100, [&] { g_filter.predict(u, g_now_us); });
+  measure("kalman_fused_fix", 1, [&] {
+    g_filter.fuse_position(g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs), g_now_us - kFixDelayUs);
+  });
+  measure("shaper", 100, [] { g_shaper.update(kDt, g_setpoint); });
+  const quad::ctrl::VehicleState st = vehicle_state();
+  measure("cascade_hover", 100, [&] { keep(g_cascade.step(st, g_setpoint)); });
+  quad::ctrl::PositionSetpoint far = g_setpoint;
+  far.p_d += Vec3{1.5f, -1.2f, 0.8f};
+  far.v_d += Vec3{-1.0f, 0.8f, 0.5f};
+  far.yaw_d += 0.7f;
+  measure("cascade_large_errors", 100, [&] { keep(g_cascade.step(st, far)); });
+  put("done\n");
+  semihosting_exit();
+  for (;;) {
+  }
+}
