@@ -29,6 +29,16 @@ constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverg
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
+// |det W| below this is not a calibration but a broken matrix (a fitted W is near a rotation-free scale).
+constexpr float kMinSoftIronDeterminant = 0.05f;
+
+// The Earth field with magnetic north along x, expressed in true NED: turned about down by the
+// declination (east positive).
+Vec3 decline(const Vec3& magnetic, float declination) {
+  const float c = cosf(declination), s = sinf(declination);
+  return Vec3{c * magnetic.x - s * magnetic.y, s * magnetic.x + c * magnetic.y, magnetic.z};
+}
+
 // MANUAL_CONTROL axis (-1000..1000) to a 1000..2000 us pulse.
 uint16_t axis_to_pulse(int16_t v, bool reverse) {
   const int32_t axis = reverse ? -static_cast<int32_t>(v) : static_cast<int32_t>(v);
@@ -123,8 +133,16 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   sp.max_accel = p.get(kShpAccel);
   sp.final_gain = p.get(kShpGain);
 
+  est::MagCalibration mag_cal;
+  mag_cal.offset = Vec3{p.get(kMagOfsX), p.get(kMagOfsY), p.get(kMagOfsZ)};
+  mag_cal.soft_iron = Mat3::from_rows(Vec3{p.get(kMagSiXX), p.get(kMagSiXY), p.get(kMagSiXZ)},
+                                      Vec3{p.get(kMagSiYX), p.get(kMagSiYY), p.get(kMagSiYZ)},
+                                      Vec3{p.get(kMagSiZX), p.get(kMagSiZY), p.get(kMagSiZZ)});
+
   const char* bad = ctrl::validate(mp);
   if (bad == nullptr) bad = ctrl::validate(sp);
+  // A (nearly) singular soft-iron matrix would flatten the field onto a line or a plane: no heading.
+  if (bad == nullptr && absf(determinant(mag_cal.soft_iron)) < kMinSoftIronDeterminant) bad = "MAG_SI (singular)";
   if (bad == nullptr) {
     // Cascade::configure() keeps the old parameters when it refuses the new ones.
     const ctrl::ParamError e = cascade_.configure(cp);
@@ -145,8 +163,13 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   op.kb = p.get(kObsKb);
   op.delta = p.get(kObsDelta);
   op.accel_norm_tolerance = p.get(kObsAccTol);
-  op.mag_ref_from_init = true;
+  // The Earth field is learned from the boot calibration (magnetic north as x), then turned by the
+  // declination so the heading is relative to true north; a new MAG_DECL turns it again.
+  op.mag_ref_from_init = !mag_ref_learned_;
+  if (mag_ref_learned_) op.mag_ref_ned = decline(mag_ref_magnetic_, p.get(kMagDecl));
   observer_.set_params(op);
+  mag_cal_ = mag_cal;
+  mag_declination_ = p.get(kMagDecl);
 
   est::PositionFilterParams fp;
   fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
@@ -505,10 +528,14 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   ++counters_.iterations;
 
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && norm_sq(imu.accel) > sqf(0.3f * kGravity);
+  // Hard and soft iron (thesis eq. 7.5) out before anything reads the field.
+  hal::MagSample mag_calibrated;
+  if (mag != nullptr) mag_calibrated.field = mag_cal_.apply(mag->field);
+  const hal::MagSample* m = mag != nullptr ? &mag_calibrated : nullptr;
   if (!calibration_.done()) {
-    calibrate(imu, mag);
+    calibrate(imu, m);
   } else {
-    estimate(imu.gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, mag, dt);
+    estimate(imu.gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, m, dt);
   }
 
   handle_transition(modes_.update(mode_inputs()));
@@ -542,6 +569,15 @@ void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) 
   if (!bias_.mag_valid || !observer_.initialize(down_force, bias_.mag_mean)) {
     observer_.reset(Quat::identity(), Vec3{});
   } else {
+    // initialize() learned the field with magnetic north as x: turn it by the declination and take the
+    // TRIAD attitude against the true-north reference.
+    mag_ref_magnetic_ = observer_.params().mag_ref_ned;
+    mag_ref_learned_ = true;
+    est::ObserverParams op = observer_.params();
+    op.mag_ref_from_init = false;
+    op.mag_ref_ned = decline(mag_ref_magnetic_, mag_declination_);
+    observer_.set_params(op);
+    observer_.initialize(down_force, bias_.mag_mean);
     observer_.reset(observer_.attitude(), Vec3{});
   }
   send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrated, ready to arm"));

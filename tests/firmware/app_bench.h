@@ -38,8 +38,7 @@ class Bench {
 
   // One HIL step of a vehicle with attitude q, body rate w, specific force f_b (FRD).
   void hil_step(const Eigen::Quaternionf& q, const Eigen::Vector3f& f_b, const Eigen::Vector3f& w_b = Eigen::Vector3f::Zero()) {
-    const Eigen::Vector3f mag_ned(0.21f, 0.0f, 0.43f);
-    const Eigen::Vector3f m_b = q.conjugate() * mag_ned;
+    const Eigen::Vector3f m_b = mag_distortion * (q.conjugate() * mag_ned) + mag_hard_iron;  // thesis eq. 7.5
     mav::HilSensor s;
     s.time_usec = t_us;
     s.xacc = f_b.x() + accel_bias.x();
@@ -125,6 +124,10 @@ class Bench {
   uint64_t t_us = 1000000;
   Eigen::Vector3f gyro_bias{0.02f, -0.015f, 0.01f};
   Eigen::Vector3f accel_bias{0.15f, -0.1f, 0.2f};
+  // The magnetometer: Earth field (NED, gauss), soft iron D and hard iron b (thesis eq. 7.5).
+  Eigen::Vector3f mag_ned{0.21f, 0.0f, 0.43f};
+  Eigen::Matrix3f mag_distortion = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f mag_hard_iron = Eigen::Vector3f::Zero();
   mav::Sender sim{1, 200};
   mav::Sender gcs{255, 190};
   mav::Sender vision{1, 197};

@@ -184,6 +184,10 @@ class FlightApp {
   Vec3 accel_sum_;       // kinematic acceleration summed between position-filter predictions
   uint8_t accel_count_ = 0;
   Vec3 star_ned_;
+  est::MagCalibration mag_cal_;      // MAG_OFS_*, MAG_SI_*
+  float mag_declination_ = 0.0f;     // MAG_DECL, rad
+  Vec3 mag_ref_magnetic_;            // Earth field learned at boot, magnetic north along x
+  bool mag_ref_learned_ = false;
 
   ModeMachine modes_;
   ctrl::Cascade cascade_;

@@ -44,6 +44,21 @@ namespace fw {
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                            \
+  /* magnetometer calibration, thesis eq. 7.5: m = W (m_raw - b) before the observer; gauss */   \
+  X(kMagOfsX, "MAG_OFS_X", 0.0f, -2.0f, 2.0f)                                                    \
+  X(kMagOfsY, "MAG_OFS_Y", 0.0f, -2.0f, 2.0f)                                                    \
+  X(kMagOfsZ, "MAG_OFS_Z", 0.0f, -2.0f, 2.0f)                                                    \
+  X(kMagSiXX, "MAG_SI_XX", 1.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiXY, "MAG_SI_XY", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiXZ, "MAG_SI_XZ", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiYX, "MAG_SI_YX", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiYY, "MAG_SI_YY", 1.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiYZ, "MAG_SI_YZ", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiZX, "MAG_SI_ZX", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiZY, "MAG_SI_ZY", 0.0f, -3.0f, 3.0f)                                                    \
+  X(kMagSiZZ, "MAG_SI_ZZ", 1.0f, -3.0f, 3.0f)                                                    \
+  /* magnetic declination (rad, east of true north positive): the heading is relative to true north */ \
+  X(kMagDecl, "MAG_DECL", 0.0f, -3.1416f, 3.1416f)                                               \
   /* attitude PD, thesis eq. 8.39 and table 8.1 */                                               \
   X(kAttAlpha, "ATT_ALPHA", 3.0f, 0.001f, 100.0f)                                                \
   X(kAttGammaXY, "ATT_GAMMA_XY", 0.625f, 0.001f, 100.0f)                                         \
@@ -54,6 +69,10 @@ namespace fw {
   X(kPosKvXY, "POS_KV_XY", 11.875f, 0.001f, 100.0f)                                              \
   X(kPosKvZ, "POS_KV_Z", 3.5f, 0.001f, 100.0f)                                                   \
   X(kPosTiltMax, "POS_TILT_MAX", 0.6109f, 0.05f, 1.3f)                                           \
+  /* hover trim: integral of the vertical position error as an acceleration feed-forward, in AUTO */ \
+  /* while airborne (removes the offset of a thrust-model mismatch; 0 turns it off) */          \
+  X(kPosKiZ, "POS_KI_Z", 1.0f, 0.0f, 10.0f)                                                      \
+  X(kPosIMaxZ, "POS_I_MAX_Z", 2.0f, 0.0f, 5.0f)                                                  \
   /* setpoint shaping in AUTO */                                                                 \
   X(kShpSpeed, "SHP_SPEED", 1.0f, 0.05f, 10.0f)                                                  \
   X(kShpAccel, "SHP_ACCEL", 1.0f, 0.05f, 10.0f)                                                  \
