@@ -211,6 +211,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
 
+  hover_trim_.configure(p.get(kPosKiZ), p.get(kPosIMaxZ));
   land_speed_ = p.get(kLandSpeed);
   land_vz_max_ = p.get(kLandVzMax);
   land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
@@ -636,7 +637,10 @@ void FlightApp::enter_mode(FlightMode from, FlightMode to) {
       break;
     case FlightMode::kManual:
       manual_.reset(yaw);
-      if (from == FlightMode::kDisarmed) landed_ = true;
+      if (from == FlightMode::kDisarmed) {
+        landed_ = true;
+        hover_trim_.reset();
+      }
       break;
     case FlightMode::kAuto:
       // Hold where the vehicle is; setpoints from the ground station move the target from here.
@@ -669,10 +673,15 @@ void FlightApp::control(float dt) {
       manual_.update(sticks_, dt);
       out = &cascade_.step_attitude(s, manual_.command());
       break;
-    case FlightMode::kAuto:
+    case FlightMode::kAuto: {
       shaper_.update(dt, setpoint_);
-      out = &cascade_.step(s, setpoint_);
+      // The hover trim learns only in the air: on the ground the height error is the ground's doing.
+      if (!landed_) hover_trim_.update(s.p.z - setpoint_.p_d.z, dt);
+      ctrl::PositionSetpoint sp = setpoint_;
+      sp.a_d.z += hover_trim_.accel();
+      out = &cascade_.step(s, sp);
       break;
+    }
     case FlightMode::kLanding: {
       // Descend at LAND_SPEED. Holding position: the horizontal target stays where the landing began.
       // Level: the horizontal errors are zeroed, so eq. 8.20 asks for no horizontal acceleration and
@@ -680,7 +689,7 @@ void FlightApp::control(float dt) {
       ctrl::PositionSetpoint sp = setpoint_;
       sp.p_d.z = s.p.z;
       sp.v_d = Vec3{0.0f, 0.0f, land_speed_};
-      sp.a_d = Vec3{};
+      sp.a_d = Vec3{0.0f, 0.0f, hover_trim_.accel()};  // the learned trim, frozen
       if (modes_.land_level()) {
         sp.p_d.x = s.p.x;
         sp.p_d.y = s.p.y;
@@ -708,7 +717,9 @@ void FlightApp::detect_landing(float dt) {
   }
   // On the ground the commanded descent cannot happen: the estimated vertical speed stays near zero
   // while the controller, pushing down, asks for clearly less than hover thrust.
-  const bool quiet = absf(filter_.velocity().z) < land_vz_max_ && last_thrust_ < land_thrust_max_;
+  // The hover thrust the trim has learned: a_trim < 0 (up) means the vehicle needs more than the model.
+  const float hover_scale = 1.0f - hover_trim_.accel() * (1.0f / kGravity);
+  const bool quiet = absf(filter_.velocity().z) < land_vz_max_ && last_thrust_ < land_thrust_max_ * hover_scale;
   landed_for_s_ = quiet ? landed_for_s_ + dt : 0.0f;
   if (landed_for_s_ >= land_time_s_) landed_ = true;
   else if (!quiet) landed_ = false;

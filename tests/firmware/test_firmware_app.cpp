@@ -589,6 +589,71 @@ namespace {
 // Every message type the application reads, with random bytes in every field (NaN, infinities, huge
 // counts, unterminated names), interleaved with HIL steps: nothing may crash (this also runs under
 // AddressSanitizer / UBSan in the host-debug preset) and the motor commands must stay in [0, 1].
+// Hovers a vehicle 5 % heavier than the airframe parameters say at 1 m in AUTO for `seconds`; returns
+// the mean height error (true z - setpoint, NED) over the last 2 s.
+float hover_offset_with_heavier_vehicle(float ki, float seconds, float* trim = nullptr) {
+  Bench b;
+  b.gyro_bias.setZero();
+  b.boot();
+  EXPECT_EQ(b.app->override_param(quad::fw::kPosKiZ, ki), nullptr);
+  VerticalVehicle v;
+  v.mass = 1.4f * 1.05f;
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  mav::SetPositionTargetLocalNed sp;
+  sp.target_system = 1;
+  sp.coordinate_frame = mav::kFrameLocalNed;
+  sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
+  sp.z = -1.0f;
+  b.send(quad::hal::kUart0, sp, b.gcs);
+  float f_z = -kG;
+  const int steps = static_cast<int>(seconds * 100.0f);
+  double sum = 0.0;
+  int n = 0;
+  for (int i = 0; i < steps; ++i) {
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
+    f_z = v.step(b.actuators.back().controls, 0.01f);
+    if (i % 3 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 10000);
+    if (i % 5 == 0) b.sticks(0);
+    if (i >= steps - 200) {
+      sum += v.z - (-1.0f);
+      ++n;
+    }
+  }
+  EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
+  if (trim != nullptr) *trim = b.app->hover_trim();
+  return static_cast<float>(sum / n);
+}
+
+TEST(FirmwareApp, HoverTrimRemovesTheOffsetOfAFivePercentMassMismatch) {
+  // Without the trim eq. 8.20 settles where K_p,z tanh(e) = 5 % of g: e = 0.135 m low.
+  const float untrimmed = hover_offset_with_heavier_vehicle(0.0f, 20.0f);
+  EXPECT_NEAR(untrimmed, 0.135f, 0.02f) << "the PD law's offset, positive = below the setpoint";
+  float trim = 0.0f;
+  const float trimmed = hover_offset_with_heavier_vehicle(1.0f, 20.0f, &trim);
+  EXPECT_LT(std::fabs(trimmed), 0.01f) << "the trim removes it within 20 s";
+  // The learned feed-forward is the missing 5 % of thrust: 0.05 g up (negative in NED).
+  EXPECT_NEAR(trim, -0.05f * kG, 0.05f);
+  std::printf("5 %% heavier vehicle at 1 m: offset %.1f mm without the trim, %.2f mm with it (trim %.3f m/s^2)\n",
+              untrimmed * 1000.0f, trimmed * 1000.0f, trim);
+}
+
+TEST(HoverTrim, IntegratesWithTheRightSignAndStopsAtTheLimit) {
+  quad::fw::HoverTrim t;
+  t.configure(1.0f, 2.0f);
+  t.update(0.1f, 0.5f);  // 10 cm low (NED z larger than the setpoint): more thrust = negative a_d,z
+  EXPECT_FLOAT_EQ(t.accel(), -0.05f);
+  for (int i = 0; i < 1000; ++i) t.update(1.0f, 0.1f);
+  EXPECT_FLOAT_EQ(t.accel(), -2.0f) << "clamped";
+  t.update(-0.5f, 0.2f);
+  EXPECT_FLOAT_EQ(t.accel(), -1.9f) << "unwinds at once from the limit (no hidden wind-up)";
+  t.update(NAN, 0.1f);
+  EXPECT_FLOAT_EQ(t.accel(), -1.9f);
+  t.configure(0.0f, 0.5f);
+  EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "a smaller limit clamps the held value";
+  t.update(1.0f, 1.0f);
+  EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "POS_KI_Z 0: held, no learning";
+}
+
 TEST(FirmwareApp, SurvivesRandomFieldsInEveryMessage) {
   Bench b;
   b.boot();

@@ -24,6 +24,7 @@
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
+#include "quad/firmware/hover_trim.h"
 #include "quad/firmware/modes.h"
 #include "quad/firmware/params.h"
 #include "quad/firmware/radio_signing.h"
@@ -113,6 +114,7 @@ class FlightApp {
   const LoopTimer& loop_timer() const { return loop_timer_; }
   LoopTimer& loop_timer() { return loop_timer_; }
   Vec3 position() const { return filter_.position(); }
+  float hover_trim() const { return hover_trim_.accel(); }
   Vec3 velocity() const { return filter_.velocity(); }
   Quat attitude() const { return observer_.attitude(); }
   const mavlink::Parser& parser(uint8_t port) const { return parsers_[port]; }
@@ -194,6 +196,7 @@ class FlightApp {
   ctrl::ManualControl manual_;
   ctrl::SetpointShaper shaper_;
   ctrl::PositionSetpoint setpoint_;
+  HoverTrim hover_trim_;
   ctrl::RcSticks sticks_;
   bool rc_switches_enabled_ = false;
   bool switches_known_ = false;  // the first frame only records the switch positions
