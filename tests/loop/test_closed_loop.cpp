@@ -63,11 +63,12 @@ TEST(ClosedLoop, TwentySecondHoldOnTheStationsFixes) {
   // Issue 8: horizontal std <= 2 cm, vertical std <= 2 cm (margin 0.5 cm for a 20 s window).
   EXPECT_LE(json_number(summary, {"horizontal", "std_2d"}), 0.025) << summary;
   EXPECT_LE(json_number(summary, {"vertical", "std"}), 0.025) << summary;
-  // |mean| <= 1 cm is not met yet by the firmware (about 2 cm horizontally, 6 cm vertically with the
-  // simulated fix too, docs/results.md): these bounds guard against regressions only.
+  // Vertical |mean| <= 1 cm (the firmware's hover trim, POS_KI_Z). Horizontal |mean| <= 1 cm is not met
+  // yet (1 to 3 cm depending on the seed, with the simulated fix too; docs/results.md): that bound guards
+  // against regressions only.
+  EXPECT_LE(std::abs(json_number(summary, {"vertical", "mean"})), 0.01) << summary;
   EXPECT_LE(std::abs(json_number(summary, {"north", "mean"})), 0.035) << summary;
   EXPECT_LE(std::abs(json_number(summary, {"east", "mean"})), 0.035) << summary;
-  EXPECT_LE(std::abs(json_number(summary, {"vertical", "mean"})), 0.09) << summary;
   EXPECT_GT(json_number(summary, {"hold", "samples"}), 1990.0);
   // The station: every pair answered, 5 % lost on the way, fixes accurate to millimetres.
   const double captured = json_number(summary, {"vision_station", "pairs_captured"});
