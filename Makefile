@@ -4,7 +4,7 @@
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 SCENARIO ?= sim/scenarios/hover.yaml
 
-.PHONY: all setup configure build test avr cortex-m4 debug test-debug fuzz fuzz-short flight clean
+.PHONY: all setup configure build test avr cortex-m4 flash debug test-debug fuzz fuzz-short flight clean
 
 all: build
 
@@ -31,6 +31,13 @@ test: setup
 	$(MAKE) --no-print-directory cortex-m4
 	ctest --preset host
 	$(MAKE) --no-print-directory fuzz-short
+
+# Flashes the APM 2.5 through its stk500v2 bootloader over USB (docs/targets.md): -c wiring pulses DTR
+# to reset the board into the bootloader; -D skips the chip erase the bootloader cannot do.
+PORT ?= /dev/ttyACM0
+FLASH_IMAGE ?= build/avr-apm25/firmware/targets/avr/apm25_board.hex
+flash: avr
+	avrdude -c wiring -p m2560 -P $(PORT) -b 115200 -D -U flash:w:$(FLASH_IMAGE):i
 
 debug:
 	cmake --preset host-debug

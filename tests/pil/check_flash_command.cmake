@@ -1,0 +1,61 @@
+# `make flash` without a board (ctest avr_flash_command). Checks what can be checked on a machine with
+# no APM 2.5 attached:
+#   - the command `make flash` would run (make -n): avrdude with the wiring (stk500v2 bootloader)
+#     programmer, the ATmega2560, the port, 115200 baud, no chip erase, and the image as Intel HEX;
+#   - this avrdude knows that programmer and part;
+#   - the .hex parses (avr-objcopy reads it back) and holds exactly the .elf's flash contents, and it
+#     fits below the 8 KiB bootloader at the top of the 256 KiB flash.
+# Not checked: the talk with the bootloader itself (needs the board).
+#   cmake -DSOURCE_DIR=<repo> -DELF=<apm25_board.elf> -DHEX=<apm25_board.hex> -DWORK=<dir> -P ...
+foreach(var SOURCE_DIR ELF HEX WORK)
+  if(NOT DEFINED ${var})
+    message(FATAL_ERROR "check_flash_command.cmake: ${var} is not set")
+  endif()
+endforeach()
+set(port /dev/ttyQUADTEST0)
+execute_process(COMMAND make --no-print-directory -n -C "${SOURCE_DIR}" flash PORT=${port} FLASH_IMAGE=${HEX}
+                RESULT_VARIABLE rc OUTPUT_VARIABLE plan ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "make -n flash failed (${rc}): ${err}")
+endif()
+string(REGEX MATCH "(^|\n)avrdude [^\n]*" command "${plan}")
+string(STRIP "${command}" command)
+message(STATUS "make flash runs: ${command}")
+set(failures "")
+foreach(expected "-c wiring" "-p m2560" "-P ${port}" "-b 115200" " -D " "-U flash:w:${HEX}:i")
+  string(FIND "${command} " "${expected}" at)
+  if(at EQUAL -1)
+    list(APPEND failures "the avrdude command lacks '${expected}'")
+  endif()
+endforeach()
+
+execute_process(COMMAND avrdude -c ? ERROR_VARIABLE programmers OUTPUT_VARIABLE programmers_out)
+execute_process(COMMAND avrdude -p ? ERROR_VARIABLE parts OUTPUT_VARIABLE parts_out)
+if(NOT "${programmers}${programmers_out}" MATCHES "\n +wiring +=")
+  list(APPEND failures "avrdude does not know the 'wiring' programmer")
+endif()
+if(NOT "${parts}${parts_out}" MATCHES "\n +m2560 +=")
+  list(APPEND failures "avrdude does not know the part 'm2560'")
+endif()
+
+file(MAKE_DIRECTORY "${WORK}")
+execute_process(COMMAND avr-objcopy -I ihex -O binary "${HEX}" "${WORK}/from_hex.bin" RESULT_VARIABLE rc1 ERROR_VARIABLE e1)
+execute_process(COMMAND avr-objcopy -O binary -R .eeprom "${ELF}" "${WORK}/from_elf.bin" RESULT_VARIABLE rc2 ERROR_VARIABLE e2)
+if(NOT rc1 EQUAL 0 OR NOT rc2 EQUAL 0)
+  list(APPEND failures "avr-objcopy cannot read the image: ${e1}${e2}")
+else()
+  file(SIZE "${WORK}/from_hex.bin" size)
+  message(STATUS "${HEX}: ${size} bytes of flash")
+  execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files "${WORK}/from_hex.bin" "${WORK}/from_elf.bin" RESULT_VARIABLE differ)
+  if(NOT differ EQUAL 0)
+    list(APPEND failures "the .hex does not hold the .elf's flash contents (stale build?)")
+  endif()
+  math(EXPR room "256 * 1024 - 8 * 1024")
+  if(size GREATER room)
+    list(APPEND failures "${size} bytes do not fit below the bootloader (${room} bytes)")
+  endif()
+endif()
+if(failures)
+  string(REPLACE ";" "\n  " failures "${failures}")
+  message(FATAL_ERROR "make flash:\n  ${failures}")
+endif()
