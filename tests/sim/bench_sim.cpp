@@ -11,6 +11,7 @@
 #include "quad/sim/hil_session.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/scenario.h"
+#include "quad/sim/stereo_camera.h"
 #include "quad/sim/vehicle.h"
 
 namespace quad::sim {
@@ -38,6 +39,44 @@ void lockstep(benchmark::State& state, const std::string& firmware) {
 }
 
 void BM_LockstepHoverWithFirmware(benchmark::State& state) { lockstep(state, QUAD_SIM_FIRMWARE); }
+
+// Issue 8: the whole closed loop of `make flight` (rendered cameras, vision station process, firmware).
+void BM_LockstepFlightWithStation(benchmark::State& state) {
+  if (access(QUAD_SIM_FIRMWARE, X_OK) != 0 || access(QUAD_VISION_STATION, X_OK) != 0) {
+    state.SkipWithError("quad_firmware or vision_station not built");
+    return;
+  }
+  Scenario s = load_scenario(QUAD_SIM_SOURCE_DIR "/scenarios/flight.yaml");
+  double sim = 0.0, wall = 0.0;
+  for (auto _ : state) {
+    SessionOptions o;
+    o.out_dir = std::string(P_tmpdir) + "/quad_sim_bench_flight_" + std::to_string(getpid());
+    o.firmware_argv = {QUAD_SIM_FIRMWARE};
+    o.station_argv = {QUAD_VISION_STATION, "run"};
+    o.progress = false;
+    const SessionResult r = run_session(s, o);
+    if (!r.complete) state.SkipWithError(r.reason.c_str());
+    sim += r.sim_time_s;
+    wall += r.wall_time_s;
+  }
+  state.counters["rtf"] = sim / wall;
+  state.counters["sim_s"] = sim;
+}
+BENCHMARK(BM_LockstepFlightWithStation)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// One rendered 728 x 488 stereo pair at 1.5 m (both views, noise, exposure, vignetting).
+void BM_RenderStereoPair(benchmark::State& state) {
+  CameraParams params;
+  StereoCameraRenderer renderer(params, make_floor_scene(params, Rng(1, "floor")), Rng(1, "camera"));
+  cv::Mat left, right;
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()));
+  for (auto _ : state) {
+    renderer.render(Eigen::Vector3d(0.02, -0.01, -1.5), q, false, left, right);
+    benchmark::DoNotOptimize(left.data);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RenderStereoPair)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LockstepHoverWithFirmware)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
 
 // The same loop against the stand-in firmware (answers at once): the simulator's own share.
