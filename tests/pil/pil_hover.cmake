@@ -3,7 +3,7 @@
 # flight: complete, no crash, take-off (altitude reached), hold (settled in the band), and horizontal
 # standard deviation over the hold within MAX_STD_RATIO of the host firmware's.
 #   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
-#         -P pil_hover.cmake
+#         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] -P pil_hover.cmake
 foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "pil_hover.cmake: ${var} is not set")
@@ -20,7 +20,6 @@ function(fly name firmware_args)
   endif()
   file(READ "${OUT}/${name}/summary.json" json)
   set(${name}_json "${json}" PARENT_SCOPE)
-  message(STATUS "${name}: ${out}")
 endfunction()
 
 function(get_number json out)
@@ -74,6 +73,26 @@ if(NOT host_std STREQUAL "" AND NOT target_std STREQUAL "")
                  "(${MAX_STD_RATIO} x host)")
   if(target_std_um GREATER bound_um)
     list(APPEND failures "horizontal std ${target_std_um} um exceeds ${MAX_STD_RATIO} x the host's ${host_std_um} um")
+  endif()
+endif()
+
+# Optional (AVR): data + bss + the peak stack avr_pil saw over the flight within RAM_BUDGET bytes.
+if(DEFINED RAM_BUDGET)
+  file(READ "${OUT}/target/firmware.log" log)
+  string(REGEX MATCH "peak stack ([0-9]+) bytes" found "${log}")
+  set(stack "${CMAKE_MATCH_1}")
+  execute_process(COMMAND "${SIZE_TOOL}" "${IMAGE}" OUTPUT_VARIABLE sizes)
+  string(REGEX MATCH "\n *[0-9]+[ \t]+([0-9]+)[ \t]+([0-9]+)" found_sizes "${sizes}")
+  set(data "${CMAKE_MATCH_1}")
+  set(bss "${CMAKE_MATCH_2}")
+  if(stack STREQUAL "" OR data STREQUAL "")
+    list(APPEND failures "no peak stack in ${OUT}/target/firmware.log or no sizes from ${SIZE_TOOL}")
+  else()
+    math(EXPR ram "${data} + ${bss} + ${stack}")
+    message(STATUS "RAM: data ${data} + bss ${bss} + peak stack ${stack} = ${ram} bytes (budget ${RAM_BUDGET})")
+    if(ram GREATER RAM_BUDGET)
+      list(APPEND failures "RAM ${ram} bytes exceeds ${RAM_BUDGET}")
+    endif()
   endif()
 endif()
 

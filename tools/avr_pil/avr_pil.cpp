@@ -234,9 +234,13 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   constexpr int kSlice = 2000;  // AVR instructions between host-side polls (~0.1-0.3 ms of AVR time)
   int state = cpu_Running;
+  uint16_t lowest_sp = static_cast<uint16_t>(avr->ramend);
   while (!g_stop) {
     for (int i = 0; i < kSlice; ++i) {
       state = avr_run(avr);
+      // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
+      const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
+      if (sp < lowest_sp) lowest_sp = sp;
       if (state == cpu_Done || state == cpu_Crashed || state == cpu_Sleeping) break;  // sleeping: feed it
     }
     if (state == cpu_Done || state == cpu_Crashed) break;
@@ -259,6 +263,7 @@ int main(int argc, char** argv) {
                static_cast<double>(avr->cycle) / avr->frequency, static_cast<unsigned long long>(u0.bytes_in),
                static_cast<unsigned long long>(u0.bytes_out), static_cast<unsigned long long>(u2.bytes_in),
                static_cast<unsigned long long>(u2.bytes_out));
+  std::fprintf(stderr, "avr_pil: peak stack %u bytes\n", static_cast<unsigned>(avr->ramend - lowest_sp));
   avr_terminate(avr);
   return 0;
 }
