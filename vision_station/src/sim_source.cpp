@@ -18,12 +18,12 @@ namespace wire = sim_protocol;
 
 class SimSource : public FrameSource {
  public:
-  explicit SimSource(const std::string& path) : path_(path) {
+  SimSource(const std::string& path, std::chrono::milliseconds connect_timeout) : path_(path) {
     sockaddr_un address{};
     if (path.size() >= sizeof address.sun_path) throw FrameSourceError("sim:" + path + ": socket path too long");
     address.sun_family = AF_UNIX;
     std::memcpy(address.sun_path, path.c_str(), path.size());
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    const auto deadline = std::chrono::steady_clock::now() + connect_timeout;
     for (;;) {
       fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
       if (fd_ < 0) throw FrameSourceError("sim:" + path + ": socket: " + std::strerror(errno));
@@ -118,6 +118,8 @@ class SimSource : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> make_sim_source(const std::string& path) { return std::make_unique<SimSource>(path); }
+std::unique_ptr<FrameSource> make_sim_source(const std::string& path, std::chrono::milliseconds connect_timeout) {
+  return std::make_unique<SimSource>(path, connect_timeout);
+}
 
 }  // namespace quad::vision

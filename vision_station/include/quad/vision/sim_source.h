@@ -4,6 +4,7 @@
 // that the simulator can collect the fix at a determined simulated time.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <string>
 
@@ -11,8 +12,9 @@
 
 namespace quad::vision {
 
-// Connects to the socket at `path`, waiting up to 5 s for the simulator to create it; throws
-// FrameSourceError naming the path otherwise.
-std::unique_ptr<FrameSource> make_sim_source(const std::string& path);
+// Connects to the socket at `path`, waiting up to `connect_timeout` for the simulator to create it;
+// throws FrameSourceError naming the path otherwise.
+std::unique_ptr<FrameSource> make_sim_source(const std::string& path,
+                                             std::chrono::milliseconds connect_timeout = std::chrono::seconds(5));
 
 }  // namespace quad::vision
