@@ -23,7 +23,7 @@ constexpr uint8_t kStart = 0x08, kRepStart = 0x10, kSlaWAck = 0x18, kDataWAck = 
 
 bool wait_twint(uint8_t expected) {
   for (uint16_t spins = 0; !(TWCR & _BV(TWINT)); ++spins) {
-    if (spins > 2000) return false;  // ~0.5 ms: a stuck bus or no device
+    if (spins > 2000) return false;  // about a millisecond: a stuck bus or no device
   }
   return (TWSR & 0xF8) == expected;
 }

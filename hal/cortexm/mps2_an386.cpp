@@ -34,7 +34,7 @@ constexpr uint32_t kIntTx = 1u << 0, kIntRx = 1u << 1;
 volatile uint32_t& kNvicIser0 = *reinterpret_cast<volatile uint32_t*>(0xE000E100u);
 volatile uint32_t& kFpgaIoLed = *reinterpret_cast<volatile uint32_t*>(0x40028000u);
 
-struct Port {
+struct UartChannel {
   CmsdkUart* uart;
   ByteRing<512> rx;
   ByteRing<512> tx;
@@ -53,7 +53,7 @@ struct Port {
   }
 };
 
-Port g_ports[kPortCount] = {{reinterpret_cast<CmsdkUart*>(0x40004000u), {}, {}},
+UartChannel g_ports[kPortCount] = {{reinterpret_cast<CmsdkUart*>(0x40004000u), {}, {}},
                             {reinterpret_cast<CmsdkUart*>(0x40005000u), {}, {}}};
 
 constexpr uint16_t kStorageSize = 4096;
