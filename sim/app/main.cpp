@@ -45,7 +45,7 @@ int usage(const char* error) {
                "                    false in the scenario when the station sends the fixes\n"
                "  --station CMD     vision station command for scenarios with camera.enabled (default:\n"
                "                    'vision_station run' next to quad_sim); --calib --source sim:SOCKET --out\n"
-               "                    PTY --baud B --status-s 10 are appended\n"
+               "                    PTY --baud B --status-s 10 --timeout-ms 60000 are appended\n"
                "  --no-plots        skip the PNG plots\n"
                "  --quiet           no progress line\n");
   return 2;

@@ -75,7 +75,10 @@ StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
   std::vector<std::string> argv = station_argv;
   for (const std::string& a : {std::string("--calib"), calib, std::string("--source"), "sim:" + socket_path_,
                                std::string("--out"), port_.slave_path(), std::string("--baud"),
-                               std::to_string(scenario.radio_baud), std::string("--status-s"), std::string("10")})
+                               std::to_string(scenario.radio_baud), std::string("--status-s"), std::string("10"),
+                               // A slow simulator is not a stalled camera: a stall would reset the
+                               // station's tracking and make its output depend on the wall clock.
+                               std::string("--timeout-ms"), std::string("60000")})
     argv.push_back(a);
   process_ = std::make_unique<FirmwareProcess>(argv, out_dir + "/station.log");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);

@@ -32,7 +32,8 @@ struct SessionOptions {
   // radio to UART2; what the firmware sends on UART2 comes out there. Empty: no ground port.
   std::string ground_port_link;
   // The vision station command, used when the scenario renders the cameras (`camera: {enabled: true}`):
-  // the sim appends --calib FILE --source sim:SOCKET --out PTY --baud B --status-s 10 (quad/sim/station_loop.h).
+  // the sim appends --calib FILE --source sim:SOCKET --out PTY --baud B --status-s 10 --timeout-ms 60000
+  // (quad/sim/station_loop.h).
   std::vector<std::string> station_argv;
   const std::atomic<bool>* stop = nullptr; // set (e.g. by SIGINT) to end the run early
 };

@@ -46,7 +46,7 @@ struct StationFigures {
 
 class StationLoop {
  public:
-  // Starts the station (`station_argv` + --calib --source --out --baud) with the thesis rig's calibration
+  // Starts the station (`station_argv` + --calib --source --out --baud --status-s --timeout-ms) with the thesis rig's calibration
   // written to RUN/station_calib.yaml, and waits (10 s at most) for it to connect.
   StationLoop(const Scenario& scenario, const std::string& out_dir, const std::vector<std::string>& station_argv);
   ~StationLoop();
