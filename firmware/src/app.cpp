@@ -589,8 +589,9 @@ void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSamp
   observer_.update(gyro, accel, mag != nullptr ? mag->field : no_mag, mag != nullptr, dt);
   const Quat& q = observer_.attitude();
   history_.push(now_us_, q);
-  // thesis eq. 8.7: u = g e_z + R a_B, averaged over the iterations between two predictions.
-  accel_sum_ += est::kinematic_acceleration(q, accel);
+  // thesis eq. 8.7: u = g e_z + R a_B, averaged over the iterations between two predictions. R is the
+  // observer's own DCM of this step (computed once there), not a second conversion of q.
+  accel_sum_ += est::kinematic_acceleration(observer_.dcm(), accel);
   ++accel_count_;
   if (position_rate_.tick()) {
     filter_.predict(accel_sum_ * (1.0f / static_cast<float>(accel_count_)), now_us_);
