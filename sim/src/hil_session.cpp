@@ -754,7 +754,8 @@ SessionResult Session::run() {
     try {
       physics_period(t + period);
     } catch (const StationError& e) {
-      reason = e.what();
+      // Ctrl-C reaches the station too (same process group): then the run was interrupted, not failed.
+      reason = o_.stop && o_.stop->load() ? "interrupted" : e.what();
       break;
     }
     log_row(vehicle_.time());
