@@ -213,7 +213,8 @@ void expect_safe(const Flight& f) {
   EXPECT_TRUE(airborne) << "never took off";
   EXPECT_LE(touchdown, kTouchdownMaxSpeed) << "touchdown faster than a landing";
 
-  // Every mode change (HEARTBEAT, 1 Hz) has a STATUSTEXT "<MODE>: ..." since the previous heartbeat.
+  // Every mode change the HEARTBEAT (1 Hz) shows has a STATUSTEXT "<MODE>: ..." after the previous
+  // change (less one heartbeat period) and before the heartbeat that shows it.
   int previous = -1;
   double previous_t = 0.0;
   for (size_t r = 0; r < f.rows.size(); ++r) {
@@ -277,8 +278,8 @@ void expect_failsafe_landing(const Flight& f, const std::string& failsafe, doubl
 }
 
 constexpr double kLandCommand = 24.0;  // the hold scenarios' land command
-// Vertical bounds: the fault-free hover already holds up to 8.6 cm above the setpoint (eq. 8.20 has no
-// integral term; docs/simulator.md), so a hold is within 15 cm vertically, a degraded hold within 30 cm.
+// Vertical bounds: the fault-free hover held up to 8.6 cm above the setpoint (docs/simulator.md, before the
+// firmware's vertical trim), so a hold is within 15 cm vertically, a degraded hold within 30 cm.
 constexpr double kHoldVertical = 0.15;
 constexpr double kDegradeVertical = 0.30;
 
