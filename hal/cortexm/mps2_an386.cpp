@@ -5,11 +5,18 @@
 //   kUart2     CMSDK APB UART1     0x40005000   2 / 3          second -serial
 //   LED        FPGA IO LED0        0x40028000
 //   storage    4 KiB of RAM: the emulated board has no writable flash, so parameters last until reset
-//              (a real STM32F4 board keeps them in a flash sector behind the same two functions).
+//              (a real STM32F4 board keeps them in a flash sector behind the same two functions). The
+//              array `quad_storage` sits in .noinit, outside the zeroed .bss, so a launcher can preload
+//              it (tools/qemu_pil: QEMU's -device loader with the blob of tools/qemu_pil/param_image).
 #include <string.h>
 
 #include "board.h"
 #include "ring.h"
+
+// The parameter storage, at a symbol a launcher can find (arm-none-eabi-nm) and preload.
+extern "C" {
+__attribute__((section(".noinit"))) uint8_t quad_storage[4096];
+}
 
 namespace quad {
 namespace hal {
@@ -56,8 +63,7 @@ struct UartChannel {
 UartChannel g_ports[kPortCount] = {{reinterpret_cast<CmsdkUart*>(0x40004000u), {}, {}},
                             {reinterpret_cast<CmsdkUart*>(0x40005000u), {}, {}}};
 
-constexpr uint16_t kStorageSize = 4096;
-uint8_t g_storage[kStorageSize];
+constexpr uint16_t kStorageSize = sizeof quad_storage;
 
 uint32_t disable_irq() {
   uint32_t primask;
@@ -69,7 +75,11 @@ void restore_irq(uint32_t primask) { __asm volatile("msr primask, %0" ::"r"(prim
 }  // namespace
 
 void board_init() {
-  memset(g_storage, 0xFF, sizeof g_storage);  // erased, like a new EEPROM: the parameters' defaults
+  // Never preloaded: QEMU's RAM starts zeroed. Count that as erased storage (the parameters' defaults),
+  // as a new EEPROM or flash sector would read.
+  bool preloaded = false;
+  for (uint16_t i = 0; i < kStorageSize && !preloaded; ++i) preloaded = quad_storage[i] != 0;
+  if (!preloaded) memset(quad_storage, 0xFF, sizeof quad_storage);
   g_ports[kUart0].start(921600u);
   g_ports[kUart2].start(57600u);
   kNvicIser0 = (1u << 0) | (1u << 1) | (1u << 2) | (1u << 3);
@@ -103,13 +113,13 @@ uint16_t storage_size() { return cortexm::kStorageSize; }
 
 bool storage_read(uint16_t offset, void* dst, uint16_t length) {
   if (static_cast<uint32_t>(offset) + length > cortexm::kStorageSize) return false;
-  memcpy(dst, cortexm::g_storage + offset, length);
+  memcpy(dst, quad_storage + offset, length);
   return true;
 }
 
 bool storage_write(uint16_t offset, const void* src, uint16_t length) {
   if (static_cast<uint32_t>(offset) + length > cortexm::kStorageSize) return false;
-  memcpy(cortexm::g_storage + offset, src, length);
+  memcpy(quad_storage + offset, src, length);
   return true;
 }
 

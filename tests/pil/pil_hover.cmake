@@ -1,7 +1,8 @@
 # Processor-in-the-loop hover (ctest pil_hover_*): flies SCENARIO once with the host firmware and once
 # with FIRMWARE (an emulated processor running the cross image), same seed, and checks the emulated
-# flight: complete, no crash, take-off (altitude reached), hold (settled in the band), and horizontal
-# standard deviation over the hold within MAX_STD_RATIO of the host firmware's.
+# flight: complete, no crash, take-off (altitude reached), hold (settled in the band), the scenario's
+# firmware parameters applied, and horizontal standard deviation over the hold within MAX_STD_RATIO of
+# the host firmware's.
 #   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
 #         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] -P pil_hover.cmake
 foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
@@ -62,6 +63,16 @@ foreach(run host target)
     list(APPEND failures "${run}: no hold statistics")
   endif()
 endforeach()
+
+# The scenario's firmware parameters must reach the emulated firmware as they reach quad_firmware.
+file(READ "${SCENARIO}" scenario_text)
+file(READ "${OUT}/target/events.log" target_events)
+if(scenario_text MATCHES "\nfirmware_params:" AND target_events MATCHES "params: store empty")
+  list(APPEND failures "target: the scenario's firmware_params did not reach the firmware (store empty)")
+endif()
+if(target_events MATCHES "params rejected|params: store corrupt|params: table changed")
+  list(APPEND failures "target: its parameter store was not accepted (see ${OUT}/target/events.log)")
+endif()
 
 if(NOT host_std STREQUAL "" AND NOT target_std STREQUAL "")
   # CMake has no floating-point arithmetic: compare in micrometres (awk does the conversion).
