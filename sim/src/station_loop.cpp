@@ -2,6 +2,7 @@
 
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -36,7 +37,8 @@ void send_all(int fd, const void* data, size_t length) {
     const ssize_t n = ::send(fd, p, length, MSG_NOSIGNAL);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw StationError(std::string("vision station: sending a frame pair failed: ") + std::strerror(errno));
+      throw StationError(std::string("vision station: sending a frame pair failed (") + std::strerror(errno) +
+                         "): the station stopped reading for 10 s or has gone");
     }
     p += n;
     length -= static_cast<size_t>(n);
@@ -91,6 +93,9 @@ StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
     if (std::chrono::steady_clock::now() > deadline)
       throw StationError("the vision station did not connect to " + socket_path_ + " within 10 s");
   }
+  // A station that is alive but stops reading must not hang the run: sends time out like answers do.
+  const timeval send_timeout{kAnswerTimeoutMs / 1000, 0};
+  ::setsockopt(fd_, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
 }
 
 StationLoop::~StationLoop() {
