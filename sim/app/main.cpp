@@ -1,7 +1,8 @@
 // quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
 //
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
-//            [--record FILE.mp4] [--ground-port LINK] [--station CMD] [--no-plots] [--quiet]
+//            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
+//            [--no-plots] [--quiet]
 #include <unistd.h>
 
 #include <atomic>
@@ -19,6 +20,7 @@
 #include "quad/sim/recorder.h"
 #include "quad/sim/scenario.h"
 #include "quad/sim/vehicle.h"
+#include "quad/sim/viewer.h"
 
 namespace {
 
@@ -30,15 +32,17 @@ int usage(const char* error) {
   if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
   std::fprintf(stderr,
                "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
-               "                [--viewer] [--record FILE.mp4] [--ground-port LINK] [--station CMD] [--no-plots]\n"
-               "                [--quiet]\n"
+               "                [--viewer] [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK]\n"
+               "                [--station CMD] [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
                "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
                "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
                "                    arguments (--uart0 ... --params FILE) are appended\n"
-               "  --viewer          interactive MuJoCo window (needs a display and GLFW)\n"
+               "  --viewer          MuJoCo window following the vehicle (needs a display); closing it ends\n"
+               "                    the run like Ctrl-C. Left drag rotates, right drag or the wheel zooms\n"
+               "  --viewer-screenshot FILE.png  with --viewer: the window's last picture, at the end\n"
                "  --record FILE     render an MP4 offscreen (OSMesa + ffmpeg), chase camera\n"
                "  --ground-port LINK  the base-station side of the radio as a serial port (a symlink to a\n"
                "                    pty) for the vision station or a ground station; set vision.enabled:\n"
@@ -76,7 +80,7 @@ std::string utc_stamp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, out_dir, firmware, record, ground_port, station;
+  std::string scenario_path, out_dir, firmware, record, ground_port, station, screenshot;
   std::optional<long> seed;
   bool realtime = false, viewer = false, plots = true, quiet = false;
   for (int i = 1; i < argc; ++i) {
@@ -91,6 +95,7 @@ int main(int argc, char** argv) {
       else if (a == "--seed") seed = std::stol(value("--seed"));
       else if (a == "--firmware") firmware = value("--firmware");
       else if (a == "--record") record = value("--record");
+      else if (a == "--viewer-screenshot") screenshot = value("--viewer-screenshot");
       else if (a == "--ground-port") ground_port = value("--ground-port");
       else if (a == "--station") station = value("--station");
       else if (a == "--realtime") realtime = true;
@@ -104,13 +109,7 @@ int main(int argc, char** argv) {
     }
   }
   if (scenario_path.empty()) return usage("--scenario is required");
-  if (viewer) {
-    std::fprintf(stderr,
-                 "quad_sim: --viewer needs a display and MuJoCo's GLFW viewer, which this build does not have\n"
-                 "(Debian's libmujoco-dev ships no viewer and GLFW is not in tools/packages-debian.txt).\n"
-                 "Watch a run with --record FILE.mp4 instead: it renders the same scene offscreen.\n");
-    return 2;
-  }
+  if (!screenshot.empty() && !viewer) return usage("--viewer-screenshot needs --viewer");
 
   try {
     quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path);
@@ -140,11 +139,27 @@ int main(int argc, char** argv) {
       return 1;
     }
 
+    // The window opens before the flight, so a missing display stops the run before anything starts.
+    std::unique_ptr<quad::sim::Viewer> window;
+    if (viewer) {
+      try {
+        window = std::make_unique<quad::sim::Viewer>("quad_sim: " + scenario.name);
+      } catch (const quad::sim::ViewerUnavailable& e) {
+        std::fprintf(stderr, "quad_sim: %s\n", e.what());
+        return 1;
+      }
+    }
     std::unique_ptr<quad::sim::OffscreenRecorder> recorder;
-    if (!record.empty()) {
+    if (!record.empty() || window) {
       options.on_frame = [&](quad::sim::Vehicle& v) {
-        if (!recorder) recorder = std::make_unique<quad::sim::OffscreenRecorder>(v.model(), record);
-        recorder->frame(v);
+        if (!record.empty()) {
+          if (!recorder) recorder = std::make_unique<quad::sim::OffscreenRecorder>(v.model(), record);
+          recorder->frame(v);
+        }
+        if (window) {
+          window->frame(v);
+          if (window->closed()) g_stop = true;  // ends the run like Ctrl-C: summary cut short, logs kept
+        }
       };
     }
     std::signal(SIGINT, on_signal);
@@ -154,6 +169,14 @@ int main(int argc, char** argv) {
                  static_cast<unsigned long long>(scenario.seed), realtime ? "real time" : "lockstep", out_dir.c_str());
     const quad::sim::SessionResult r = quad::sim::run_session(scenario, options);
     recorder.reset();
+    if (window && !screenshot.empty()) {
+      try {
+        window->screenshot(screenshot);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "quad_sim: %s\n", e.what());
+      }
+    }
+    window.reset();
     if (plots) {
       const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
       const std::string cmd = python + " '" QUAD_SIM_SOURCE_DIR "/plots/plot_run.py' '" + out_dir + "'";

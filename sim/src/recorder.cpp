@@ -7,6 +7,11 @@
 #include "quad/sim/vehicle.h"
 
 namespace quad::sim {
+namespace {
+// Another GL context may share the process (the --viewer window, GLX): Mesa's GLX and OSMesa crash when
+// one binds while the other's context is still current, so each binds its own and releases it after use.
+void release_osmesa() { OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0); }
+}  // namespace
 
 struct OffscreenRecorder::Gl {
   OSMesaContext context = nullptr;
@@ -33,6 +38,7 @@ OffscreenRecorder::OffscreenRecorder(const mjModel* model, const std::string& pa
   mjv_makeScene(model, &scene_, 2000);
   mjr_makeContext(model, &context_, mjFONTSCALE_100);
   mjr_setBuffer(mjFB_OFFSCREEN, &context_);
+  release_osmesa();
   const int cam = mj_name2id(model, mjOBJ_CAMERA, camera.c_str());
   if (cam >= 0) {
     camera_.type = mjCAMERA_FIXED;
@@ -48,19 +54,23 @@ OffscreenRecorder::OffscreenRecorder(const mjModel* model, const std::string& pa
 
 OffscreenRecorder::~OffscreenRecorder() {
   if (ffmpeg_) pclose(ffmpeg_);
+  if (gl_) OSMesaMakeCurrent(gl_->context, gl_->buffer.data(), GL_UNSIGNED_BYTE, width_, height_);
   mjr_freeContext(&context_);
   mjv_freeScene(&scene_);
   if (gl_) {
+    release_osmesa();
     OSMesaDestroyContext(gl_->context);
     delete gl_;
   }
 }
 
 void OffscreenRecorder::frame(Vehicle& vehicle) {
+  OSMesaMakeCurrent(gl_->context, gl_->buffer.data(), GL_UNSIGNED_BYTE, width_, height_);
   const mjrRect viewport{0, 0, width_, height_};
   mjv_updateScene(vehicle.model(), vehicle.data(), &option_, nullptr, &camera_, mjCAT_ALL, &scene_);
   mjr_render(viewport, &scene_, &context_);
   mjr_readPixels(rgb_.data(), nullptr, viewport, &context_);
+  release_osmesa();
   std::fwrite(rgb_.data(), 1, rgb_.size(), ffmpeg_);
   ++frames_;
 }
