@@ -73,6 +73,25 @@ class StatusLine {
   size_t n_ = 0;
 };
 
+// Decimal text of an unsigned number, for STATUSTEXT lines (no printf on the freestanding targets).
+class Decimal {
+ public:
+  explicit Decimal(uint32_t value) {
+    char reversed[10];
+    uint8_t n = 0;
+    do {
+      reversed[n++] = static_cast<char>('0' + value % 10u);
+      value /= 10u;
+    } while (value != 0u);
+    for (uint8_t i = 0; i < n; ++i) text_[i] = reversed[n - 1 - i];
+    text_[n] = '\0';
+  }
+  const char* c_str() const { return text_; }
+
+ private:
+  char text_[11];
+};
+
 FlashText rejection_text(est::CalibrationStatus status) {
   switch (status) {
     case est::CalibrationStatus::Moved: return QUAD_TEXT("calibration: vehicle moved, again");
@@ -200,6 +219,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   cc.limits.max_gyro_mean = p.get(kCalGyroMax);
   cc.limits.max_accel_bias = p.get(kCalAccMax);
   calibration_.configure(cc);
+  imu_clip_.configure(p.get(kImuGyroRange), p.get(kImuAccRange), p.get(kImuClipHold));
 
   const float loop_hz = p.get(kLoopHz);
   loop_timer_.set_rate_hz(loop_hz);
@@ -536,7 +556,10 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (!calibration_.done()) {
     calibrate(imu, m);
   } else {
-    estimate(imu.gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, m, dt);
+    // Clipped gyro axes come back held at their last good value (imu_clip.h); the biases come off after.
+    const Vec3 gyro = imu_clip_.update(imu, dt);
+    report_clipping();
+    estimate(gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, !imu_clip_.accel_clipped(), m, dt);
   }
 
   handle_transition(modes_.update(mode_inputs()));
@@ -584,14 +607,30 @@ void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) 
   send_statustext(mav::kSeverityInfo, QUAD_TEXT("calibrated, ready to arm"));
 }
 
-void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt) {
+void FlightApp::report_clipping() {
+  gyro_clipped_since_status_ = gyro_clipped_since_status_ || imu_clip_.gyro_clipped();
+  accel_clipped_since_status_ = accel_clipped_since_status_ || imu_clip_.accel_clipped();
+  counters_.imu_clipped_samples = imu_clip_.clipped_samples();
+  counters_.imu_clip_bursts = imu_clip_.bursts();
+  if (!imu_clip_.burst_started()) return;
+  const Decimal burst(imu_clip_.bursts());
+  send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("IMU clipping: rates held, burst ") << burst.c_str())
+                      .message());
+}
+
+void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag, float dt) {
   const Vec3 no_mag;
-  observer_.update(gyro, accel, mag != nullptr ? mag->field : no_mag, mag != nullptr, dt);
+  // Without a valid accelerometer the observer gets a zero specific force, which its norm gate refuses:
+  // no gravity correction from this sample (the gyro still propagates).
+  observer_.update(gyro, accel_valid ? accel : Vec3{}, mag != nullptr ? mag->field : no_mag, mag != nullptr, dt);
   const Quat& q = observer_.attitude();
   history_.push(now_us_, q);
   // thesis eq. 8.7: u = g e_z + R a_B, averaged over the iterations between two predictions. R is the
   // observer's own DCM of this step (computed once there), not a second conversion of q.
-  accel_sum_ += est::kinematic_acceleration(observer_.dcm(), accel);
+  // A clipped accelerometer's stand-in: the last good kinematic acceleration while the clip guard is
+  // healthy, then none (the filter coasts on its velocity; the estimator failsafe is already landing).
+  if (accel_valid) last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), accel);
+  accel_sum_ += accel_valid || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{};
   ++accel_count_;
   if (position_rate_.tick()) {
     filter_.predict(accel_sum_ * (1.0f / static_cast<float>(accel_count_)), now_us_);
@@ -605,8 +644,9 @@ ModeInputs FlightApp::mode_inputs() const {
   in.now_us = now_us_;
   in.estimator_converged = calibration_.done() && observer_.initialized();
   const Vec3 v = filter_.velocity();
-  in.estimator_healthy = in.estimator_converged && is_finite(observer_.attitude()) && is_finite(filter_.position()) &&
-                         is_finite(v) && norm_sq(v) < sqf(kMaxHealthySpeed);
+  // An IMU clipping for longer than IMU_CLIP_HOLD leaves the attitude on guessed rates: unhealthy.
+  in.estimator_healthy = in.estimator_converged && imu_clip_.healthy() && is_finite(observer_.attitude()) &&
+                         is_finite(filter_.position()) && is_finite(v) && norm_sq(v) < sqf(kMaxHealthySpeed);
   in.sensors_healthy = sensors_ok_;
   in.rc_seen = rc_seen_;
   in.rc_time_us = rc_time_us_;
@@ -838,7 +878,11 @@ void FlightApp::telemetry() {
     st.onboard_control_sensors_present = kSensorGyro | kSensorAccel | kSensorMag | kSensorVision | kSensorRc | kSensorAhrs;
     st.onboard_control_sensors_enabled = st.onboard_control_sensors_present;
     uint32_t health = 0;
-    if (sensors_ok_) health |= kSensorGyro | kSensorAccel;
+    // A clip anywhere in the status period clears its sensor's bit for that period.
+    if (sensors_ok_ && !gyro_clipped_since_status_) health |= kSensorGyro;
+    if (sensors_ok_ && !accel_clipped_since_status_) health |= kSensorAccel;
+    gyro_clipped_since_status_ = false;
+    accel_clipped_since_status_ = false;
     if (bias_.mag_valid) health |= kSensorMag;
     if (modes_.vision_fresh(in)) health |= kSensorVision;
     if (modes_.rc_fresh(in)) health |= kSensorRc;

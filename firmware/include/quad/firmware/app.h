@@ -25,6 +25,7 @@
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
 #include "quad/firmware/hover_trim.h"
+#include "quad/firmware/imu_clip.h"
 #include "quad/firmware/modes.h"
 #include "quad/firmware/params.h"
 #include "quad/firmware/radio_signing.h"
@@ -75,6 +76,8 @@ struct AppCounters {
   uint32_t fixes_invalid = 0;    // wrong frame, position_valid 0, non-finite
   uint32_t tx_dropped_bytes = 0; // bytes the ports did not take
   uint32_t commands = 0;
+  uint32_t imu_clipped_samples = 0;  // samples with an accel or gyro axis at full scale (imu_clip.h)
+  uint32_t imu_clip_bursts = 0;      // runs of them, one STATUSTEXT each
 };
 
 class FlightApp {
@@ -138,7 +141,10 @@ class FlightApp {
   void on_setup_signing(uint8_t port, const SetupSigning& msg);
 
   void calibrate(const hal::ImuSample& imu, const hal::MagSample* mag);
-  void estimate(const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt);
+  // accel_valid false: the accelerometer clipped (no gravity correction, the held kinematic acceleration).
+  void estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag, float dt);
+  // Clip counters, SYS_STATUS flags and the once-per-burst STATUSTEXT after a guarded sample.
+  void report_clipping();
   ModeInputs mode_inputs() const;
   void handle_transition(const Transition& t);
   void enter_mode(FlightMode from, FlightMode to);
@@ -184,6 +190,10 @@ class FlightApp {
   est::PositionFilter<kPositionHistory> filter_;
   AttitudeHistory history_;
   Vec3 accel_sum_;       // kinematic acceleration summed between position-filter predictions
+  ImuClipGuard imu_clip_;
+  Vec3 last_good_kinematic_accel_;  // stands in for a clipped accelerometer's (eq. 8.7)
+  bool gyro_clipped_since_status_ = false;   // SYS_STATUS health: cleared bits for the whole period
+  bool accel_clipped_since_status_ = false;
   uint8_t accel_count_ = 0;
   Vec3 star_ned_;
   est::MagCalibration mag_cal_;      // MAG_OFS_*, MAG_SI_*

@@ -23,6 +23,11 @@ namespace fw {
   X(kCalAccStd, "CAL_ACC_STD", 0.1f, 0.001f, 5.0f)                                               \
   X(kCalGyroMax, "CAL_GYRO_MAX", 0.35f, 0.001f, 2.0f)                                            \
   X(kCalAccMax, "CAL_ACC_MAX", 1.0f, 0.01f, 5.0f)                                                \
+  /* IMU full-scale ranges (MPU-6000 as the APM 2.5 runs it: +-2000 deg/s, +-8 g) and how long a */ \
+  /* clipped gyro axis may be held at its last good value before the IMU counts as unhealthy (s) */ \
+  X(kImuGyroRange, "IMU_GYRO_RANGE", 34.906585f, 1.0f, 100.0f)                                   \
+  X(kImuAccRange, "IMU_ACC_RANGE", 78.4532f, 10.0f, 400.0f)                                      \
+  X(kImuClipHold, "IMU_CLIP_HOLD", 0.05f, 0.0f, 0.5f)                                            \
   /* conditioned attitude observer, thesis table 8.1 */                                          \
   X(kObsK1, "OBS_K1", 1.0f, 0.0f, 100.0f)                                                        \
   X(kObsK2, "OBS_K2", 0.2f, 0.0f, 100.0f)                                                        \
