@@ -52,7 +52,7 @@ fuzz: setup
 	tools/fuzz.sh $(FUZZ_SECONDS)
 
 fuzz-short:
-	tools/fuzz.sh 12
+	tools/fuzz.sh 12 1
 
 # The default flight is issue 8's closed loop (sim/scenarios/flight.yaml); SCENARIO=... picks another.
 flight: setup

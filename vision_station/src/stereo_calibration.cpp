@@ -1,5 +1,10 @@
 #include "quad/vision/stereo_calibration.h"
 
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <sstream>
+
 #include <opencv2/calib3d.hpp>
 
 namespace quad::vision {
@@ -41,8 +46,12 @@ cv::Mat read_matrix(const cv::FileStorage& fs, const std::string& path, const ch
   if (node.empty()) throw CalibrationFileError(path + ": missing key '" + key + "'");
   // OpenCV allocates rows x cols x channels before it reads `data`: check the declared shape first, so
   // a damaged file gets this error instead of a multi-gigabyte allocation.
+  if (!node.isMap()) {
+    throw CalibrationFileError(path + ": key '" + key + "' must be a " + std::to_string(rows) + "x" +
+                               std::to_string(cols) + " OpenCV matrix (rows, cols, dt, data)");
+  }
   const cv::FileNode r = node["rows"], c = node["cols"], data = node["data"];
-  if (!node.isMap() || !r.isInt() || !c.isInt() || static_cast<int>(r) <= 0 || static_cast<int>(c) <= 0 ||
+  if (!r.isInt() || !c.isInt() || static_cast<int>(r) <= 0 || static_cast<int>(c) <= 0 ||
       static_cast<long long>(static_cast<int>(r)) * static_cast<int>(c) != static_cast<long long>(rows) * cols ||
       !data.isSeq() || data.size() != static_cast<size_t>(rows) * static_cast<size_t>(cols)) {
     throw CalibrationFileError(path + ": key '" + key + "' must be a " + std::to_string(rows) + "x" +
@@ -75,14 +84,70 @@ int read_positive_int(const cv::FileStorage& fs, const std::string& path, const 
 
 }  // namespace
 
+namespace {
+StereoCalibration read_calibration(const cv::FileStorage& fs, const std::string& path);
+
+constexpr size_t kMaxCalibrationFileBytes = 1 << 20;  // a real file is ~2.5 KB
+
+// OpenCV 4.6's YAML reader loops forever on some malformed files (fuzzing found a 54-byte one), so a
+// file is first parsed with yaml-cpp, and only a document of the expected shape (a mapping whose
+// matrix keys are mappings with rows, cols and a data list) is handed to cv::FileStorage.
+void check_structure(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CalibrationFileError(path + ": cannot open calibration file");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  if (text.size() > kMaxCalibrationFileBytes) throw CalibrationFileError(path + ": too large for a calibration file");
+  if (text.rfind("%YAML:", 0) == 0) text[5] = ' ';  // OpenCV writes "%YAML:1.0" for YAML's "%YAML 1.0"
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw CalibrationFileError(path + ":" + std::to_string(e.mark.line + 1) + ": not a YAML calibration file: " + e.msg);
+  }
+  if (!root.IsMap()) throw CalibrationFileError(path + ": must be a YAML mapping of calibration keys");
+  for (const char* key : {"image_width", "image_height"}) {
+    if (root[key] && !root[key].IsScalar()) throw CalibrationFileError(path + ": key '" + key + "' must be a number");
+  }
+  for (const char* key : {"K1", "D1", "K2", "D2", "R", "T", "R1", "R2", "P1", "P2", "Q"}) {
+    const YAML::Node m = root[key];
+    if (!m) continue;  // reported as missing, by name, when it is read
+    if (!m.IsMap() || !m["rows"] || !m["rows"].IsScalar() || !m["cols"] || !m["cols"].IsScalar() || !m["data"] ||
+        !m["data"].IsSequence()) {
+      throw CalibrationFileError(path + ": key '" + key + "' must be an OpenCV matrix (rows, cols, dt, data)");
+    }
+    for (const auto& v : m["data"])
+      if (!v.IsScalar()) throw CalibrationFileError(path + ": key '" + key + "' has a data entry that is not a number");
+  }
+}
+}  // namespace
+
 StereoCalibration load_calibration(const std::string& path) {
+  check_structure(path);
   cv::FileStorage fs;
   try {
     fs.open(path, cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
+  } catch (const std::exception&) {  // cv::Exception, and std::length_error from OpenCV's parser
     throw CalibrationFileError(path + ": not a readable OpenCV YAML/XML file");
   }
   if (!fs.isOpened()) throw CalibrationFileError(path + ": cannot open calibration file");
+  // The checks below name the key at fault; an OpenCV assertion on a structure they did not foresee
+  // still leaves here as a CalibrationFileError naming the file, never as a raw cv::Exception.
+  try {
+    return read_calibration(fs, path);
+  } catch (const CalibrationFileError&) {
+    throw;
+  } catch (const cv::Exception& e) {
+    throw CalibrationFileError(path + ": malformed calibration file (" + e.err + ")");
+  } catch (const std::exception& e) {
+    throw CalibrationFileError(path + ": malformed calibration file (" + e.what() + ")");
+  }
+}
+
+namespace {
+
+StereoCalibration read_calibration(const cv::FileStorage& fs, const std::string& path) {
   StereoCalibration c;
   c.rig.image_size.width = read_positive_int(fs, path, "image_width");
   c.rig.image_size.height = read_positive_int(fs, path, "image_height");
@@ -103,5 +168,7 @@ StereoCalibration load_calibration(const std::string& path) {
   }
   return c;
 }
+
+}  // namespace
 
 }  // namespace quad::vision
