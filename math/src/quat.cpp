@@ -71,21 +71,39 @@ Quat from_euler(const Euler& e) {
 }
 
 Euler to_euler(const Quat& qin) {
-  // thesis eq. 3.20 with the errata applied
+  // thesis eq. 3.20 with the errata applied, in a form that stays accurate up to the pole. The angles are
+  // those of eq. 3.20 (sin(pitch) = 2 (w y - x z) as in the erratum's asin); only how they are computed
+  // differs, because near pitch = +-90 deg both the erratum's asin and the roll/yaw atan2 of eq. 3.20 lose
+  // accuracy (the derivative of asin at 1 is infinite; the atan2 arguments shrink to O(cos(pitch))):
+  //  - pitch = atan2(sin, cos) with cos(pitch) = sqrt((1 - sin)(1 + sin)), both factors sums of squares
+  //    (no cancellation), so pitch is accurate to float round-off everywhere;
+  //  - from eq. 3.19, with ch = cos(pitch/2) and sh = sin(pitch/2):
+  //      (w - y, x + z) = (ch - sh) (cos, sin)((roll + yaw)/2),
+  //      (w + y, z - x) = (ch + sh) (cos, sin)((yaw - roll)/2),
+  //    and |(w - y, x + z)|^2 = 1 - sin(pitch), |(w + y, z - x)|^2 = 1 + sin(pitch). Each half-angle atan2
+  //    degrades only where its own pair vanishes, and there its angle is multiplied by cos(pitch) in the
+  //    DCM, so the attitude the angles describe stays accurate to float round-off.
   const Quat q = normalized(qin);
-  const float w = q.w, x = q.x, y = q.y, z = q.z;
-  const float sp = 2.0f * (w * y - x * z);
+  const float a = q.w - q.y, b = q.x + q.z;  // (ch - sh) (cos, sin)((roll + yaw)/2)
+  const float c = q.w + q.y, d = q.z - q.x;  // (ch + sh) (cos, sin)((yaw - roll)/2)
+  const float one_minus_sp = a * a + b * b, one_plus_sp = c * c + d * d;
+  const float sp = 2.0f * (q.w * q.y - q.x * q.z);
   Euler e;
-  if (absf(sp) > 0.99999f) {
-    // Gimbal lock: only yaw - sign(pitch) roll is defined. Put it all in yaw.
-    e.pitch = signf(sp) * kHalfPi;
+  e.pitch = atan2f(sp, sqrtf(one_minus_sp * one_plus_sp));
+  // Gimbal lock only where 1 -+ sin(pitch) < 1e-13, i.e. pitch within ~4.5e-7 rad (a few float steps)
+  // of +-90 deg: there the pair is round-off and roll and yaw are not separable. Only
+  // yaw - sign(pitch) roll is defined; put it all in yaw, roll = 0 (moves the DCM by <= 2 cos(pitch)).
+  if (one_minus_sp < 1e-13f) {  // pitch = +90 deg: yaw - roll
     e.roll = 0.0f;
-    e.yaw = wrap_pi(-2.0f * signf(sp) * atan2f(x, w));
-    return e;
+    e.yaw = wrap_pi(2.0f * atan2f(d, c));
+  } else if (one_plus_sp < 1e-13f) {  // pitch = -90 deg: yaw + roll
+    e.roll = 0.0f;
+    e.yaw = wrap_pi(2.0f * atan2f(b, a));
+  } else {
+    const float sum = atan2f(b, a), diff = atan2f(d, c);  // (roll + yaw)/2, (yaw - roll)/2
+    e.roll = wrap_pi(sum - diff);
+    e.yaw = wrap_pi(sum + diff);
   }
-  e.roll = atan2f(2.0f * (w * x + y * z), 1.0f - 2.0f * (x * x + y * y));
-  e.pitch = safe_asinf(sp);
-  e.yaw = atan2f(2.0f * (w * z + x * y), 1.0f - 2.0f * (y * y + z * z));
   return e;
 }
 

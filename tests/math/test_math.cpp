@@ -6,7 +6,9 @@
 // where a conversion is ill-conditioned by nature (stated at the test).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 
@@ -41,6 +43,45 @@ Eigen::Matrix3d eigen_zyx(double roll, double pitch, double yaw) {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
       .toRotationMatrix();
+}
+
+// Largest error seen over a test's cases, printed when the test ends so the margin to the stated
+// tolerance is visible in the log; every case is also asserted against the tolerance.
+class Worst {
+ public:
+  Worst(const char* what, double tol) : what_(what), tol_(tol) {}
+  Worst(const Worst&) = delete;
+  Worst& operator=(const Worst&) = delete;
+  ~Worst() { std::printf("[ worst    ] %-60s %9.3g  (tolerance %.3g)\n", what_, max_, tol_); }
+  void check(double err, int i) {
+    max_ = std::max(max_, err);
+    EXPECT_LE(err, tol_) << what_ << ", case " << i;
+  }
+
+ private:
+  const char* what_;
+  double tol_;
+  double max_ = 0.0;
+};
+
+double max_abs_diff(const Mat3& a, const Eigen::Matrix3d& b) { return (to_eigen(a) - b).cwiseAbs().maxCoeff(); }
+double max_abs_diff(const Vec3& a, const Eigen::Vector3d& b) { return (to_eigen(a) - b).cwiseAbs().maxCoeff(); }
+double max_abs_diff(const Quat& a, const Eigen::Quaterniond& b) { return (to_eigen(a).coeffs() - b.coeffs()).cwiseAbs().maxCoeff(); }
+
+// A non-unit quaternion: a uniformly random rotation times a norm drawn log-uniformly from [1e-3, 1e3]
+// (case 0 and 1 take the ends exactly, case 2 a typical integration drift of 1 + 1e-3), rounded to float.
+// Oracles work on the float values (converted to double exactly), so input rounding is not an error.
+Quat random_non_unit(std::mt19937& rng, int i) {
+  std::uniform_real_distribution<double> e(-3.0, 3.0);
+  const double scale = i == 0 ? 1e-3 : i == 1 ? 1e3 : i == 2 ? 1.0 + 1e-3 : std::pow(10.0, e(rng));
+  const Eigen::Quaterniond q = random_rotation(rng);
+  return {static_cast<float>(q.w() * scale), static_cast<float>(q.x() * scale), static_cast<float>(q.y() * scale),
+          static_cast<float>(q.z() * scale)};
+}
+
+// ZYX angles of a rotation matrix, in double (the inverse of eq. 3.8; ill-conditioned at pitch +-90 deg).
+Eigen::Vector3d zyx_angles(const Eigen::Matrix3d& r) {
+  return {std::atan2(r(2, 1), r(2, 2)), std::asin(std::max(-1.0, std::min(1.0, -r(2, 0)))), std::atan2(r(1, 0), r(0, 0))};
 }
 
 class MathCore : public ::testing::Test {
@@ -144,9 +185,13 @@ TEST_F(MathCore, QuaternionProductConjugateAndRotationMatchEigen) {
     EXPECT_NEAR(fpq.y, pq.y(), kTol);
     EXPECT_NEAR(fpq.z, pq.z(), kTol);
     const Quat c = conjugate(fq);
-    const Eigen::Quaterniond qc = q.conjugate();
-    EXPECT_NEAR(c.w, qc.w(), 1e-7);
-    EXPECT_NEAR(c.x, qc.x(), 1e-7);
+    // Eigen's conjugate of the same (float) quaternion: negation is exact, so all four components must
+    // agree bit for bit.
+    const Eigen::Quaterniond qc = to_eigen(fq).conjugate();
+    EXPECT_EQ(c.w, qc.w());
+    EXPECT_EQ(c.x, qc.x());
+    EXPECT_EQ(c.y, qc.y());
+    EXPECT_EQ(c.z, qc.z());
     // v_I = q v_B q^-1 (eq. 3.14) is Eigen's active rotation q * v.
     expect_near(rotate(fq, from_eigen(v)), q * v, kTol * (1 + v.norm()));
     expect_near(rotate_inverse(fq, from_eigen(v)), q.conjugate() * v, kTol * (1 + v.norm()));
@@ -170,6 +215,131 @@ TEST_F(MathCore, NormaliseHandlesNonUnitZeroAndNaN) {
   EXPECT_EQ(zero.w, 1.0f);
   const Quat nan = normalized(Quat{std::numeric_limits<float>::quiet_NaN(), 0, 0, 0});
   EXPECT_TRUE(is_finite(nan));
+}
+
+// Operations documented to accept any non-zero quaternion (they normalise internally, or return a
+// normalised result) must give, for s q with any s > 0, what Eigen gives for the unit quaternion q.
+// Tolerances: float round-off of the normalisation (1e-7 relative) plus that of each operation; roll and
+// yaw of to_euler are held to 2e-6 / cos(pitch) rad (their conditioning), the rest to the figures below.
+TEST_F(MathCore, NonUnitQuaternionsIntoNormalisingOperationsMatchEigenOnTheNormalisedQuaternion) {
+  Worst w_norm("normalized(s q) vs Eigen q/|q| (components)", 1e-6);
+  Worst w_canon("canonical(s q) = +-(s q), w >= 0 (components / |q|)", 0.0);
+  Worst w_euler_dcm("to_euler(s q): DCM of the angles vs Eigen R(q/|q|)", 2e-6);
+  Worst w_euler_pitch("to_euler(s q): pitch vs Eigen (rad)", 2e-6);
+  Worst w_euler_ry("to_euler(s q): roll, yaw vs Eigen (rad * cos(pitch))", 2e-6);
+  Worst w_rv("to_rotation_vector(s q) vs Eigen AngleAxis (rad)", 2e-6);
+  Worst w_rv_back("from_rotation_vector(to_rotation_vector(s q)) vs q (rad)", 2e-6);
+  Worst w_angle("angle_between(s a, t b) vs Eigen angularDistance (rad)", 2e-6);
+  Worst w_angle_self("angle_between(s a, -t a) (rad)", 2e-6);
+  Worst w_so("integrate_second_order(s q): vs Eigen q exp(w T) - 0.1 x^3 (rad)", 2e-6);
+  Worst w_so_norm("integrate_second_order(s q): | |result| - 1 |", 1e-6);
+  std::uniform_real_distribution<double> dt(1e-4, 0.01);
+  for (int i = 0; i < kCases; ++i) {
+    const Quat raw = random_non_unit(rng, i), raw_b = random_non_unit(rng, i + 3);
+    const Eigen::Quaterniond qd = to_eigen(raw), qh = qd.normalized(), qh_b = to_eigen(raw_b).normalized();
+    const Eigen::Matrix3d rh = qh.toRotationMatrix();
+
+    w_norm.check(max_abs_diff(normalized(raw), qh), i);
+
+    const Quat c = canonical(raw);
+    EXPECT_GE(c.w, 0.0f);
+    w_canon.check(std::min(max_abs_diff(c, qd), max_abs_diff(c, Eigen::Quaterniond(-qd.coeffs()))) / qd.norm(), i);
+
+    // to_euler: the angles must describe R(q/|q|), and match Eigen's angles where they are defined.
+    const Euler e = to_euler(raw);
+    w_euler_dcm.check(max_abs_diff(dcm_from_euler(e), rh), i);
+    const Eigen::Vector3d ref = zyx_angles(rh);
+    w_euler_pitch.check(std::abs(e.pitch - ref.y()), i);
+    const double cp = std::cos(ref.y());
+    if (cp > 1e-2) {
+      w_euler_ry.check(std::abs(std::remainder(e.roll - ref.x(), 2 * M_PI)) * cp, i);
+      w_euler_ry.check(std::abs(std::remainder(e.yaw - ref.z(), 2 * M_PI)) * cp, i);
+    }
+
+    // to_rotation_vector: Eigen's AngleAxis picks the angle in [0, pi] (the w >= 0 representative), as
+    // the core does; within 1e-3 rad of pi the axis sign is a free choice, so compare the rotation there.
+    const Vec3 rv = to_rotation_vector(raw);
+    const Eigen::AngleAxisd aa(qh);
+    if (aa.angle() < M_PI - 1e-3) w_rv.check(max_abs_diff(rv, aa.axis() * aa.angle()), i);
+    w_rv_back.check(rotation_distance(to_eigen(from_rotation_vector(rv)), qh), i);
+
+    w_angle.check(std::abs(angle_between(raw, raw_b) - qh.angularDistance(qh_b)), i);
+    w_angle_self.check(std::abs(angle_between(raw, raw * -3.7f)), i);
+
+    const Eigen::Vector3d om = random_vector(rng, 3.0);
+    const double t = dt(rng);
+    const Eigen::Quaterniond expect = qh * Eigen::Quaterniond(Eigen::AngleAxisd(om.norm() * t, om.normalized()));
+    const Quat so = integrate_second_order(raw, from_eigen(om), static_cast<float>(t));
+    const double x = 0.5 * t * om.norm();
+    w_so.check(std::max(0.0, rotation_distance(to_eigen(so), expect) - 0.1 * x * x * x), i);
+    w_so_norm.check(std::abs(to_eigen(so).norm() - 1.0), i);
+  }
+}
+
+// to_dcm and rotate are the cheap unit-quaternion forms of eq. 3.18 and eq. 3.14 (no normalisation: they
+// run in the AVR loop). For q = s u with u a unit quaternion, eq. 3.18 as printed (1 - 2(y^2 + z^2) on the
+// diagonal) gives s^2 R(u) + (1 - s^2) I, which is neither R(u) nor the s^2 R(u) of the homogeneous eq.
+// 3.16; rotate() is the same map applied to v. The header documents exactly this, and it is checked here
+// against Eigen's R(u). Tolerance 1e-6 * (1 + s^2) (* (1 + |v|)): float round-off of entries of size s^2.
+TEST_F(MathCore, NonUnitQuaternionsIntoToDcmAndRotateGiveTheDocumentedMap) {
+  Worst w_dcm("to_dcm(s u) vs s^2 R(u) + (1 - s^2) I, / (1 + s^2)", 1e-6);
+  Worst w_rot("rotate(s u, v) vs (s^2 R(u) + (1 - s^2) I) v, / ((1 + s^2)(1 + |v|))", 1e-6);
+  Worst w_inv("rotate_inverse(s u, v) vs (s^2 R(u)^T + (1 - s^2) I) v, / (..)", 1e-6);
+  Worst w_drift("|q| = 1 + d, |d| < 1e-2: |rotate - R(u) v| / (2 |s^2 - 1| |v|)", 1.0 + 1e-3);
+  for (int i = 0; i < kCases; ++i) {
+    const Quat raw = random_non_unit(rng, i);
+    const Eigen::Quaterniond qd = to_eigen(raw);
+    const double s2 = qd.squaredNorm();
+    const Eigen::Matrix3d rh = qd.normalized().toRotationMatrix();
+    const Eigen::Matrix3d id = Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d v = random_vector(rng, 3.0);
+    const double scale = (1.0 + s2) * (1.0 + v.norm());
+    w_dcm.check(max_abs_diff(to_dcm(raw), s2 * rh + (1.0 - s2) * id) / (1.0 + s2), i);
+    w_rot.check(max_abs_diff(rotate(raw, from_eigen(v)), (s2 * rh + (1.0 - s2) * id) * v) / scale, i);
+    w_inv.check(max_abs_diff(rotate_inverse(raw, from_eigen(v)), (s2 * rh.transpose() + (1.0 - s2) * id) * v) / scale, i);
+  }
+  // The documented error bound for a slightly drifted norm (what an integrator leaves between
+  // renormalisations): |rotate(q, v) - R(u) v| = |s^2 - 1| |(R(u) - I) v| <= 2 |s^2 - 1| |v|.
+  std::uniform_real_distribution<double> drift(-1e-2, 1e-2);
+  for (int i = 0; i < kCases; ++i) {
+    const Eigen::Quaterniond u = random_rotation(rng);
+    const double s = 1.0 + drift(rng);
+    const Quat raw = from_eigen(Eigen::Quaterniond(u.coeffs() * s));
+    const Eigen::Quaterniond qd = to_eigen(raw);
+    const double s2 = qd.squaredNorm();
+    const Eigen::Vector3d v = random_vector(rng, 3.0);
+    const Eigen::Vector3d err = to_eigen(rotate(raw, from_eigen(v))) - qd.normalized() * v;
+    w_drift.check(err.norm() / (2.0 * std::abs(s2 - 1.0) * v.norm() + 1e-6 * (1.0 + v.norm())), i);
+  }
+}
+
+// The quaternion product, the conjugate and the exact propagator are homogeneous: they do not normalise
+// and the norm passes through (|p q| = |p| |q|, q conj(q) = |q|^2, |integrate_exact(q)| = |q|). Against
+// Eigen's product on the same non-unit quaternions; tolerances relative to the result's norm.
+TEST_F(MathCore, NonUnitQuaternionsInProductConjugateAndExactPropagatorScaleHomogeneously) {
+  Worst w_prod("p (x) q vs Eigen p * q (non-unit), / (|p| |q|)", 1e-6);
+  Worst w_conj("q (x) conjugate(q) vs |q|^2 (1, 0, 0, 0), / |q|^2", 1e-6);
+  Worst w_exact("integrate_exact(s u) vs Eigen (s u) * exp(w T), / s", 1e-6);
+  std::uniform_real_distribution<double> dt(1e-4, 0.05);
+  for (int i = 0; i < kCases; ++i) {
+    const Quat p = random_non_unit(rng, i), q = random_non_unit(rng, i + 1);
+    const Eigen::Quaterniond pd = to_eigen(p), qd = to_eigen(q);
+    w_prod.check(max_abs_diff(p * q, pd * qd) / (pd.norm() * qd.norm()), i);
+
+    const Quat c = conjugate(q);
+    const Eigen::Quaterniond cd = qd.conjugate();
+    EXPECT_EQ(c.w, cd.w());
+    EXPECT_EQ(c.x, cd.x());
+    EXPECT_EQ(c.y, cd.y());
+    EXPECT_EQ(c.z, cd.z());
+    const double n2 = qd.squaredNorm();
+    w_conj.check(max_abs_diff(q * c, Eigen::Quaterniond(n2, 0, 0, 0)) / n2, i);
+
+    const Eigen::Vector3d om = random_vector(rng, 3.0);
+    const double t = dt(rng);
+    const Eigen::Quaterniond expect = qd * Eigen::Quaterniond(Eigen::AngleAxisd(om.norm() * t, om.normalized()));
+    w_exact.check(max_abs_diff(integrate_exact(q, from_eigen(om), static_cast<float>(t)), expect) / qd.norm(), i);
+  }
 }
 
 TEST_F(MathCore, DcmFromQuaternionMatchesEigen) {
@@ -232,16 +402,64 @@ TEST_F(MathCore, EulerMatchesEigenZyx) {
   }
 }
 
+// At and around the lock threshold (1 -+ sin(pitch) < 1e-13, pitch within ~4.5e-7 rad of +-90 deg):
+// finite, |pitch| <= 90 deg, the same attitude to 2e-6 (DCM entries), and exactly at +-90 deg the
+// documented convention roll = 0.
 TEST_F(MathCore, EulerAtGimbalLockIsFiniteAndRepresentsTheSameRotation) {
+  Worst w_dcm("to_euler at/near gimbal lock: DCM vs Eigen ZYX", 2e-6);
   std::uniform_real_distribution<double> ang(-M_PI, M_PI);
+  const double offsets[] = {0.0, 1e-8, 1e-7, 3e-7, 4.5e-7, 6e-7, 1e-6, 1e-4, 2e-4};
   for (int i = 0; i < kCases; ++i) {
-    const double pitch = (i % 2 ? 1 : -1) * (M_PI / 2 - (i % 3) * 1e-4);
+    const double off = offsets[(i / 2) % 9];
+    const double pitch = (i % 2 ? 1 : -1) * (M_PI / 2 - off);
     const Eigen::Matrix3d r = eigen_zyx(ang(rng), pitch, ang(rng));
     const Euler e = to_euler(from_eigen(Eigen::Quaterniond(r)));
     ASSERT_TRUE(is_finite(e.roll) && is_finite(e.pitch) && is_finite(e.yaw));
-    EXPECT_LE(std::abs(e.pitch), M_PI / 2 + 1e-6);
+    EXPECT_LE(std::abs(e.pitch), kHalfPi);
+    if (off == 0.0) EXPECT_EQ(e.roll, 0.0f) << "case " << i;
     // The angles must describe the same attitude even though the split between roll and yaw is free.
-    expect_near(dcm_from_euler(e), r, 2e-3);
+    w_dcm.check(max_abs_diff(dcm_from_euler(e), r), i);
+  }
+  // Pitch exactly +-90 deg in float through the core's eq. 3.19.
+  for (float sign : {1.0f, -1.0f}) {
+    const Euler e = to_euler(from_euler(Euler{0.7f, sign * kHalfPi, -2.1f}));
+    EXPECT_EQ(e.roll, 0.0f);
+    EXPECT_NEAR(e.pitch, sign * kHalfPi, 1e-6);
+    w_dcm.check(max_abs_diff(dcm_from_euler(e), eigen_zyx(0.7f, sign * kHalfPi, -2.1f)), 0);
+  }
+}
+
+// Pitch 1e-6 .. 1e-2 rad away from +-90 deg (log-uniform, both signs, random roll and yaw): the round
+// trip Euler -> quaternion -> Euler must give back the same attitude (DCM of the angles against Eigen's
+// ZYX matrix of the input angles) and the same pitch. Roll and yaw alone are ill-conditioned here (only
+// yaw - sign(pitch) roll is well determined at the pole), so they are checked through the DCM and that
+// combination. The quaternion comes both from the core's eq. 3.19 and from Eigen. Tolerance 2e-6 (DCM
+// entries, radians): float round-off, nothing left of the former snap of pitch to +-90 deg within
+// |sin(pitch)| > 0.99999, which cost up to 4.5e-3 rad.
+TEST_F(MathCore, EulerRoundTripNearPlusMinus90DegPitchMatchesEigen) {
+  Worst w_dcm("euler -> from_euler -> to_euler: DCM vs Eigen ZYX", 2e-6);
+  Worst w_pitch("euler -> from_euler -> to_euler: pitch (rad)", 2e-6);
+  Worst w_comb("euler -> from_euler -> to_euler: yaw - sign(pitch) roll (rad)", 2e-6);
+  Worst w_dcm_e("euler -> Eigen quaternion -> to_euler: DCM vs Eigen ZYX", 2e-6);
+  Worst w_pitch_e("euler -> Eigen quaternion -> to_euler: pitch (rad)", 2e-6);
+  std::uniform_real_distribution<double> ang(-M_PI, M_PI), lg(-6.0, -2.0);
+  for (int i = 0; i < kCases; ++i) {
+    const double off = i < 2 ? 1e-6 : i < 4 ? 1e-2 : std::pow(10.0, lg(rng));
+    const double sign = i % 2 ? 1.0 : -1.0;
+    const Euler in{static_cast<float>(ang(rng)), static_cast<float>(sign * (M_PI / 2 - off)), static_cast<float>(ang(rng))};
+    const Eigen::Matrix3d r = eigen_zyx(in.roll, in.pitch, in.yaw);  // of the float angles: no input rounding
+
+    const Euler back = to_euler(from_euler(in));
+    ASSERT_TRUE(is_finite(back.roll) && is_finite(back.pitch) && is_finite(back.yaw));
+    EXPECT_LE(std::abs(back.pitch), kHalfPi);
+    w_dcm.check(max_abs_diff(dcm_from_euler(back), r), i);
+    w_pitch.check(std::abs(back.pitch - in.pitch), i);
+    const double comb_in = in.yaw - sign * in.roll, comb_back = back.yaw - sign * back.roll;
+    w_comb.check(std::abs(std::remainder(comb_back - comb_in, 2 * M_PI)), i);
+
+    const Euler back_e = to_euler(from_eigen(Eigen::Quaterniond(r)));
+    w_dcm_e.check(max_abs_diff(dcm_from_euler(back_e), r), i);
+    w_pitch_e.check(std::abs(back_e.pitch - in.pitch), i);
   }
 }
 
