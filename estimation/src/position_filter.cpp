@@ -8,6 +8,7 @@ namespace {
 constexpr float kMaxStep = 0.5f;        // s: a longer predict step is a gap, not a sample period
 constexpr int32_t kRebaseAfterUs = 1000000;  // 1 s: re-express the accumulated correction at a newer origin
 constexpr float kFoldThreshold = 1.0f;  // m: fold the accumulated correction into the history beyond this
+constexpr float kMaxKeptSpeed = 10.0f;  // m/s: a faster velocity estimate is not kept through a reset
 
 // Signed microseconds a - b on the wrapping 32-bit vehicle clock, in seconds.
 float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static_cast<int32_t>(a - b)) * 1e-6f; }
@@ -78,28 +79,37 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
   const bool white = params.process_noise == ProcessNoise::WhiteAcceleration;
   qp_ = white ? 0.0f : params.q_pos;
   qv_ = white ? params.q_accel : params.q_vel;
-  qb_ = params.z_accel_bias ? params.q_bias : 0.0f;
+  qb_[0] = params.xy_accel_bias ? params.q_bias_xy : 0.0f;
+  qb_[1] = params.z_accel_bias ? params.q_bias : 0.0f;
   q_dt_ = -1.0f;  // the cached Q(T) belongs to the old parameters
   if (one_class_) {  // z gets its own copy back before the sharing is re-decided
     p_[1] = p_[0];
     for (int j = 0; j < 3; ++j) gain_[1][j] = gain_[0][j];
   }
-  if (!params.z_accel_bias) {
-    x_[2].b = 0.0f;
-    p_[1].pb = p_[1].vb = p_[1].bb = 0.0f;
-    corr_[2].b = 0.0f;
+  for (int c = 0; c < 2; ++c) {
+    // A bias state switched on in flight starts uncertain, so that it learns; one switched off is gone.
+    if (class_has_bias(c)) {
+      if (initialized_ && p_[c].bb == 0.0f) p_[c].bb = sqf(params.bias_sigma0);
+      continue;
+    }
+    p_[c].pb = p_[c].vb = p_[c].bb = 0.0f;
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (has_bias(i)) continue;
+    x_[i].b = 0.0f;
+    corr_[i].b = 0.0f;
   }
   update_class_sharing();
 }
 
-// z shares the horizontal covariance when its model and fix noise are the same (no bias state, equal
-// sigma) and its covariance is bit-identical now: the same operations then keep it identical, so
+// z shares the horizontal covariance when its model and fix noise are the same (the same bias choice,
+// equal sigma) and its covariance is bit-identical now: the same operations then keep it identical, so
 // computing it once is exact, not an approximation.
 void PositionFilterCore::update_class_sharing() {
   const AxisCovariance& a = p_[0];
   const AxisCovariance& b = p_[1];
-  one_class_ = !params_.z_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z && a.pp == b.pp &&
-               a.pv == b.pv && a.vv == b.vv && b.pb == 0.0f && b.vb == 0.0f && b.bb == 0.0f;
+  one_class_ = qb_[0] == qb_[1] && params_.z_accel_bias == params_.xy_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z &&
+               a.pp == b.pp && a.pv == b.pv && a.vv == b.vv && a.pb == b.pb && a.vb == b.vb && a.bb == b.bb;
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
@@ -111,8 +121,8 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
     p_[c] = AxisCovariance{};
     p_[c].pp = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
     p_[c].vv = sqf(params_.vel_sigma0);
+    if (class_has_bias(c)) p_[c].bb = sqf(params_.bias_sigma0);
   }
-  if (params_.z_accel_bias) p_[1].bb = sqf(params_.bias_sigma0);
   update_class_sharing();
   t_us_ = t_us;
   corr_origin_us_ = t_us;
@@ -189,13 +199,12 @@ void PositionFilterCore::fold_correction() {
   for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
 }
 
-// thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u_z - b on z).
+// thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u - b with a bias).
 void PositionFilterCore::propagate(const Vec3& u, float dt) {
   // Q(T) and T^2/2 depend only on T, which is the loop period on every step but the odd one: cache them.
-  const bool bias = params_.z_accel_bias;
   if (dt != q_dt_) {
-    q_[0] = process_noise(dt, qp_, qv_, 0.0f);
-    q_[1] = bias ? process_noise(dt, qp_, qv_, qb_) : q_[0];
+    q_[0] = process_noise(dt, qp_, qv_, qb_[0]);
+    q_[1] = qb_[1] == qb_[0] ? q_[0] : process_noise(dt, qp_, qv_, qb_[1]);
     half_dt_sq_ = 0.5f * dt * dt;
     q_dt_ = dt;
   }
@@ -206,8 +215,8 @@ void PositionFilterCore::propagate(const Vec3& u, float dt) {
     x.p += dt * x.v + h * a;
     x.v += dt * a;
   }
-  propagate_covariance(p_[0], dt, false, q_[0]);
-  if (!one_class_) propagate_covariance(p_[1], dt, bias, q_[1]);
+  propagate_covariance(p_[0], dt, class_has_bias(0), q_[0]);
+  if (!one_class_) propagate_covariance(p_[1], dt, class_has_bias(1), q_[1]);
 }
 
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
@@ -281,9 +290,27 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
   const uint32_t now = t_us_;
   const float tau = seconds_between(now, capture_us);
   if (!(tau > 0.0f) || tau > kMaxStep) capture_us = now;
-  reset(p_ned, Vec3{}, capture_us);
+  // A jump of the fix says nothing about the acceleration bias (a property of the IMU and the tilt
+  // estimate): the learned biases and their variances survive the reset, uncorrelated with the new state.
+  float bias[3], bias_var[2];
+  for (int i = 0; i < 3; ++i) bias[i] = x_[i].b;
+  for (int c = 0; c < 2; ++c) bias_var[c] = p_[c == 1 && one_class_ ? 0 : c].bb;
+  // The velocity too: it comes from the IMU, not the fix, and zeroing it in flight (a fix back after
+  // an outage during a failsafe descent) would let the vehicle speed up while the filter catches up. It
+  // keeps the initial velocity uncertainty, so the fixes still correct it.
+  const bool keep_bias = initialized_;
+  const Vec3 v = velocity();
+  const bool keep_velocity = initialized_ && is_finite(v) && norm(v) < kMaxKeptSpeed;
+  reset(p_ned, keep_velocity ? v : Vec3{}, capture_us);
+  if (keep_bias) {
+    for (int i = 0; i < 3; ++i) x_[i].b = has_bias(i) ? bias[i] : 0.0f;
+    for (int c = 0; c < 2; ++c) {
+      if (class_has_bias(c) && bias_var[c] > 0.0f) p_[c].bb = bias_var[c];
+    }
+    update_class_sharing();
+  }
   if (capture_us != now) {
-    propagate(Vec3{}, seconds_between(now, capture_us));
+    propagate(Vec3{}, seconds_between(now, capture_us));  // (the kept velocity carries the position)
     t_us_ = now;
     push_history();
   }
@@ -327,10 +354,10 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   const float h1 = -tau, h2 = -0.5f * tau * tau;
   AxisCovariance q_tau[2];
   const int classes = class_count();
-  q_tau[0] = process_noise(tau, qp_, qv_, 0.0f);
-  if (classes == 2) q_tau[1] = params_.z_accel_bias ? process_noise(tau, qp_, qv_, qb_) : q_tau[0];
+  q_tau[0] = process_noise(tau, qp_, qv_, qb_[0]);
+  if (classes == 2) q_tau[1] = qb_[1] == qb_[0] ? q_tau[0] : process_noise(tau, qp_, qv_, qb_[1]);
   for (int c = 0; c < classes; ++c) {
-    const bool bias = c == 1 && params_.z_accel_bias;
+    const bool bias = class_has_bias(c);
     const AxisCovariance& q = q_tau[c];
     const AxisCovariance& p = p_[c];
     const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
@@ -375,7 +402,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     p.pp -= k[0] * w[c][0];
     p.pv -= k[0] * w[c][1];
     p.vv -= k[1] * w[c][1];
-    if (c == 1 && params_.z_accel_bias) {
+    if (class_has_bias(c)) {
       p.pb -= k[0] * w[c][2];
       p.vb -= k[1] * w[c][2];
       p.bb -= k[2] * w[c][2];

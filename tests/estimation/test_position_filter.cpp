@@ -48,7 +48,7 @@ Eigen::Matrix3d q_of(double t, const Eigen::Vector3d& q) {
 
 Eigen::Vector3d q_spectral(const PositionFilterParams& p, int axis) {
   const bool white = p.process_noise == ProcessNoise::WhiteAcceleration;
-  const double qb = (axis == 2 && p.z_accel_bias) ? p.q_bias : 0.0;
+  const double qb = axis == 2 ? (p.z_accel_bias ? p.q_bias : 0.0) : (p.xy_accel_bias ? p.q_bias_xy : 0.0);
   return {white ? 0.0 : p.q_pos, white ? p.q_accel : p.q_vel, qb};
 }
 
@@ -234,6 +234,12 @@ TEST(PositionFilter, SteadyStateGainMatchesDare) {
     cases.push_back({"white acceleration + z bias", p, 0.0});
     cases.push_back({"white acceleration + z bias, fixes 100 ms late", p, 0.1});
   }
+  {
+    PositionFilterParams p;  // thesis Q, bias states on every axis, each with its own random walk
+    p.z_accel_bias = true;
+    p.xy_accel_bias = true;
+    cases.push_back({"thesis Q + xyz bias, fixes 40 ms late", p, 0.04});
+  }
   for (const Case& c : cases) {
     // Fixes every 3rd step (33 Hz), noise-free inputs: the gain depends only on the model.
     Filter kf(c.p);
@@ -241,13 +247,13 @@ TEST(PositionFilter, SteadyStateGainMatchesDare) {
     kf.predict(Vec3{}, t0);
     kf.reset(Vec3{}, Vec3{}, t0);
     const uint32_t delay_us = static_cast<uint32_t>(std::lround(c.delay * 1e6));
-    for (int k = 1; k <= 3000; ++k) {
+    for (int k = 1; k <= 30000; ++k) {  // 300 s: the slow bias mode of the thesis Q converges too
       const uint32_t now = t0 + static_cast<uint32_t>(k) * kStepUs;
       kf.predict(Vec3{}, now);
       if (k % 3 == 0 && k * kStepUs > delay_us) ASSERT_EQ(kf.fuse_position(Vec3{}, now - delay_us), FixResult::Fused);
     }
     for (int axis = 0; axis < 3; ++axis) {
-      const bool bias = axis == 2 && c.p.z_accel_bias;
+      const bool bias = axis == 2 ? c.p.z_accel_bias : c.p.xy_accel_bias;
       const int n = bias ? 3 : 2;
       const double period = 3.0 / kRate;
       const Eigen::MatrixXd f = phi(period).topLeftCorner(n, n);
@@ -275,7 +281,9 @@ TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
   const SimRun run = make_run(sc);
   PositionFilterParams p = tuned();
   p.z_accel_bias = true;
+  p.xy_accel_bias = true;  // the bias algebra on every axis (the no-bias one: the DARE and NEES tests)
   p.q_bias = 1e-3f;
+  p.q_bias_xy = 1e-3f;
   p.gate_sigma = 1e3f;  // compare the algebra, not the gate
 
   Filter kf(p);
@@ -292,7 +300,7 @@ TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
       o[i].q = q_spectral(p, i);
       o[i].r = std::pow(i == 2 ? p.fix_sigma_z : p.fix_sigma_xy, 2);
       o[i].x << run.p_true[0](i), i == 0 ? 0.2 : 0.0, 0.0;
-      o[i].p.diagonal() << o[i].r, std::pow(p.vel_sigma0, 2), i == 2 ? std::pow(p.bias_sigma0, 2) : 0.0;
+      o[i].p.diagonal() << o[i].r, std::pow(p.vel_sigma0, 2), std::pow(p.bias_sigma0, 2);
     }
     size_t f = 0;
     for (size_t j = 1; j <= k; ++j) {
@@ -490,6 +498,78 @@ TEST(PositionFilter, ZAccelerometerBiasStateRemovesHeightDrift) {
             << z_rms[1] * 1e3 << " mm\n";
   EXPECT_NEAR(kf.accel_bias_z(), 0.3, 0.03);
   EXPECT_LT(z_rms[1], 0.7 * z_rms[0]);
+}
+
+TEST(PositionFilter, HorizontalBiasStateRemovesTheVelocityErrorOfATiltError) {
+  // A tilt error of 0.02 rad (the observer learning a 0.02 rad/s gyro bias step with k1 = 1) puts
+  // g * 0.02 = 0.2 m/s^2 into u on x and y. With the thesis' Q the position fixes hold the position, but
+  // the velocity estimate then carries a steady error that eq. 8.20's K_v (11.875) turns into an offset.
+  Scenario sc;
+  sc.seconds = 30.0;
+  sc.accel_bias = Eigen::Vector3d(0.2, -0.2, 0.0);
+  sc.delay = 0.04;
+  const SimRun run = make_run(sc);
+  PositionFilterParams without;  // thesis table 8.1
+  PositionFilterParams with = without;
+  with.xy_accel_bias = true;  // with the default random walk q_bias_xy
+  double v_mean[2][2];
+  Vec3 bias;
+  for (int m = 0; m < 2; ++m) {
+    Filter f(m == 0 ? without : with);
+    double sum[2] = {0, 0};
+    int n = 0;
+    const std::vector<Eigen::Vector3d> v_true = [&] {
+      std::vector<Eigen::Vector3d> v(run.p_true.size(), Eigen::Vector3d::Zero());
+      for (size_t k = 1; k + 1 < run.p_true.size(); ++k) v[k] = (run.p_true[k + 1] - run.p_true[k - 1]) * (kRate / 2.0);
+      return v;
+    }();
+    run_filter(f, run, true, [&](size_t k) {
+      if (k < 15 * kRate || k + 1 >= run.p_true.size()) return;  // the last 15 s
+      for (int i = 0; i < 2; ++i) sum[i] += f.velocity()[i] - v_true[k](i);
+      ++n;
+    });
+    for (int i = 0; i < 2; ++i) v_mean[m][i] = sum[i] / n;
+    if (m == 1) bias = f.accel_bias();
+  }
+  std::cout << "[figure] 0.2 m/s^2 horizontal error in u, thesis Q, fixes 30 Hz 40 ms late: mean velocity error "
+            << "without the bias state (" << v_mean[0][0] << ", " << v_mean[0][1] << ") m/s, with it ("
+            << v_mean[1][0] << ", " << v_mean[1][1] << ") m/s; estimated bias (" << bias.x << ", " << bias.y
+            << ", " << bias.z << ") m/s^2\n";
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_GT(std::abs(v_mean[0][i]), 0.02) << "without the state the error is there (axis " << i << ")";
+    EXPECT_LT(std::abs(v_mean[1][i]), 0.1 * std::abs(v_mean[0][i])) << "axis " << i;
+  }
+  EXPECT_NEAR(bias.x, 0.2f, 0.02f);
+  EXPECT_NEAR(bias.y, -0.2f, 0.02f);
+  EXPECT_EQ(bias.z, 0.0f) << "z has no bias state here";
+}
+
+TEST(PositionFilter, AResetOnAJumpOfTheFixKeepsTheLearnedBias) {
+  // A persistent jump of the fix (a decoy, a re-placed marker) re-initialises the position; the
+  // acceleration bias belongs to the IMU and the tilt estimate, not to the position, and must survive.
+  PositionFilterParams p;
+  p.xy_accel_bias = true;
+  p.z_accel_bias = true;
+  p.reset_after_rejections = 5;
+  Filter kf(p);
+  uint32_t now = 1000;
+  kf.predict(Vec3{}, now);
+  const Vec3 u{0.15f, -0.1f, 0.05f};  // the error in u, at rest
+  for (int k = 1; k <= 3000; ++k) {
+    kf.predict(u, now += kStepUs);
+    if (k % 3 == 0) kf.fuse_position(Vec3{}, now - 40000);
+  }
+  const Vec3 learned = kf.accel_bias();
+  EXPECT_NEAR(learned.x, 0.15f, 0.02f);
+  EXPECT_NEAR(learned.y, -0.1f, 0.02f);
+  for (int k = 0; k < 6 * 3; ++k) {
+    kf.predict(u, now += kStepUs);
+    if (k % 3 == 0) kf.fuse_position(Vec3{10.0f, 0.0f, 0.0f}, now);
+  }
+  EXPECT_EQ(kf.health().resets, 1u);
+  EXPECT_NEAR(kf.position().x, 10.0f, 0.01f);
+  for (int i = 0; i < 3; ++i) EXPECT_FLOAT_EQ(kf.accel_bias()[i], learned[i]) << "axis " << i;
+  EXPECT_GT(kf.covariance(0).bb, 0.0f);
 }
 
 TEST(PositionFilter, RefusesFixesItCannotPlace) {

@@ -10,8 +10,11 @@
 //     kf.fuse_position(p_ned, capture_us);
 //   kf.position(), kf.velocity()
 //
-// Each NED axis is its own filter with state (p, v), plus an accelerometer bias b on z when enabled
-// (v' = u_z - b). Process noise is the continuous model whose Euler form is eq. 8.12,
+// Each NED axis is its own filter with state (p, v), plus an acceleration bias b when enabled (v' = u - b):
+// on z it is the accelerometer's bias along the vertical (an uncorrected one makes the height drift); on
+// x and y it is the horizontal error of u, chiefly g times the observer's tilt error while it learns a
+// gyro bias step (without it that error becomes a steady velocity error, which eq. 8.20's K_v turns into
+// a position offset). Process noise is the continuous model whose Euler form is eq. 8.12,
 // Q(T) = int_0^T Phi(t) diag(q_p, q_v, q_b) Phi(t)^T dt, discretised exactly so that it composes over
 // any sequence of steps; the white-acceleration model is q_p = 0, q_v = sigma_a^2.
 //
@@ -23,7 +26,8 @@
 // kept as one accumulated correction per axis instead of rewriting the buffer. Fixes older than the
 // buffer, older than the last fused fix, or from before a reset are refused. The first fix initialises
 // the filter at its capture time; a fix after 20 consecutive gate rejections or while the position
-// sigma exceeds 5 m (dead reckoning through an outage) resets it the same way.
+// sigma exceeds 5 m (dead reckoning through an outage) resets it the same way, keeping the velocity
+// and the acceleration biases (they come from the IMU, not from the fix).
 //
 // Capacity: history_length(rate_hz) entries cover 250 ms at rate_hz (26 at 100 Hz: 416 bytes; 101 at
 // 400 Hz). Fixes captured before the oldest entry are rejected as too old.
@@ -62,7 +66,11 @@ struct PositionFilterParams {
   float fix_sigma_xy = 0.05f;  // sigma_r of a vision fix, horizontal, m   (eq. 8.12b)
   float fix_sigma_z = 0.05f;   // sigma_r of a vision fix, vertical, m
   bool z_accel_bias = false;   // estimate a constant accelerometer bias along NED z
-  float q_bias = 1e-4f;        // bias random walk, (m/s^2)^2/s
+  bool xy_accel_bias = false;  // estimate a constant acceleration error along NED x and y
+  float q_bias = 1e-4f;        // z bias random walk, (m/s^2)^2/s (an accelerometer bias drifts slowly)
+  // x/y bias random walk, (m/s^2)^2/s: a tilt error changes within seconds (the observer's bias mode), so
+  // this state must follow it: 3e-2 learns a 0.2 m/s^2 step to 5 % in about 15 s with the thesis' Q.
+  float q_bias_xy = 3e-2f;
   float bias_sigma0 = 0.3f;    // initial bias standard deviation, m/s^2
   float vel_sigma0 = 1.0f;     // initial velocity standard deviation, m/s
   float gate_sigma = 5.0f;     // a fix is rejected if any axis' innovation exceeds gate_sigma * sqrt(S)
@@ -123,9 +131,11 @@ class PositionFilterCore {
   Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
   float accel_bias_z() const { return x_[2].b; }  // m/s^2; 0 unless z_accel_bias
+  // The acceleration bias of every axis (m/s^2, NED); zero on the axes without a bias state.
+  Vec3 accel_bias() const { return {x_[0].b, x_[1].b, x_[2].b}; }
   // x and y share one model, noise and the fusion instants, so their covariances are identical: one is
-  // kept (and computed) for both. When z has the same fix noise and no bias (the defaults), its
-  // covariance is identical too and the one class serves all three axes.
+  // kept (and computed) for both. When z has the same fix noise and the same bias choice as x and y
+  // (the defaults), its covariance is identical too and the one class serves all three axes.
   const AxisCovariance& covariance(int axis) const { return p_[covariance_class(axis)]; }
   // Kalman gain of the last fused fix on each axis (position, velocity), at the fix's capture time.
   float last_gain_p(int axis) const;
@@ -152,8 +162,10 @@ class PositionFilterCore {
   // Index into p_, q_ and gain_ of an axis' covariance class: 0 for x and y, 1 for z unless z shares.
   int covariance_class(int axis) const { return axis == 2 && !one_class_ ? 1 : 0; }
   int class_count() const { return one_class_ ? 1 : 2; }
-  // Only z can carry the accelerometer bias state; on the other axes b and its corrections stay zero.
-  bool has_bias(int axis) const { return axis == 2 && params_.z_accel_bias; }
+  // Whether an axis, or a covariance class, carries the bias state; where it does not, b and its
+  // corrections stay zero.
+  bool has_bias(int axis) const { return axis == 2 ? params_.z_accel_bias : params_.xy_accel_bias; }
+  bool class_has_bias(int c) const { return c == 0 ? params_.xy_accel_bias : params_.z_accel_bias; }
   void update_class_sharing();
   void push_history();
   void clear_history();
@@ -165,7 +177,8 @@ class PositionFilterCore {
   void propagate(const Vec3& u, float dt);
 
   PositionFilterParams params_;
-  float qp_ = 0.0f, qv_ = 0.0f, qb_ = 0.0f;  // spectral densities of position, velocity, z bias
+  float qp_ = 0.0f, qv_ = 0.0f;              // spectral densities of position, velocity
+  float qb_[2] = {0.0f, 0.0f};               // of the bias, per covariance class (0 if it has none)
   float q_dt_ = -1.0f;                       // step of the cached process noise (the loop period)
   AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
   float half_dt_sq_ = 0.0f;                  // q_dt_^2 / 2
