@@ -26,6 +26,8 @@ constexpr uint16_t kIgnorePosition = 0x7u;
 constexpr uint16_t kIgnoreYaw = 0x400u;
 
 constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
+// m/s: the position trim does not learn along an axis the shaped setpoint moves on faster than this.
+constexpr float kTrimMovingSpeed = 0.05f;
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
@@ -199,6 +201,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   fp.fix_sigma_z = p.get(kKfFixSigZ);
   fp.gate_sigma = p.get(kKfGateSig);
   fp.z_accel_bias = p.get(kKfZBias) >= 0.5f;
+  fp.xy_accel_bias = p.get(kKfXYBias) >= 0.5f;
   filter_.set_params(fp);
 
   star_ned_ = Vec3{p.get(kVisStarN), p.get(kVisStarE), p.get(kVisStarD)};
@@ -231,7 +234,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
 
-  hover_trim_.configure(p.get(kPosKiZ), p.get(kPosIMaxZ));
+  trim_.configure(p.get(kPosKiXY), p.get(kPosIMaxXY), p.get(kPosKiZ), p.get(kPosIMaxZ));
   land_speed_ = p.get(kLandSpeed);
   land_vz_max_ = p.get(kLandVzMax);
   land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
@@ -680,7 +683,7 @@ void FlightApp::enter_mode(FlightMode from, FlightMode to) {
       manual_.reset(yaw);
       if (from == FlightMode::kDisarmed) {
         landed_ = true;
-        hover_trim_.reset();
+        trim_.reset();
       }
       break;
     case FlightMode::kAuto:
@@ -716,10 +719,15 @@ void FlightApp::control(float dt) {
       break;
     case FlightMode::kAuto: {
       shaper_.update(dt, setpoint_);
-      // The hover trim learns only in the air: on the ground the height error is the ground's doing.
-      if (!landed_) hover_trim_.update(s.p.z - setpoint_.p_d.z, dt);
+      // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
+      // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
+      if (!landed_) {
+        const bool learn[3] = {absf(setpoint_.v_d.x) < kTrimMovingSpeed, absf(setpoint_.v_d.y) < kTrimMovingSpeed,
+                               absf(setpoint_.v_d.z) < kTrimMovingSpeed};
+        trim_.update(s.p - setpoint_.p_d, learn, dt);
+      }
       ctrl::PositionSetpoint sp = setpoint_;
-      sp.a_d.z += hover_trim_.accel();
+      sp.a_d += trim_.accel();
       out = &cascade_.step(s, sp);
       break;
     }
@@ -730,7 +738,7 @@ void FlightApp::control(float dt) {
       ctrl::PositionSetpoint sp = setpoint_;
       sp.p_d.z = s.p.z;
       sp.v_d = Vec3{0.0f, 0.0f, land_speed_};
-      sp.a_d = Vec3{0.0f, 0.0f, hover_trim_.accel()};  // the learned trim, frozen
+      sp.a_d = Vec3{0.0f, 0.0f, trim_.accel_z()};  // the learned vertical trim, frozen
       if (modes_.land_level()) {
         sp.p_d.x = s.p.x;
         sp.p_d.y = s.p.y;
@@ -759,7 +767,7 @@ void FlightApp::detect_landing(float dt) {
   // On the ground the commanded descent cannot happen: the estimated vertical speed stays near zero
   // while the controller, pushing down, asks for clearly less than hover thrust.
   // The hover thrust the trim has learned: a_trim < 0 (up) means the vehicle needs more than the model.
-  const float hover_scale = 1.0f - hover_trim_.accel() * (1.0f / kGravity);
+  const float hover_scale = 1.0f - trim_.accel_z() * (1.0f / kGravity);
   const bool quiet = absf(filter_.velocity().z) < land_vz_max_ && last_thrust_ < land_thrust_max_ * hover_scale;
   landed_for_s_ = quiet ? landed_for_s_ + dt : 0.0f;
   if (landed_for_s_ >= land_time_s_) landed_ = true;

@@ -637,21 +637,44 @@ TEST(FirmwareApp, HoverTrimRemovesTheOffsetOfAFivePercentMassMismatch) {
               untrimmed * 1000.0f, trimmed * 1000.0f, trim);
 }
 
-TEST(HoverTrim, IntegratesWithTheRightSignAndStopsAtTheLimit) {
-  quad::fw::HoverTrim t;
+TEST(PositionTrim, IntegratesWithTheRightSignAndStopsAtTheLimit) {
+  quad::fw::AxisTrim t;
   t.configure(1.0f, 2.0f);
   t.update(0.1f, 0.5f);  // 10 cm low (NED z larger than the setpoint): more thrust = negative a_d,z
   EXPECT_FLOAT_EQ(t.accel(), -0.05f);
   for (int i = 0; i < 1000; ++i) t.update(1.0f, 0.1f);
   EXPECT_FLOAT_EQ(t.accel(), -2.0f) << "clamped";
-  t.update(-0.5f, 0.2f);
+  t.update(-0.1f, 1.0f);
   EXPECT_FLOAT_EQ(t.accel(), -1.9f) << "unwinds at once from the limit (no hidden wind-up)";
+  t.update(-5.0f, 1.0f);
+  EXPECT_FLOAT_EQ(t.accel(), -1.7f) << "a 5 m error is learned as 0.2 m (a transient, not an offset)";
   t.update(NAN, 0.1f);
-  EXPECT_FLOAT_EQ(t.accel(), -1.9f);
+  EXPECT_FLOAT_EQ(t.accel(), -1.7f) << "a non-finite error changes nothing";
   t.configure(0.0f, 0.5f);
   EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "a smaller limit clamps the held value";
   t.update(1.0f, 1.0f);
-  EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "POS_KI_Z 0: held, no learning";
+  EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "gain 0: held, no learning";
+}
+
+TEST(PositionTrim, HorizontalAndVerticalAxesHaveTheirOwnGainsAndFreezeWhenAsked) {
+  quad::fw::PositionTrim t;
+  t.configure(0.5f, 1.0f, 2.0f, 3.0f);
+  const bool all[3] = {true, true, true};
+  t.update(quad::Vec3{0.2f, -0.1f, 0.1f}, all, 1.0f);  // north of, west of and below the setpoint
+  EXPECT_FLOAT_EQ(t.accel().x, -0.1f) << "pushes back south";
+  EXPECT_FLOAT_EQ(t.accel().y, 0.05f) << "pushes back east";
+  EXPECT_FLOAT_EQ(t.accel_z(), -0.2f) << "more thrust, with the vertical gain";
+  const bool only_z[3] = {false, false, true};
+  t.update(quad::Vec3{5.0f, 5.0f, 0.0f}, only_z, 1.0f);
+  EXPECT_FLOAT_EQ(t.accel().x, -0.1f) << "frozen axes hold their value";
+  EXPECT_FLOAT_EQ(t.accel().y, 0.05f);
+  for (int i = 0; i < 50; ++i) t.update(quad::Vec3{10.0f, -10.0f, 10.0f}, all, 1.0f);
+  EXPECT_FLOAT_EQ(t.accel().x, -1.0f) << "horizontal limit";
+  EXPECT_FLOAT_EQ(t.accel().y, 1.0f);
+  EXPECT_FLOAT_EQ(t.accel_z(), -3.0f) << "vertical limit";
+  t.reset();
+  EXPECT_FLOAT_EQ(t.accel().x, 0.0f);
+  EXPECT_FLOAT_EQ(t.accel_z(), 0.0f);
 }
 
 TEST(FirmwareApp, SurvivesRandomFieldsInEveryMessage) {

@@ -24,7 +24,7 @@
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
-#include "quad/firmware/hover_trim.h"
+#include "quad/firmware/position_trim.h"
 #include "quad/firmware/imu_clip.h"
 #include "quad/firmware/modes.h"
 #include "quad/firmware/params.h"
@@ -117,7 +117,8 @@ class FlightApp {
   const LoopTimer& loop_timer() const { return loop_timer_; }
   LoopTimer& loop_timer() { return loop_timer_; }
   Vec3 position() const { return filter_.position(); }
-  float hover_trim() const { return hover_trim_.accel(); }
+  float hover_trim() const { return trim_.accel_z(); }
+  Vec3 position_trim() const { return trim_.accel(); }
   Vec3 velocity() const { return filter_.velocity(); }
   Quat attitude() const { return observer_.attitude(); }
   const mavlink::Parser& parser(uint8_t port) const { return parsers_[port]; }
@@ -206,7 +207,7 @@ class FlightApp {
   ctrl::ManualControl manual_;
   ctrl::SetpointShaper shaper_;
   ctrl::PositionSetpoint setpoint_;
-  HoverTrim hover_trim_;
+  PositionTrim trim_;
   ctrl::RcSticks sticks_;
   bool rc_switches_enabled_ = false;
   bool switches_known_ = false;  // the first frame only records the switch positions

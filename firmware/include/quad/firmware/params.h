@@ -47,6 +47,9 @@ namespace fw {
   X(kKfFixSigZ, "KF_FIX_SIG_Z", 0.05f, 0.001f, 10.0f)                                            \
   X(kKfGateSig, "KF_GATE_SIG", 5.0f, 1.0f, 100.0f)                                               \
   X(kKfZBias, "KF_Z_BIAS", 0.0f, 0.0f, 1.0f)                                                     \
+  /* 1: the horizontal acceleration error (the observer's tilt error while it learns a gyro bias) as */ \
+  /* a state on x and y, so it does not become a velocity error (docs/firmware.md) */            \
+  X(kKfXYBias, "KF_XY_BIAS", 1.0f, 0.0f, 1.0f)                                                   \
   /* vision: the star's NED position (m) */                                                      \
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
@@ -76,8 +79,11 @@ namespace fw {
   X(kPosKvXY, "POS_KV_XY", 11.875f, 0.001f, 100.0f)                                              \
   X(kPosKvZ, "POS_KV_Z", 3.5f, 0.001f, 100.0f)                                                   \
   X(kPosTiltMax, "POS_TILT_MAX", 0.6109f, 0.05f, 1.3f)                                           \
-  /* hover trim: integral of the vertical position error as an acceleration feed-forward, in AUTO */ \
-  /* while airborne (removes the offset of a thrust-model mismatch; 0 turns it off) */          \
+  /* position trim: integral of the position error as an acceleration feed-forward, in AUTO while */ \
+  /* airborne (removes the offsets of a thrust-model mismatch, an accelerometer bias, a weak motor; */ \
+  /* 0 turns an axis pair off; firmware/include/quad/firmware/position_trim.h) */               \
+  X(kPosKiXY, "POS_KI_XY", 1.0f, 0.0f, 20.0f)                                                    \
+  X(kPosIMaxXY, "POS_I_MAX_XY", 2.0f, 0.0f, 5.0f)                                                \
   X(kPosKiZ, "POS_KI_Z", 1.0f, 0.0f, 10.0f)                                                      \
   X(kPosIMaxZ, "POS_I_MAX_Z", 2.0f, 0.0f, 5.0f)                                                  \
   /* setpoint shaping in AUTO */                                                                 \
