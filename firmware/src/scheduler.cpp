@@ -1,5 +1,7 @@
 #include "quad/firmware/scheduler.h"
 
+#include "quad/math/scalar.h"
+
 namespace quad {
 namespace fw {
 
@@ -33,19 +35,22 @@ void LoopTimer::end(uint32_t now_us) {
 }
 
 void RateDivider::configure(float rate_hz, float loop_hz) {
-  count_ = 0;
-  if (!(rate_hz > 0.0f) || !(loop_hz > 0.0f)) {
-    divisor_ = 0;
-    return;
-  }
-  const float d = loop_hz / rate_hz + 0.5f;
-  divisor_ = d < 1.0f ? 1 : (d > 65535.0f ? 65535 : static_cast<uint16_t>(d));
+  phase_ = 0;
+  step_ = period_ = 0;
+  if (!(rate_hz > 0.0f) || !(loop_hz > 0.0f)) return;
+  // SYS_LOOP_HZ <= 1000 Hz: 10 000 tenths, so phase_ + step_ < 2 period_ fits 16 bits.
+  const float loop = minf(loop_hz, 1000.0f);
+  period_ = static_cast<uint16_t>(loop * 10.0f + 0.5f);
+  const float rate = minf(rate_hz, loop);
+  step_ = static_cast<uint16_t>(rate * 10.0f + 0.5f);
+  if (step_ == 0) step_ = 1;
 }
 
 bool RateDivider::tick() {
-  if (divisor_ == 0) return false;
-  if (++count_ < divisor_) return false;
-  count_ = 0;
+  if (step_ == 0) return false;
+  phase_ = static_cast<uint16_t>(phase_ + step_);
+  if (phase_ < period_) return false;
+  phase_ = static_cast<uint16_t>(phase_ - period_);
   return true;
 }
 

@@ -1,6 +1,8 @@
 // Scheduler timing (grid, overruns, load, dividers) and the vision path (attitude history, eq. 8.5).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <Eigen/Geometry>
 #include <random>
 
@@ -86,6 +88,27 @@ TEST(RateDivider, RunsAtTheRequestedShareOfTheLoop) {
   for (int i = 0; i < 1000; ++i) EXPECT_FALSE(d.tick());
   d.configure(500.0f, 100.0f);  // faster than the loop: every iteration
   for (int i = 0; i < 10; ++i) EXPECT_TRUE(d.tick());
+  // Rates that do not divide the loop rate are kept on average, evenly spread.
+  const float rates[] = {30.0f, 40.0f, 45.0f, 60.0f, 70.0f, 7.0f, 0.5f, 99.0f};
+  for (float rate : rates) {
+    d.configure(rate, 100.0f);
+    int n = 0, longest_gap = 0, gap = 0;
+    for (int i = 0; i < 10000; ++i) {
+      if (d.tick()) {
+        ++n;
+        longest_gap = std::max(longest_gap, gap);
+        gap = 0;
+      } else {
+        ++gap;
+      }
+    }
+    EXPECT_NEAR(n, rate * 100.0f, 1.0f) << rate << " Hz out of 100 Hz, 100 s";
+    EXPECT_LE(longest_gap, static_cast<int>(100.0f / rate)) << rate << " Hz: no bunching";
+  }
+  d.configure(33.3f, 400.0f);
+  int n = 0;
+  for (int i = 0; i < 40000; ++i) n += d.tick() ? 1 : 0;
+  EXPECT_NEAR(n, 3330, 1) << "0.1 Hz resolution at 400 Hz";
 }
 
 quad::Quat random_quat(std::mt19937& rng) {

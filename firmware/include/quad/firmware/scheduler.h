@@ -44,15 +44,18 @@ class LoopTimer {
 };
 
 // Runs a task at `rate_hz` out of a loop at `loop_hz` by counting iterations (deterministic in
-// lockstep). A rate of 0 turns the task off; rates above the loop rate run every iteration.
+// lockstep). A rate of 0 turns the task off; rates above the loop rate run every iteration. A rate that
+// does not divide the loop rate is kept on average (30 Hz out of 100 Hz: 3 runs in every 10
+// iterations), by a phase accumulator in tenths of a hertz (integers: no drift, 6 bytes of RAM).
 class RateDivider {
  public:
   void configure(float rate_hz, float loop_hz);
   bool tick();  // call once per loop iteration; true when the task should run now
 
  private:
-  uint16_t divisor_ = 0;  // 0: off
-  uint16_t count_ = 0;
+  uint16_t step_ = 0;    // rate, 0.1 Hz (0: off)
+  uint16_t period_ = 0;  // loop rate, 0.1 Hz
+  uint16_t phase_ = 0;   // accumulated, < period_
 };
 
 }  // namespace fw
