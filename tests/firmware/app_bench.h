@@ -6,8 +6,10 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cstring>
+#include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "quad/firmware/app.h"
@@ -133,12 +135,24 @@ class Bench {
   mav::Sender vision{1, 197};
   mav::Parser out[quad::hal::kPortCount];
   std::vector<std::string> texts;
+  // Every STATUSTEXT (one copy) with its severity, apart from `texts` (which tests may clear).
+  std::vector<std::pair<uint8_t, std::string>> statustexts;
   std::vector<mav::CommandAck> acks;
   std::vector<mav::ParamValue> params;
   std::vector<mav::HilActuatorControls> actuators;
   int frames_on[quad::hal::kPortCount] = {0, 0};
   int signed_frames_on[quad::hal::kPortCount] = {0, 0};
   std::vector<mav::SysStatus> statuses;
+  // Frames the vehicle sent, by port and message id.
+  std::map<uint32_t, int> messages_on[quad::hal::kPortCount];
+  int count_on(uint8_t port, uint32_t message_id) const {
+    const auto it = messages_on[port].find(message_id);
+    return it == messages_on[port].end() ? 0 : it->second;
+  }
+  // The execution time of one control iteration as the application measures it: each read of the
+  // iteration clock (AppIo::micros, read at the start and the end of an iteration) advances it by this
+  // much beyond the HIL time. 0 (the default): iterations take no time.
+  uint32_t exec_us = 0;
   // When set, every frame the vehicle sends on the radio is checked as a ground station would.
   mav::SignatureVerifier* radio_verifier = nullptr;
   mav::SignatureCheck last_radio_check = mav::SignatureCheck::kAcceptedUnsigned;
@@ -161,13 +175,19 @@ class Bench {
     std::memcpy(current->storage.data() + offset, src, length);
     return true;
   }
-  static uint32_t micros() { return static_cast<uint32_t>(current->t_us); }
+  static uint32_t micros() {
+    const uint32_t now = static_cast<uint32_t>(current->t_us) + current->exec_offset_us_;
+    current->exec_offset_us_ += current->exec_us;
+    return now;
+  }
+  uint32_t exec_offset_us_ = 0;
   static uint16_t write(uint8_t port, const uint8_t* data, uint16_t length) {
     current->out[port].feed(data, length, [port](const mav::Frame& f) { current->on_frame(port, f); });
     return length;
   }
   void on_frame(uint8_t port, const mav::Frame& f) {
     ++frames_on[port];
+    ++messages_on[port][f.message_id];
     if (f.is_signed()) ++signed_frames_on[port];
     if (radio_verifier != nullptr && port == quad::hal::kUart2) last_radio_check = radio_verifier->check(f);
     mav::Statustext text;
@@ -175,7 +195,10 @@ class Bench {
     mav::ParamValue pv;
     mav::HilActuatorControls act;
     // STATUSTEXT goes to both ports; keep one copy.
-    if (mav::decode(f, text) && port == quad::hal::kUart0) texts.emplace_back(text.text, strnlen(text.text, 50));
+    if (mav::decode(f, text) && port == quad::hal::kUart0) {
+      texts.emplace_back(text.text, strnlen(text.text, 50));
+      statustexts.emplace_back(text.severity, texts.back());
+    }
     if (mav::decode(f, ack)) acks.push_back(ack);
     if (mav::decode(f, pv)) params.push_back(pv);
     if (mav::decode(f, act)) actuators.push_back(act);

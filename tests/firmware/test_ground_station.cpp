@@ -10,10 +10,13 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -64,10 +67,20 @@ class World {
   int steps() const { return steps_; }
   // Set when a tool is on the USB terminal (else the terminal would queue older status lines).
   std::atomic<bool> forward_usb{false};
+  // Set: a vision fix of the vehicle at the origin with every HIL step (VISION_POSITION_ESTIMATE from
+  // the vision station's ids, captured at the step's time), on UART0 after the step's answer so that its
+  // bytes never interleave with the tool's on the radio.
+  std::atomic<bool> vision{false};
+  // The motor commands of the latest HIL_ACTUATOR_CONTROLS.
+  std::array<float, 4> motors() {
+    std::lock_guard<std::mutex> lock(motors_mutex_);
+    return motors_;
+  }
 
  private:
   void run() {
     mav::Sender sim(1, 200);
+    mav::Sender vision_station(1, 197);
     mav::Parser parser;
     uint64_t t_us = 1000000;
     while (!stop_) {
@@ -89,12 +102,25 @@ class World {
         ssize_t got;
         while ((got = read(uart0_, in, sizeof in)) > 0) {
           parser.feed(in, static_cast<size_t>(got), [&](const mav::Frame& f) {
-            if (f.message_id == mav::HilActuatorControls::kId) answered = true;
-            else if (usb_ground_ >= 0 && forward_usb && write(usb_ground_, f.bytes, f.size) < 0) {
+            if (f.message_id == mav::HilActuatorControls::kId) {
+              answered = true;
+              mav::HilActuatorControls act;
+              if (mav::decode(f, act)) {
+                std::lock_guard<std::mutex> lock(motors_mutex_);
+                for (int i = 0; i < 4; ++i) motors_[i] = act.controls[i];
+              }
+            } else if (usb_ground_ >= 0 && forward_usb && write(usb_ground_, f.bytes, f.size) < 0) {
               // nobody on the USB terminal: nothing to deliver
             }
           });
         }
+      }
+      if (vision && answered) {
+        mav::VisionPositionEstimate fix;
+        fix.usec = t_us;
+        uint8_t vbuf[mav::max_frame_length<mav::VisionPositionEstimate>()];
+        const size_t vn = vision_station.encode(fix, vbuf, sizeof vbuf);
+        if (write(uart0_, vbuf, vn) != static_cast<ssize_t>(vn)) break;
       }
       t_us += 10000;
       ++steps_;
@@ -114,6 +140,8 @@ class World {
   }
 
   int uart0_, radio_vehicle_, radio_ground_, usb_ground_;
+  std::mutex motors_mutex_;
+  std::array<float, 4> motors_{{0.0f, 0.0f, 0.0f, 0.0f}};
   std::atomic<bool> stop_{false};
   std::atomic<int> steps_{0};
   std::thread thread_;
@@ -215,6 +243,94 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
     kill(pid, SIGKILL);
     waitpid(pid, &status, 0);
     ADD_FAILURE() << "the firmware did not end when UART0 hung up";
+  }
+}
+
+// The motor commands as shares of the mean rotor thrust f_i = f_max u_i^2 (VEH_FRAME 0, the plus layout:
+// motor 0 front, 1 left, 2 back, 3 right): pitch (nose up) ~ f_front - f_back, roll ~ f_left - f_right.
+struct MotorShares {
+  float mean = 0.0f, pitch = 0.0f, roll = 0.0f;
+};
+MotorShares shares(const std::array<float, 4>& u) {
+  MotorShares s;
+  float f[4];
+  for (int i = 0; i < 4; ++i) s.mean += (f[i] = u[i] * u[i]) / 4.0f;
+  if (s.mean > 0.0f) {
+    s.pitch = (f[0] - f[2]) / s.mean;
+    s.roll = (f[1] - f[3]) / s.mean;
+  }
+  return s;
+}
+
+void wait_steps(const World& world, int n) {
+  const int until = world.steps() + n;
+  while (world.steps() < until) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+}
+
+// AUTO with a vision fix, a position setpoint that the position controller then flies towards (seen in
+// the motor commands: the target changed), and the land command.
+TEST(GroundStation, AutoSetpointAndLand) {
+  Pty uart0, uart2, ground;
+  ASSERT_FALSE(ground.path.empty());
+  const std::string params = ::testing::TempDir() + "gs_auto_test.params";
+  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
+          "--params", params.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ASSERT_GT(pid, 0);
+  {
+    World world(uart0.master, uart2.master, ground.master);
+    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    world.vision = true;  // the vision station sees the vehicle at the origin from now on
+    wait_steps(world, 20);
+
+    Result r = gs(ground.path, "arm");
+    ASSERT_EQ(r.status, 0) << r.out;
+    r = gs(ground.path, "mode auto");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("accepted"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("vehicle: AUTO: auto selected"), std::string::npos) << r.out;
+
+    // Holding where it is (the origin; the simulated vehicle is still): hover thrust, 1.4 kg on four
+    // 880 g motors = 0.398 of f_max each, and no tilt.
+    wait_steps(world, 50);
+    const MotorShares hold = shares(world.motors());
+    EXPECT_NEAR(hold.mean, 1.4f / (4.0f * 0.88f), 0.02f);
+    EXPECT_LT(std::fabs(hold.pitch), 0.01f);
+    EXPECT_LT(std::fabs(hold.roll), 0.01f);
+
+    // 1 m north and 1.5 m up: the controller climbs (more thrust) and pitches nose down (the back motor
+    // pulls harder), since the vehicle in this simulation does not move.
+    r = gs(ground.path, "setpoint 1.0 0 -1.5");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("setpoint sent: N 1.000 E 0.000 D -1.500"), std::string::npos) << r.out;
+    wait_steps(world, 100);
+    const MotorShares moved = shares(world.motors());
+    EXPECT_GT(moved.mean, 1.1f * hold.mean) << "climbing";
+    EXPECT_LT(moved.pitch, -0.05f) << "towards north";
+    EXPECT_LT(std::fabs(moved.roll), 0.01f) << "nothing east";
+    std::printf("motor thrust share: hold %.3f (pitch %.4f), after the setpoint %.3f (pitch %.4f)\n", hold.mean,
+                hold.pitch, moved.mean, moved.pitch);
+
+    r = gs(ground.path, "land");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("accepted"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("vehicle: LANDING: land commanded"), std::string::npos) << r.out;
+    // Still on the ground: the land detector ends the landing after LAND_TIME (1 s).
+    r = gs(ground.path, "watch 4");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("mode DISARMED"), std::string::npos) << r.out;
+  }
+  close(uart0.master);
+  uart0.master = -1;
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (waitpid(pid, &status, WNOHANG) == 0) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
   }
 }
 

@@ -172,6 +172,54 @@ TEST(Modes, LandingCannotGoToAuto) {
   EXPECT_EQ(m.mode(), FlightMode::kLanding);
 }
 
+TEST(Modes, LandingBackToManualWithFreshRc) {
+  // The pilot takes over a landing (commanded, or a failsafe's once the sticks are back): MANUAL, and a
+  // later landing starts afresh (not level when a fix is there).
+  ModeMachine m = armed_in(FlightMode::kLanding);
+  ModeInputs in = ready();
+  in.landed = false;
+  const auto t = m.command(Command::kManual, in);
+  EXPECT_TRUE(t.accepted);
+  EXPECT_TRUE(t.changed);
+  EXPECT_EQ(t.from, FlightMode::kLanding);
+  EXPECT_EQ(t.to, FlightMode::kManual);
+  EXPECT_EQ(t.reason, Reason::kManualSelected);
+  EXPECT_EQ(m.mode(), FlightMode::kManual);
+  EXPECT_FALSE(m.land_level());
+
+  // A level landing (the estimator failsafe) is left the same way and its level flag goes with it.
+  m = armed_in(FlightMode::kAuto);
+  in.estimator_healthy = false;
+  ASSERT_EQ(m.update(in).reason, Reason::kFailsafeEstimator);
+  ASSERT_TRUE(m.land_level());
+  in.estimator_healthy = true;
+  EXPECT_EQ(m.command(Command::kManual, in).reason, Reason::kManualSelected);
+  EXPECT_EQ(m.mode(), FlightMode::kManual);
+  EXPECT_FALSE(m.land_level()) << "level applies to a landing only";
+  EXPECT_FALSE(m.update(in).changed) << "and MANUAL with fresh RC and a healthy estimator stays";
+}
+
+TEST(Modes, LandingBackToManualRefusedWithStaleRc) {
+  ModeMachine m = armed_in(FlightMode::kLanding);
+  ModeInputs in = ready();
+  in.landed = false;
+  in.rc_time_us = in.now_us - 1010000u;  // just beyond FS_RC_TIMEOUT 1 s
+  const auto t = m.command(Command::kManual, in);
+  EXPECT_FALSE(t.accepted);
+  EXPECT_FALSE(t.changed);
+  EXPECT_EQ(t.reason, Reason::kRejectNoRc);
+  EXPECT_EQ(m.mode(), FlightMode::kLanding);
+  EXPECT_FALSE(m.land_level()) << "the refusal leaves the landing as it was";
+  in.rc_seen = false;  // never any RC
+  EXPECT_EQ(m.command(Command::kManual, in).reason, Reason::kRejectNoRc);
+  EXPECT_EQ(m.mode(), FlightMode::kLanding);
+  // RC back, exactly at the timeout: fresh again, accepted.
+  in.rc_seen = true;
+  in.rc_time_us = in.now_us - 1000000u;
+  EXPECT_EQ(m.command(Command::kManual, in).reason, Reason::kManualSelected);
+  EXPECT_EQ(m.mode(), FlightMode::kManual);
+}
+
 TEST(Modes, LandingEndsDisarmedWhenLanded) {
   ModeMachine m = armed_in(FlightMode::kLanding);
   ModeInputs in = ready();

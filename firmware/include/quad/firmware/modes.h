@@ -5,6 +5,7 @@
 //   MANUAL   --auto (fresh vision fix, estimator healthy)--> AUTO
 //   AUTO     --manual (RC present)--> MANUAL
 //   MANUAL / AUTO --land command--> LANDING
+//   LANDING  --manual (RC present: the pilot takes over)--> MANUAL
 //   LANDING  --landed--> DISARMED
 //   armed    --disarm (landed or throttle low in MANUAL, or forced)--> DISARMED
 // Failsafes (checked every iteration while armed):
