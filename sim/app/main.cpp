@@ -3,6 +3,10 @@
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
 //            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
 //            [--no-plots] [--quiet]
+//
+// Exit status: 0 the run completed and wrote every output; 1 the run was cut short (interrupted, the
+// firmware stopped answering, ...) or could not start; 2 bad arguments; 3 the run completed and its log
+// and summary are written, but the plots or the --record video could not be made.
 #include <unistd.h>
 
 #include <atomic>
@@ -51,7 +55,9 @@ int usage(const char* error) {
                "                    'vision_station run' next to quad_sim); --calib --source sim:SOCKET --out\n"
                "                    PTY --baud B --status-s 10 --timeout-ms 60000 are appended\n"
                "  --no-plots        skip the PNG plots\n"
-               "  --quiet           no progress line\n");
+               "  --quiet           no progress line\n"
+               "exit status: 0 complete; 1 cut short or not started; 2 bad arguments; 3 complete, log and\n"
+               "summary written, but the plots (python3-matplotlib) or the --record video failed\n");
   return 2;
 }
 
@@ -168,7 +174,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quad_sim: %s (seed %llu), %s, run folder %s\n", scenario.name.c_str(),
                  static_cast<unsigned long long>(scenario.seed), realtime ? "real time" : "lockstep", out_dir.c_str());
     const quad::sim::SessionResult r = quad::sim::run_session(scenario, options);
-    recorder.reset();
+    bool outputs_ok = true;
+    if (recorder) {
+      const std::string error = recorder->finish();
+      if (!error.empty()) {
+        std::fprintf(stderr, "quad_sim: recording %s failed: %s\n", record.c_str(), error.c_str());
+        outputs_ok = false;
+      }
+      recorder.reset();
+    } else if (!record.empty()) {
+      std::fprintf(stderr, "quad_sim: recording %s failed: no frame was rendered\n", record.c_str());
+      outputs_ok = false;
+    }
     if (window && !screenshot.empty()) {
       try {
         window->screenshot(screenshot);
@@ -180,12 +197,17 @@ int main(int argc, char** argv) {
     if (plots) {
       const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
       const std::string cmd = python + " '" QUAD_SIM_SOURCE_DIR "/plots/plot_run.py' '" + out_dir + "'";
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "quad_sim: plotting failed (%s)\n", cmd.c_str());
+      if (std::system(cmd.c_str()) != 0) {
+        std::fprintf(stderr, "quad_sim: plotting failed (%s; it needs python3-matplotlib); the log and summary "
+                             "are in %s\n", cmd.c_str(), out_dir.c_str());
+        outputs_ok = false;
+      }
     }
     std::fprintf(stderr, "quad_sim: %s after %.1f s simulated in %.1f s (%.1fx real time)%s; summary: %s/summary.json\n",
                  r.complete ? "complete" : ("cut short (" + r.reason + ")").c_str(), r.sim_time_s, r.wall_time_s,
                  r.wall_time_s > 0 ? r.sim_time_s / r.wall_time_s : 0.0, r.crashed ? ", CRASHED" : "", out_dir.c_str());
-    return r.complete ? 0 : 1;
+    if (!r.complete) return 1;
+    return outputs_ok ? 0 : 3;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "quad_sim: %s\n", e.what());
     return 1;

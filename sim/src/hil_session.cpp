@@ -81,6 +81,7 @@ class Session {
   // Receiving.
   void handle_frame(const mav::Frame& f, double t, const char* port);
   bool wait_for_answer(double t);
+  double account_answer(double t, double period, double byte_s);
   void wait_radio_consumed();
   void deliver_radio(double until);
   void sample_sensors(double t);
@@ -129,11 +130,10 @@ class Session {
   std::vector<bool> fault_active_;
   FaultEffects faults_now_;
 
-  // The exchange.
-  std::array<double, 4> pending_commands_{};
-  double pending_apply_t_ = 0.0;
-  bool have_pending_ = false;
+  // The exchange. Answers take effect in order, each when its last byte has crossed UART0.
+  std::deque<std::pair<double, std::array<double, 4>>> pending_commands_;  // (apply time, commands)
   std::optional<mav::HilActuatorControls> answer_;
+  uint64_t awaited_usec_ = 0;  // lockstep: the time stamp of the answer being waited for
   bool radio_written_ = false;
   bool firmware_spoke_first_ = false;
   uint64_t radio_sync_timeouts_ = 0;  // see wait_radio_consumed()
@@ -141,6 +141,16 @@ class Session {
   bool radio_ignored_ = false;
   std::vector<uint8_t> last_sensor_frame_;  // resent while the firmware is still starting
   uint64_t exchanges_ = 0, uart0_overruns_ = 0;
+  // UART0 from the firmware, paced at uart0_baud in simulated time: the frames it sent since its last
+  // answer, up to and including this one, belong to this exchange (acks, telemetry and status text all
+  // precede the answer of the step they come with, so the count is the same in every run of a seed).
+  uint64_t uart0_in_bytes_ = 0;           // every frame from the firmware on UART0
+  uint64_t uart0_in_since_answer_ = 0;    // of those, since the last answer
+  uint64_t uart0_in_exchange_bytes_ = 0;  // the exchange just closed by an answer
+  uint64_t uart0_in_exchange_max_ = 0, uart0_in_exchange_sum_ = 0;
+  uint64_t uart0_in_overruns_ = 0;        // answers that arrived after the end of their period
+  double uart0_in_busy_until_ = 0.0;      // when the last byte counted so far has arrived
+  double answer_delay_sum_s_ = 0.0, answer_delay_max_s_ = 0.0;  // HIL_SENSOR time stamp to commands applied
   Telemetry tele_;
 
   // Outputs.
@@ -349,7 +359,13 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
   switch (f.message_id) {
     case mav::HilActuatorControls::kId: {
       mav::HilActuatorControls m;
-      if (mav::decode(f, m)) answer_ = m;
+      if (!mav::decode(f, m)) break;
+      answer_ = m;
+      // The answer closes its exchange's byte count (a stale or repeated answer does not, in lockstep).
+      if (o_.realtime || m.time_usec == awaited_usec_) {
+        uart0_in_exchange_bytes_ += uart0_in_since_answer_;
+        uart0_in_since_answer_ = 0;
+      }
       break;
     }
     case mav::Heartbeat::kId: {
@@ -399,7 +415,11 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
 void Session::poll_uart0(double t) {
   uint8_t buf[4096];
   for (size_t n; (n = uart0_.read_some(buf, sizeof buf)) > 0;)
-    uart0_parser_.feed(buf, n, [&](const mav::Frame& f) { handle_frame(f, t, "uart0"); });
+    uart0_parser_.feed(buf, n, [&](const mav::Frame& f) {
+      uart0_in_bytes_ += f.size;  // every frame occupies the wire, whoever it is from
+      uart0_in_since_answer_ += f.size;
+      handle_frame(f, t, "uart0");
+    });
 }
 
 void Session::poll_ground_port(double t) {
@@ -444,6 +464,7 @@ void Session::wait_radio_consumed() {
 
 bool Session::wait_for_answer(double t) {
   const uint64_t want = to_usec(t);
+  awaited_usec_ = want;
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o_.answer_timeout_s));
   answer_.reset();
   // A silent firmware (one that did not speak before the first HIL_SENSOR, see run()) may open and
@@ -464,6 +485,30 @@ bool Session::wait_for_answer(double t) {
   return true;
 }
 
+// The firmware's bytes of the exchange at t on UART0, paced at the baud in simulated time: the firmware
+// starts answering when the HIL_SENSOR has arrived (uart0_out_ holds it and the commands and RC sent
+// ahead of it), its bytes follow anything still on the wire, and the answer is their last frame.
+// Returns when the answer's last byte arrives; an answer arriving after the end of its period is an
+// overrun (the firmware's output does not fit the baud at this rate).
+double Session::account_answer(double t, double period, double byte_s) {
+  const double start = std::max(uart0_out_.busy_until(), uart0_in_busy_until_);
+  const double arrival = start + byte_s * static_cast<double>(uart0_in_exchange_bytes_);
+  uart0_in_busy_until_ = arrival;
+  uart0_in_exchange_max_ = std::max(uart0_in_exchange_max_, uart0_in_exchange_bytes_);
+  uart0_in_exchange_sum_ += uart0_in_exchange_bytes_;
+  answer_delay_sum_s_ += arrival - t;
+  answer_delay_max_s_ = std::max(answer_delay_max_s_, arrival - t);
+  if (arrival > t + period + 1e-12 && uart0_in_overruns_++ == 0) {
+    char text[160];
+    std::snprintf(text, sizeof text, "uart0: the firmware's %llu bytes for this step do not fit %d baud "
+                  "(answer %.2f ms after HIL_SENSOR, period %.2f ms)", static_cast<unsigned long long>(uart0_in_exchange_bytes_),
+                  s_.uart0_baud, 1e3 * (arrival - t), 1e3 * period);
+    event(t, text);
+  }
+  uart0_in_exchange_bytes_ = 0;
+  return arrival;
+}
+
 void Session::sample_sensors(double t) {
   const VehicleTruth truth = vehicle_.truth();
   imu_reading_ = apply_imu_fault(imu_.sample(truth.specific_force_frd, truth.rate_frd, vehicle_.mean_speed_fraction()),
@@ -482,9 +527,9 @@ void Session::physics_period(double t_end) {
   const double dt = vehicle_.timestep();
   while (vehicle_.time() < t_end - 0.5 * dt) {
     const double t = vehicle_.time();
-    if (have_pending_ && t + 1e-9 >= pending_apply_t_) {
-      vehicle_.set_commands(pending_commands_);
-      have_pending_ = false;
+    while (!pending_commands_.empty() && t + 1e-9 >= pending_commands_.front().first) {
+      vehicle_.set_commands(pending_commands_.front().second);
+      pending_commands_.pop_front();
     }
     apply_faults(t);
     vehicle_.set_wind_ned(s_.wind_at(t));
@@ -606,9 +651,17 @@ void Session::write_summary(bool complete, const std::string& reason) {
   };
   Json links;
   Json uart0_in;
+  const double per_exchange = exchanges_ ? 1.0 / static_cast<double>(exchanges_) : 0.0;
   uart0_in.add("frames_received", static_cast<long>(uart0_parser_.stats().frames_accepted))
       .add("bad_checksum", static_cast<long>(uart0_parser_.stats().bad_checksum))
-      .add("sequence_lost", static_cast<long>(uart0_parser_.stats().sequence_lost));
+      .add("sequence_lost", static_cast<long>(uart0_parser_.stats().sequence_lost))
+      .add("bytes_received", static_cast<long>(uart0_in_bytes_))
+      .add("bytes_per_exchange_mean", static_cast<double>(uart0_in_exchange_sum_) * per_exchange)
+      .add("bytes_per_exchange_max", static_cast<long>(uart0_in_exchange_max_))
+      .add("budget_bytes_per_period", s_.uart0_baud / 10.0 / s_.control_rate_hz)
+      .add("answer_delay_s_mean", answer_delay_sum_s_ * per_exchange)
+      .add("answer_delay_s_max", answer_delay_max_s_)
+      .add("overruns", static_cast<long>(uart0_in_overruns_));
   Json ground_in;
   ground_in.add("frames_received", static_cast<long>(ground_parser_.stats().frames_accepted))
       .add("bad_checksum", static_cast<long>(ground_parser_.stats().bad_checksum))
@@ -697,9 +750,7 @@ SessionResult Session::run() {
   wall_start_ = Clock::now();  // real time runs from the first exchange
   const double period = 1.0 / s_.control_rate_hz;
   const long periods = std::lround(s_.duration_s * s_.control_rate_hz);
-  // The exchange's own time on the wire: HIL_SENSOR out, HIL_ACTUATOR_CONTROLS back.
-  const double exchange_s = (mav::max_frame_length<mav::HilSensor>() + mav::max_frame_length<mav::HilActuatorControls>()) *
-                            10.0 / s_.uart0_baud;
+  const double uart0_byte_s = 10.0 / s_.uart0_baud;  // 8N1
   SessionResult result;
   std::string reason;
   for (long k = 0; k < periods; ++k) {
@@ -721,9 +772,10 @@ SessionResult Session::run() {
       answer_.reset();
       poll_uart0(t);
       if (answer_) {
-        for (size_t i = 0; i < 4; ++i) pending_commands_[i] = answer_->controls[i];
-        pending_apply_t_ = t;
-        have_pending_ = true;
+        account_answer(t, period, uart0_byte_s);  // counted; the answer itself applies now (wall clock)
+        std::array<double, 4> c;
+        for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
+        pending_commands_.emplace_back(t, c);
         ++exchanges_;
       }
       if (!firmware_->running()) {
@@ -741,9 +793,12 @@ SessionResult Session::run() {
         break;
       }
       ++exchanges_;
-      for (size_t i = 0; i < 4; ++i) pending_commands_[i] = answer_->controls[i];
-      pending_apply_t_ = t + exchange_s;
-      have_pending_ = true;
+      // The commands take effect when the answer's last byte has arrived: after the HIL_SENSOR (and
+      // whatever went out ahead of it) on the way there, and after the firmware's bytes of this
+      // exchange, behind anything still on the wire from earlier ones.
+      std::array<double, 4> c;
+      for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
+      pending_commands_.emplace_back(account_answer(t, period, uart0_byte_s), c);
       // Radio bytes arriving during this period can only be acted on at the next step: hand them over
       // now, while the firmware waits, so they are read before the next HIL_SENSOR (deterministic order).
       // Vision and radio latencies exceed the period, so everything arriving by t + T is queued by now.

@@ -2,6 +2,8 @@
 
 #include <GL/osmesa.h>
 
+#include <sys/wait.h>
+
 #include <stdexcept>
 
 #include "quad/sim/vehicle.h"
@@ -52,8 +54,20 @@ OffscreenRecorder::OffscreenRecorder(const mjModel* model, const std::string& pa
   if (!ffmpeg_) throw std::runtime_error("cannot start ffmpeg for " + path);
 }
 
+std::string OffscreenRecorder::finish() {
+  if (!ffmpeg_) return "";
+  const int status = pclose(ffmpeg_);
+  ffmpeg_ = nullptr;
+  if (write_failed_) return "ffmpeg stopped taking frames (is ffmpeg installed?)";
+  if (status == -1) return "cannot wait for ffmpeg";
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return WIFEXITED(status) && WEXITSTATUS(status) == 127 ? std::string("ffmpeg is not installed")
+                                                           : "ffmpeg failed (status " + std::to_string(status) + ")";
+  return "";
+}
+
 OffscreenRecorder::~OffscreenRecorder() {
-  if (ffmpeg_) pclose(ffmpeg_);
+  finish();
   if (gl_) OSMesaMakeCurrent(gl_->context, gl_->buffer.data(), GL_UNSIGNED_BYTE, width_, height_);
   mjr_freeContext(&context_);
   mjv_freeScene(&scene_);
@@ -71,7 +85,7 @@ void OffscreenRecorder::frame(Vehicle& vehicle) {
   mjr_render(viewport, &scene_, &context_);
   mjr_readPixels(rgb_.data(), nullptr, viewport, &context_);
   release_osmesa();
-  std::fwrite(rgb_.data(), 1, rgb_.size(), ffmpeg_);
+  if (!write_failed_ && std::fwrite(rgb_.data(), 1, rgb_.size(), ffmpeg_) != rgb_.size()) write_failed_ = true;
   ++frames_;
 }
 

@@ -3,12 +3,19 @@
 // mode / land commands, and reports as its "estimate" the vehicle position implied by the last
 // LANDING_TARGET (p_I = -p_B, valid while the vehicle is level and heading north). Armed, it commands
 // 1.1 times the hover thrust on every rotor, so an armed vehicle must climb.
+//
+// Test options (before the port arguments the simulator appends):
+//   --pad-frames K  K TIMESYNC frames (30 bytes each) before every answer: more UART0 traffic from the
+//                   firmware, to load the link
+//   --log-fixes     one line "fix CAPTURE_US SEEN_US" on stderr (firmware.log) per LANDING_TARGET, with
+//                   its capture time stamp and the HIL time of the step at which it was read
 #include <fcntl.h>
 #include <poll.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -48,9 +55,14 @@ void send(int fd, mav::Sender& sender, const Msg& msg) {
 int main(int argc, char** argv) {
   const char* uart0_path = nullptr;
   const char* uart2_path = nullptr;
-  for (int i = 1; i + 1 < argc; ++i) {
+  int pad_frames = 0;
+  bool log_fixes = false;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--log-fixes")) log_fixes = true;
+    if (i + 1 >= argc) break;
     if (!std::strcmp(argv[i], "--uart0")) uart0_path = argv[i + 1];
     if (!std::strcmp(argv[i], "--uart2")) uart2_path = argv[i + 1];
+    if (!std::strcmp(argv[i], "--pad-frames")) pad_frames = std::atoi(argv[i + 1]);
   }
   if (!uart0_path || !uart2_path) {
     std::fprintf(stderr, "fake_firmware: --uart0 and --uart2 are required\n");
@@ -65,6 +77,7 @@ int main(int argc, char** argv) {
   float est[3] = {NAN, NAN, NAN};
   uint64_t sensors = 0;
   const float hover = std::sqrt(1.1f * 1.4f * 9.80665f / 4.0f / (0.880f * 9.80665f));
+  uint64_t step_usec = 0;  // the HIL time of the step being processed
 
   auto on_uart2 = [&](const mav::Frame& f) {
     mav::LandingTarget lt;
@@ -72,6 +85,9 @@ int main(int argc, char** argv) {
       est[0] = -lt.x;
       est[1] = -lt.y;
       est[2] = -lt.z;
+      if (log_fixes)
+        std::fprintf(stderr, "fix %llu %llu\n", static_cast<unsigned long long>(lt.time_usec),
+                     static_cast<unsigned long long>(step_usec));
     }
   };
   auto on_uart0 = [&](const mav::Frame& f) {
@@ -92,6 +108,7 @@ int main(int argc, char** argv) {
         mav::HilSensor s;
         if (!mav::decode(f, s)) break;
         // What the radio delivered before this step is in the UART2 buffer by now: take it first.
+        step_usec = s.time_usec;
         uint8_t buf[1024];
         for (ssize_t n; (n = read(uart2, buf, sizeof buf)) > 0;) in2.feed(buf, static_cast<size_t>(n), on_uart2);
         if (sensors++ % 10 == 0) {
@@ -106,6 +123,14 @@ int main(int argc, char** argv) {
           lp.y = est[1];
           lp.z = est[2];
           send(uart0, out0, lp);
+        }
+        for (int k = 0; k < pad_frames; ++k) {
+          mav::Timesync ts;  // no trailing zeros: the whole 18-byte payload goes out
+          ts.tc1 = 1;
+          ts.ts1 = static_cast<int64_t>(s.time_usec) + 1;
+          ts.target_system = 255;
+          ts.target_component = 190;
+          send(uart0, out0, ts);
         }
         mav::HilActuatorControls a;
         a.time_usec = s.time_usec;

@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -217,6 +218,128 @@ TEST(HilLoop, TheGroundPortCarriesAnOutsideStationsFixesAcrossTheRadio) {
   EXPECT_GT(log["radio_up_sent"].back(), 0.0);
   EXPECT_GT(heartbeats.load(), 0) << "the firmware's radio output came out of the ground port";
   EXPECT_NE(access(o.ground_port_link.c_str(), F_OK), 0) << "the link is removed at the end";
+}
+
+// The fake firmware's "fix CAPTURE_US SEEN_US" lines (--log-fixes), in seconds: when each LANDING_TARGET
+// was captured and the HIL time of the step at which the firmware read it off UART2.
+std::vector<std::pair<double, double>> fixes_seen(const std::string& firmware_log) {
+  std::vector<std::pair<double, double>> out;
+  std::istringstream in(slurp(firmware_log));
+  for (std::string line; std::getline(in, line);) {
+    unsigned long long capture = 0, seen = 0;
+    if (std::sscanf(line.c_str(), "fix %llu %llu", &capture, &seen) == 2) out.emplace_back(capture * 1e-6, seen * 1e-6);
+  }
+  return out;
+}
+
+// A radio_latency fault delays every frame crossing the radio by its latency instead of the radio's,
+// from its start to its end; before it the radio's own latency holds, and after it too once the frames
+// held back by it (no overtaking) have arrived. No jitter, so each vision fix's way is known: 22 ms to
+// the radio, the radio latency, its 72 bytes at 57600 baud (12.5 ms), then the first 100 Hz step at or
+// after its arrival (one more if the pty is slow to hand the bytes over).
+TEST(HilLoop, RadioLatencyFaultDelaysTheRadioFramesOnlyInItsWindow) {
+  const Scenario s = parse_scenario(R"(
+name: radio_latency
+duration_s: 3.2
+seed: 5
+radio: {baud: 57600, latency_s: 0.004, jitter_s: 0.0}
+vision: {rate_hz: 30, latency_s: 0.022, noise_m: 0.005}
+faults:
+  - {type: radio_latency, start_s: 1.0, end_s: 2.0, latency_s: 0.1}
+)", "radio_latency.yaml", ".");
+  const std::string out = temp_dir("radio_latency");
+  const SessionResult r = fly(s, out, nullptr, {QUAD_SIM_FAKE_FIRMWARE, "--log-fixes"});
+  ASSERT_TRUE(r.complete) << r.reason;
+  const auto fixes = fixes_seen(out + "/firmware.log");
+  ASSERT_GT(fixes.size(), 85u) << "30 Hz for 3.2 s";
+  const double wire = static_cast<double>(mavlink::max_frame_length<mavlink::LandingTarget>()) * 10.0 / 57600.0;
+  const double period = 0.01;
+  std::vector<double> before, during, after;
+  double last_seen = 0.0;
+  for (const auto& [capture, seen] : fixes) {
+    EXPECT_GE(seen, last_seen) << "a frame overtook another at capture " << capture;
+    last_seen = seen;
+    const double to_radio = capture + 0.022, delay = seen - capture;
+    double radio_latency = 0.0;
+    if (to_radio < 0.99) {
+      before.push_back(delay);
+      radio_latency = 0.004;
+    } else if (to_radio >= 1.01 && to_radio < 1.99) {
+      during.push_back(delay);
+      radio_latency = 0.1;
+    } else if (to_radio >= 2.0 + 0.1 + wire + period) {  // the frames held back by the fault are through
+      after.push_back(delay);
+      radio_latency = 0.004;
+    } else {
+      continue;  // at the window's edges
+    }
+    const double arrival = 0.022 + radio_latency + wire;
+    EXPECT_GE(delay, arrival - 1e-6) << "capture " << capture;
+    EXPECT_LE(delay, arrival + 2.0 * period + 1e-6) << "capture " << capture;
+  }
+  ASSERT_GE(before.size(), 25u);
+  ASSERT_GE(during.size(), 25u);
+  ASSERT_GE(after.size(), 25u);
+  auto mean = [](const std::vector<double>& v) {
+    double sum = 0.0;
+    for (double x : v) sum += x;
+    return sum / static_cast<double>(v.size());
+  };
+  std::printf("vision fix capture -> firmware: %.1f ms before the fault, %.1f ms during (latency 0.1 s), %.1f ms after\n",
+              1e3 * mean(before), 1e3 * mean(during), 1e3 * mean(after));
+  // The step grid adds the same 0-10 ms in every window (30 Hz captures against 100 Hz steps): the
+  // means differ by the latencies' difference.
+  EXPECT_NEAR(mean(during) - mean(before), 0.1 - 0.004, 0.003);
+  EXPECT_NEAR(mean(after) - mean(before), 0.0, 0.003);
+}
+
+// UART0 from the firmware is counted and paced too: per exchange, the firmware's frames since its last
+// answer up to and including this one; the answer's commands take effect when its last byte arrives at
+// 921600 baud, behind the HIL_SENSOR and the firmware's other bytes; an answer that arrives after the end
+// of its period is an overrun. The stand-in pads every answer with K TIMESYNC frames of 30 bytes.
+TEST(HilLoop, UartZeroFromTheFirmwareIsCountedAndPacedAtItsBaud) {
+  const Scenario s = parse_scenario(kScenario, "loop.yaml", ".");
+  auto run = [&](const std::string& name, int pad_frames) {
+    const std::string out = temp_dir(name);
+    std::vector<std::string> fw{QUAD_SIM_FAKE_FIRMWARE};
+    if (pad_frames > 0) fw.insert(fw.end(), {"--pad-frames", std::to_string(pad_frames)});
+    const SessionResult r = fly(s, out, nullptr, fw);
+    EXPECT_TRUE(r.complete) << r.reason;
+    return out;
+  };
+  const std::string plain = run("uart0_plain", 0), padded = run("uart0_pad", 10), padded_again = run("uart0_pad2", 10),
+                    flooded = run("uart0_flood", 32);
+  const std::string a = slurp(plain + "/summary.json"), b = slurp(padded + "/summary.json"),
+                    c = slurp(flooded + "/summary.json");
+  const std::string in = "uart0_from_firmware";
+  const double byte_s = 10.0 / 921600.0, pad_bytes = 10.0 * (mavlink::kHeaderLength + mavlink::Timesync::kLength +
+                                                             mavlink::kChecksumLength);
+  ASSERT_EQ(pad_bytes, 300.0);
+  EXPECT_EQ(json_number(a, "budget_bytes_per_period", in), 921.6) << "921600 baud, 100 Hz, 10 bits a byte";
+  // The stand-in's answers (and its heartbeats and positions every 10th step) are counted.
+  const double plain_bytes = json_number(a, "bytes_received", in);
+  EXPECT_GT(plain_bytes, 300.0 * 20.0);
+  EXPECT_GE(json_number(a, "bytes_per_exchange_max", in), 20.0);
+  // Padding adds exactly its bytes to every one of the 300 exchanges...
+  EXPECT_EQ(json_number(b, "bytes_received", in) - plain_bytes, 300.0 * pad_bytes);
+  EXPECT_NEAR(json_number(b, "bytes_per_exchange_mean", in) - json_number(a, "bytes_per_exchange_mean", in), pad_bytes, 1e-6);
+  // ...and their time on the wire to every answer's delay (3.26 ms), still inside the 10 ms period.
+  const double delay_plain = json_number(a, "answer_delay_s_mean", in);
+  EXPECT_GT(delay_plain, 0.0005) << "HIL_SENSOR out and the answer back take time on the wire";
+  EXPECT_LT(delay_plain, 0.003);
+  EXPECT_NEAR(json_number(b, "answer_delay_s_mean", in) - delay_plain, pad_bytes * byte_s, 1e-7);
+  EXPECT_EQ(json_number(a, "overruns", in), 0.0);
+  EXPECT_EQ(json_number(b, "overruns", in), 0.0);
+  // The later commands change the flight once they matter (armed at 1.5 s), not before; and the accounting
+  // is deterministic: the same run again gives the same log.
+  const auto log_plain = read_log(plain + "/log.csv"), log_padded = read_log(padded + "/log.csv");
+  EXPECT_EQ(log_plain.at("true_d")[140], log_padded.at("true_d")[140]);
+  EXPECT_NE(log_plain.at("thrust0")[160], log_padded.at("thrust0")[160]);
+  EXPECT_EQ(slurp(padded + "/log.csv"), slurp(padded_again + "/log.csv"));
+  // 32 frames (960 bytes, 10.4 ms) do not fit a 10 ms period: every answer is late, and later and later.
+  EXPECT_EQ(json_number(c, "overruns", in), 300.0);
+  EXPECT_GT(json_number(c, "answer_delay_s_max", in), 0.1);
+  EXPECT_NE(slurp(flooded + "/events.log").find("do not fit 921600 baud"), std::string::npos);
 }
 
 TEST(HilLoop, RealTimeModeFliesOnTheWallClock) {

@@ -26,16 +26,21 @@ std::vector<uint8_t> pattern(size_t n, uint8_t seed) {
 }
 
 TEST(SerialLine, PacesABacklogToTheBaudRateInSimulatedTime) {
-  SerialLine line(57600, Rng(1, "line"));
-  const auto frame = pattern(60, 0);
-  for (int i = 0; i < 200; ++i) line.send(frame.data(), frame.size(), 0.0);  // 12 000 bytes at once
-  // Count the bytes that have arrived at each 0.1 s over 2 s.
-  uint64_t arrived = 0;
-  for (int k = 1; k <= 20; ++k) line.deliver_until(0.1 * k, [&](const uint8_t*, size_t n) { arrived += n; });
-  const double rate = static_cast<double>(arrived) / 2.0;
-  std::printf("simulated-time pacing: %.1f B/s at 57600 baud\n", rate);
-  EXPECT_NEAR(rate / 5760.0, 1.0, 0.02) << rate << " B/s";
-  EXPECT_NEAR(line.busy_until(), 12000 * 10.0 / 57600.0, 1e-9);
+  // The radio (57600) and UART0 (921600): a backlog of 2.5 s of bytes handed over at once, in 60-byte
+  // frames; count the bytes that have arrived at each 0.1 s over 2 s.
+  for (const double baud : {57600.0, 921600.0}) {
+    SerialLine line(baud, Rng(1, "line"));
+    const auto frame = pattern(60, 0);
+    const int frames = static_cast<int>(2.5 * baud / 10.0 / 60.0);
+    for (int i = 0; i < frames; ++i) line.send(frame.data(), frame.size(), 0.0);
+    uint64_t arrived = 0;
+    for (int k = 1; k <= 20; ++k) line.deliver_until(0.1 * k, [&](const uint8_t*, size_t n) { arrived += n; });
+    const double rate = static_cast<double>(arrived) / 2.0;
+    std::printf("simulated-time pacing: %.1f B/s at %.0f baud (%.2f %% of baud/10)\n", rate, baud,
+                100.0 * rate / (baud / 10.0));
+    EXPECT_NEAR(rate / (baud / 10.0), 1.0, 0.02) << rate << " B/s at " << baud;
+    EXPECT_NEAR(line.busy_until(), frames * 60 * 10.0 / baud, 1e-9);
+  }
 }
 
 TEST(SerialLine, AFrameArrivesAfterLatencyJitterAndItsOwnTransmission) {

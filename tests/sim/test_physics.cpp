@@ -1,6 +1,8 @@
 // Physics signs, checked through the one NED/FRD conversion: what the firmware will see.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <Eigen/Geometry>
 
 #include "quad/control/vehicle.h"
@@ -63,6 +65,9 @@ TEST(Physics, VehicleHasThePlannedMassAndRestsOnItsGear) {
   EXPECT_NEAR(t.position_ned.z(), v.rest_down_m(), 0.005);  // settles on its feet, not through the floor
   EXPECT_LT(t.velocity_ned.norm(), 1e-3);
   // An ideal accelerometer at rest and level reads (0, 0, -g) in FRD.
+  std::printf("at rest on the gear: specific force FRD (%.4g, %.4g, %.5f) m/s^2, height error %.2g m\n",
+              t.specific_force_frd.x(), t.specific_force_frd.y(), t.specific_force_frd.z(),
+              t.position_ned.z() - v.rest_down_m());
   EXPECT_TRUE(t.specific_force_frd.isApprox(Eigen::Vector3d(0, 0, -kG), 1e-3)) << t.specific_force_frd.transpose();
 }
 
@@ -80,6 +85,9 @@ TEST(Physics, HoverThrustIsAnEquilibriumAndMoreThrustClimbs) {
     const double expected_down_acc = (1.0 - scale) * kG;  // climbing is negative down
     // z(t) = z0 + a t^2 / 2
     const double expected_dz = 0.5 * expected_down_acc;
+    std::printf("thrust %.2f x m g: down displacement in 1 s %.4g m (expected %.4g), |rate| %.2g rad/s, "
+                "accel z %.4f m/s^2\n", scale, t.position_ned.z() - (v.rest_down_m() - 2.0), expected_dz,
+                t.rate_frd.norm(), t.specific_force_frd.z());
     EXPECT_NEAR(t.position_ned.z() - (v.rest_down_m() - 2.0), expected_dz, 0.05 * std::abs(expected_dz) + 1e-4)
         << "scale " << scale;
     EXPECT_LT(t.rate_frd.norm(), 1e-6) << "equal rotors must not turn the vehicle";
@@ -128,6 +136,9 @@ TEST(Physics, RotorDifferencesTurnTheVehicleTheFirmwaresWay) {
     run(v, 0.3);
     const VehicleTruth t = v.truth();
     const Eigen::Vector3d euler = euler_from_q_ib(t.q_ib);
+    std::printf("%s torque (+-10 %% thrust, 0.3 s): FRD rates (%.4f, %.4f, %.4f) rad/s, angle %.4f rad, "
+                "v_NED (%.4f, %.4f) m/s\n", c.name, t.rate_frd.x(), t.rate_frd.y(), t.rate_frd.z(), euler[c.axis],
+                t.velocity_ned.x(), t.velocity_ned.y());
     EXPECT_GT(t.rate_frd[c.axis], 0.05) << c.name;
     EXPECT_GT(euler[c.axis], 0.005) << c.name;
     for (int other = 0; other < 3; ++other)

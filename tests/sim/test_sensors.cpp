@@ -2,12 +2,14 @@
 // quantisation, the magnetometer's rate and distortion (thesis eq. 7.5).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <vector>
 
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
+#include "quad/sim/vehicle.h"
 
 namespace quad::sim {
 namespace {
@@ -167,6 +169,63 @@ TEST(Mpu6000, GyroBiasStepFaultShiftsTheReading) {
   ImuReading r{};
   for (int i = 0; i < 500; ++i) r = imu.sample(kLevelAtRest, Eigen::Vector3d::Zero());
   EXPECT_NEAR(r.rate_frd.z(), 0.05, imu.params().gyro.lsb);
+}
+
+// Vibration noise (imu.h): extra white noise whose standard deviation is vibration_at_full_speed times the
+// mean rotor speed over the maximum, as the session takes it from the vehicle's motors. Everything else
+// is switched off and the DLPF bypassed, so the raw ADC samples show the added noise alone; then the
+// same through the default 20 Hz DLPF, which passes sqrt(a / (2 - a)) of a white input's deviation
+// (first order, a = 1 - exp(-2 pi fc dt)).
+TEST(Mpu6000, VibrationNoiseScalesWithTheMeanRotorSpeed) {
+  VehicleParams vp;
+  vp.model_path = QUAD_SIM_SOURCE_DIR "/models/quad_c.xml";
+  Vehicle vehicle(vp);
+  ImuParams raw = noiseless();
+  raw.dlpf_cutoff_hz = 0.0;
+  raw.gyro.lsb = raw.accel.lsb = 0.0;
+  raw.gyro.vibration_at_full_speed = 0.05;  // rad/s
+  raw.accel.vibration_at_full_speed = 0.8;  // m/s^2
+  ImuParams filtered = raw;
+  filtered.dlpf_cutoff_hz = ImuParams().dlpf_cutoff_hz;
+  filtered.gyro.lsb = ImuParams().gyro.lsb;
+  filtered.accel.lsb = ImuParams().accel.lsb;
+  const double a = 1.0 - std::exp(-2.0 * M_PI * filtered.dlpf_cutoff_hz / filtered.sample_rate_hz);
+  const double dlpf_gain = std::sqrt(a / (2.0 - a));
+
+  // (motor commands, mean speed fraction): at rest, a quarter, half (two rotors at full speed), full.
+  const std::array<std::array<double, 4>, 4> commands{{{0, 0, 0, 0}, {0.25, 0.25, 0.25, 0.25}, {1, 0, 1, 0}, {1, 1, 1, 1}}};
+  const double fractions[] = {0.0, 0.25, 0.5, 1.0};
+  for (size_t c = 0; c < commands.size(); ++c) {
+    vehicle.set_commands(commands[c]);
+    vehicle.settle_motors();
+    const double speed = vehicle.mean_speed_fraction();
+    ASSERT_NEAR(speed, fractions[c], 1e-12) << "the ESC map makes the command the speed fraction";
+    for (const ImuParams* p : {&raw, &filtered}) {
+      Mpu6000 imu(*p, Rng(11 + c, "vibration"));
+      std::vector<std::vector<double>> axes(6);
+      for (int i = 0; i < 40000; ++i) {
+        const ImuReading r = imu.sample(kLevelAtRest, Eigen::Vector3d::Zero(), speed);
+        if (i < 200) continue;  // the filter's start
+        for (int k = 0; k < 3; ++k) {
+          axes[static_cast<size_t>(k)].push_back(r.rate_frd[k]);
+          axes[static_cast<size_t>(3 + k)].push_back(r.specific_force_frd[k]);
+        }
+      }
+      const double gain = p == &raw ? 1.0 : dlpf_gain;
+      for (int k = 0; k < 6; ++k) {
+        const double measured = stddev(axes[static_cast<size_t>(k)]);
+        const double expected = gain * speed * (k < 3 ? p->gyro.vibration_at_full_speed : p->accel.vibration_at_full_speed);
+        if (k == 0 || k == 3)
+          std::printf("vibration at %.2f of full speed, %s, %s: std %.4g (expected %.4g)\n", speed,
+                      p == &raw ? "raw" : "through the DLPF", k < 3 ? "gyro x" : "accel x", measured, expected);
+        if (speed == 0.0) {
+          EXPECT_LT(measured, 1e-9) << "no vibration at rest, axis " << k;
+        } else {
+          EXPECT_NEAR(measured / expected, 1.0, 0.10) << "speed " << speed << ", axis " << k << (p == &raw ? " raw" : " DLPF");
+        }
+      }
+    }
+  }
 }
 
 TEST(Hmc5883l, SeventyFiveHertzNoiseAndTheConfiguredField) {

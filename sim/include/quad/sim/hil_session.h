@@ -1,7 +1,8 @@
 // One HIL run: the vehicle, its sensors and links, the firmware process, the scenario's schedule, the
 // outputs. The protocol is docs/hil-protocol.md; the lockstep exchange is
 //   HIL_SENSOR (t) -> firmware runs one iteration -> HIL_ACTUATOR_CONTROLS (t) -> physics t .. t + T,
-// with the motor commands taking effect after the two messages' time on the 921600-baud wire.
+// with the motor commands taking effect when the answer's last byte has arrived: UART0 is paced at its baud
+// in simulated time both ways, the firmware's bytes of each exchange counted (summary.json links).
 #pragma once
 
 #include <atomic>

@@ -24,6 +24,10 @@ class OffscreenRecorder {
 
   void frame(Vehicle& vehicle);
   long frames() const { return frames_; }
+  // Closes ffmpeg's input and waits for it to finish the file. Returns what went wrong (a frame that
+  // could not be written, ffmpeg's exit status), empty when the file is complete. Called by the
+  // destructor if not before.
+  std::string finish();
 
  private:
   struct Gl;
@@ -36,6 +40,7 @@ class OffscreenRecorder {
   std::vector<unsigned char> rgb_;
   std::FILE* ffmpeg_ = nullptr;
   long frames_ = 0;
+  bool write_failed_ = false;
 };
 
 }  // namespace quad::sim
