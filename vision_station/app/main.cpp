@@ -3,7 +3,7 @@
 //                            [--board 9x6] [--square 0.025] --out calib.yaml
 //   vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]
 //   vision_station run --calib FILE --source SPEC [--out /dev/ttyUSB0 --baud 57600] [--show]
-//                      [--settings FILE] [--timeout-ms 500] [--status-s 1]
+//                      [--show-screenshot FILE.png] [--settings FILE] [--timeout-ms 500] [--status-s 1]
 #include <csignal>
 #include <cstdlib>
 #include <cstdio>
@@ -40,7 +40,8 @@ const char* kUsage =
     "  vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]\n"
     "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L,R | sim:SOCKET)\n"
     "                     [--out PATH]"
-    " [--baud 57600] [--show] [--settings FILE] [--timeout-ms 500] [--status-s 1]\n";
+    " [--baud 57600] [--show [--show-screenshot FILE.png]] [--settings FILE]\n"
+    "                     [--timeout-ms 500] [--status-s 1]\n";
 
 // --key value options; flags listed in `flags` take no value.
 std::map<std::string, std::string> parse_options(int argc, char** argv, const std::vector<std::string>& flags) {
@@ -200,7 +201,12 @@ struct Status {
   }
 };
 
-void show(const StereoFrame& frame, const StarFix& fix) {
+const char* kWindow = "vision_station";
+
+// The --show window: both views side by side (left | right, raw pixels), the detected contour in red in
+// each, and a green line with the fix (left camera frame, metres) and the processing latency. Returns the
+// frame it displayed (for --show-screenshot). Esc in the window ends the run like Ctrl-C.
+cv::Mat show(const StereoFrame& frame, const StarFix& fix) {
   cv::Mat views[2];
   for (int i = 0; i < 2; ++i) {
     cv::cvtColor(i == 0 ? frame.left : frame.right, views[i], cv::COLOR_GRAY2BGR);
@@ -217,11 +223,19 @@ void show(const StereoFrame& frame, const StarFix& fix) {
     std::snprintf(text, sizeof text, "no fix  %.2f ms", fix.times.total_us() / 1000.0);
   }
   cv::putText(both, text, cv::Point(10, 24), cv::FONT_HERSHEY_SIMPLEX, 0.7, cv::Scalar(0, 255, 0), 2);
-  cv::imshow("vision_station", both);
+  cv::imshow(kWindow, both);
   if (cv::waitKey(1) == 27) g_stop = 1;
+  return both;
 }
 
 int run(const std::map<std::string, std::string>& options) {
+  // The display is checked first: without one, nothing is loaded, opened or processed.
+  const bool display = options.count("--show") > 0;
+  if (display && std::getenv("DISPLAY") == nullptr && std::getenv("WAYLAND_DISPLAY") == nullptr) {
+    throw std::runtime_error("--show needs a display (DISPLAY or WAYLAND_DISPLAY is not set)");
+  }
+  const std::string screenshot = options.count("--show-screenshot") ? options.at("--show-screenshot") : "";
+  if (!screenshot.empty() && !display) throw UsageError("--show-screenshot needs --show");
   const StereoCalibration calibration = load_calibration(require(options, "--calib"));
   const StationSettings settings = settings_from(options);
   std::unique_ptr<FrameSource> source = make_frame_source(require(options, "--source"));
@@ -230,10 +244,6 @@ int run(const std::map<std::string, std::string>& options) {
   if (options.count("--out")) {
     port = std::make_unique<SerialPort>(options.at("--out"), static_cast<int>(number(options, "--baud", 57600)));
     link = std::make_unique<FixLink>(*port, !source->vehicle_clock());
-  }
-  const bool display = options.count("--show") > 0;
-  if (display && std::getenv("DISPLAY") == nullptr && std::getenv("WAYLAND_DISPLAY") == nullptr) {
-    throw std::runtime_error("--show needs a display (DISPLAY or WAYLAND_DISPLAY is not set)");
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(number(options, "--timeout-ms", 500)));
   const double status_period_s = number(options, "--status-s", 1.0);
@@ -245,6 +255,7 @@ int run(const std::map<std::string, std::string>& options) {
   Status status, total;
   int64_t status_start = monotonic_us();
   bool stalled = false;
+  cv::Mat shown;  // the last frame the window displayed
   while (!g_stop) {
     if (link) link->poll(monotonic_us());
     const StationStep step = station.step();
@@ -260,7 +271,7 @@ int run(const std::map<std::string, std::string>& options) {
       total.add(step.fix);
       if (step.fix.found && link) link->send(step.fix, settings.mount, step.frame.capture_time_us);
       source->answered(step.fix.found, link ? link->frames_sent() : 0);
-      if (display) show(step.frame, step.fix);
+      if (display) shown = show(step.frame, step.fix);
     }
     const int64_t now = monotonic_us();
     if ((now - status_start) * 1e-6 >= status_period_s) {
@@ -276,6 +287,14 @@ int run(const std::map<std::string, std::string>& options) {
     }
   }
   std::cerr << "total: " << total.frames << " frames, " << total.fixes << " fixes\n";
+  if (!screenshot.empty()) {
+    // Proof that the window was on screen, and the exact picture it showed last.
+    if (shown.empty()) throw std::runtime_error("--show-screenshot: no frame was displayed");
+    if (cv::getWindowProperty(kWindow, cv::WND_PROP_VISIBLE) <= 0) {
+      throw std::runtime_error("--show-screenshot: the window is not visible");
+    }
+    if (!cv::imwrite(screenshot, shown)) throw std::runtime_error("--show-screenshot: cannot write " + screenshot);
+  }
   return 0;
 }
 
