@@ -28,6 +28,9 @@ constexpr uint16_t kIgnoreYaw = 0x400u;
 constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
 // m/s: the position trim does not learn along an axis the shaped setpoint moves on faster than this.
 constexpr float kTrimMovingSpeed = 0.05f;
+// Fixes refused in a row before the one taken that make the jump worth a STATUSTEXT (one lost outlier
+// is routine; 3 at 30 Hz is 0.1 s of a fix that disagrees with the estimate).
+constexpr uint8_t kJumpReportRejections = 3;
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
@@ -378,14 +381,26 @@ void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
     ++counters_.fixes_invalid;
     return;
   }
+  const uint32_t resets_before = filter_.health().resets;
   const est::FixResult r = filter_.fuse_position(p_ned, capture_us);
-  if (r == est::FixResult::Fused || r == est::FixResult::Initialized) {
+  const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
+  if (taken && (filter_.health().resets != resets_before || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
+    // The estimate jumped to a fix it had refused before (a decoy taken for the star, a moved marker,
+    // a return from a long outage): not a failsafe, but the operator must hear of it.
+    const Decimal n(fixes_rejected_in_a_row_);
+    send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("position jumped to the fix after ") << n.c_str()
+                     << QUAD_TEXT(" rejected"))
+                        .message());
+  }
+  if (taken) {
     ++counters_.fixes_fused;
+    fixes_rejected_in_a_row_ = 0;
     // Freshness counts from arrival on the vehicle clock: a fix delayed by the link is still news.
     vision_seen_ = true;
     vision_time_us_ = now_us_;
   } else {
     ++counters_.fixes_rejected;
+    if (fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
   }
 }
 

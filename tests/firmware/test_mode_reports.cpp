@@ -4,6 +4,8 @@
 // descend at a safe rate" against a vehicle that really descends.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -176,6 +178,36 @@ TEST(ModeReports, RefusalsNameNoNewModeAndKeepIt) {
   EXPECT_EQ(b.set_mode(FlightMode::kManual), mav::kResultDenied);
   EXPECT_EQ(since(b, mark), Texts{"refused: no RC"});
   EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
+}
+
+TEST(ModeReports, AJumpOfTheEstimateToTheFixIsReported) {
+  // A persistent jump of the fix (a decoy taken for the star, a moved marker): the filter's gate refuses
+  // it until the estimate's growing uncertainty lets it in. The mode stays, but the operator is told,
+  // once per jump. (A jump so large that the refusals outlast FS_VIS_TIMEOUT is the vision-lost
+  // failsafe instead: refused fixes are no vision.)
+  for (const float jump : {2.0f, 3.0f}) {
+    Bench b;
+    b.boot();
+    into_auto(b);
+    hold(b, 60);
+    size_t mark = b.statustexts.size();
+    hold(b, 30);
+    EXPECT_TRUE(since(b, mark).empty()) << "steady fixes: nothing to report";
+    hold(b, 3 * 25, true, true, Eigen::Vector3f(jump, 0.0f, -1.5f));  // 25 fixes `jump` m north
+    const Texts said = since(b, mark);
+    ASSERT_EQ(said.size(), 1u) << jump << " m";
+    const std::string prefix = "position jumped to the fix after ";
+    ASSERT_EQ(said.front().rfind(prefix, 0), 0u) << said.front();
+    const int refused = std::atoi(said.front().c_str() + prefix.size());
+    EXPECT_EQ(said.front(), prefix + std::to_string(refused) + " rejected");
+    EXPECT_GE(refused, 3) << jump << " m";
+    EXPECT_EQ(b.statustexts[mark].first, mav::kSeverityWarning);
+    EXPECT_NEAR(b.app->position().x, jump, 0.1f);
+    EXPECT_EQ(b.app->mode(), FlightMode::kAuto) << "a jump is not a failsafe";
+    mark = b.statustexts.size();
+    hold(b, 60, true, true, Eigen::Vector3f(jump, 0.0f, -1.5f));
+    EXPECT_TRUE(since(b, mark).empty()) << "fused again: no more reports";
+  }
 }
 
 TEST(ModeReports, VisionLostFailsafeInAuto) {

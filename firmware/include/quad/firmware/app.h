@@ -117,6 +117,7 @@ class FlightApp {
   const LoopTimer& loop_timer() const { return loop_timer_; }
   LoopTimer& loop_timer() { return loop_timer_; }
   Vec3 position() const { return filter_.position(); }
+  uint32_t filter_resets() const { return filter_.health().resets; }
   float hover_trim() const { return trim_.accel_z(); }
   Vec3 position_trim() const { return trim_.accel(); }
   Vec3 velocity() const { return filter_.velocity(); }
@@ -207,6 +208,7 @@ class FlightApp {
   ctrl::ManualControl manual_;
   ctrl::SetpointShaper shaper_;
   ctrl::PositionSetpoint setpoint_;
+  uint8_t fixes_rejected_in_a_row_ = 0;  // vision fixes the filter refused since it last took one
   PositionTrim trim_;
   ctrl::RcSticks sticks_;
   bool rc_switches_enabled_ = false;
