@@ -28,6 +28,8 @@ constexpr uint16_t kIgnoreYaw = 0x400u;
 constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
 // m/s: the position trim does not learn along an axis the shaped setpoint moves on faster than this.
 constexpr float kTrimMovingSpeed = 0.05f;
+// m/s: faster than this the rotors' drag is part of the horizontal specific force: no bias learning.
+constexpr float kHoverMaxSpeed = 0.3f;
 // Fixes refused in a row before the one taken that make the jump worth a STATUSTEXT (one lost outlier
 // is routine; 3 at 30 Hz is 0.1 s of a fix that disagrees with the estimate).
 constexpr uint8_t kJumpReportRejections = 3;
@@ -238,6 +240,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
 
   trim_.configure(p.get(kPosKiXY), p.get(kPosIMaxXY), p.get(kPosKiZ), p.get(kPosIMaxZ));
+  accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
   land_speed_ = p.get(kLandSpeed);
   land_vz_max_ = p.get(kLandVzMax);
   land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
@@ -577,7 +580,10 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     // Clipped gyro axes come back held at their last good value (imu_clip.h); the biases come off after.
     const Vec3 gyro = imu_clip_.update(imu, dt);
     report_clipping();
-    estimate(gyro - bias_.bias.gyro, imu.accel - bias_.bias.accel, !imu_clip_.accel_clipped(), m, dt);
+    const Vec3 accel = imu.accel - bias_.bias.accel;
+    const bool accel_valid = !imu_clip_.accel_clipped();
+    accel_bias_.update(accel, accel_valid && hovering(), dt);
+    estimate(gyro - bias_.bias.gyro, accel - accel_bias_.bias(), accel_valid, m, dt);
   }
 
   handle_transition(modes_.update(mode_inputs()));
@@ -592,6 +598,16 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     if (++param_stream_next_ >= kParamCount) param_stream_next_ = -1;
   }
   loop_timer_.end(io_.micros());
+}
+
+// Hovering still in AUTO: airborne, the shaped setpoint at rest and the vehicle slow, so the mean
+// horizontal specific force is the accelerometer's bias (hover_accel_bias.h). Uses the last
+// iteration's setpoint and estimate.
+bool FlightApp::hovering() const {
+  if (modes_.mode() != FlightMode::kAuto || landed_) return false;
+  const Vec3& v_d = setpoint_.v_d;
+  return absf(v_d.x) < kTrimMovingSpeed && absf(v_d.y) < kTrimMovingSpeed && absf(v_d.z) < kTrimMovingSpeed &&
+         norm_sq(filter_.velocity()) < sqf(kHoverMaxSpeed);
 }
 
 void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) {

@@ -22,6 +22,7 @@
 #include "quad/control/manual.h"
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/hover_accel_bias.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
 #include "quad/firmware/position_trim.h"
@@ -118,6 +119,7 @@ class FlightApp {
   LoopTimer& loop_timer() { return loop_timer_; }
   Vec3 position() const { return filter_.position(); }
   uint32_t filter_resets() const { return filter_.health().resets; }
+  const Vec3& accel_bias() const { return accel_bias_.bias(); }
   float hover_trim() const { return trim_.accel_z(); }
   Vec3 position_trim() const { return trim_.accel(); }
   Vec3 velocity() const { return filter_.velocity(); }
@@ -143,6 +145,7 @@ class FlightApp {
   void on_setup_signing(uint8_t port, const SetupSigning& msg);
 
   void calibrate(const hal::ImuSample& imu, const hal::MagSample* mag);
+  bool hovering() const;
   // accel_valid false: the accelerometer clipped (no gravity correction, the held kinematic acceleration).
   void estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag, float dt);
   // Clip counters, SYS_STATUS flags and the once-per-burst STATUSTEXT after a guarded sample.
@@ -209,6 +212,7 @@ class FlightApp {
   ctrl::SetpointShaper shaper_;
   ctrl::PositionSetpoint setpoint_;
   uint8_t fixes_rejected_in_a_row_ = 0;  // vision fixes the filter refused since it last took one
+  est::HoverAccelBias accel_bias_;  // the accelerometer's in-flight x/y bias drift
   PositionTrim trim_;
   ctrl::RcSticks sticks_;
   bool rc_switches_enabled_ = false;

@@ -50,6 +50,10 @@ namespace fw {
   /* 1: the horizontal acceleration error (the observer's tilt error while it learns a gyro bias) as */ \
   /* a state on x and y, so it does not become a velocity error (docs/firmware.md) */            \
   X(kKfXYBias, "KF_XY_BIAS", 1.0f, 0.0f, 1.0f)                                                   \
+  /* in-flight accelerometer x/y bias, learned hovering in AUTO (quad/estimation/hover_accel_bias.h): */ \
+  /* time constant (s; 0 = off) and the largest bias it may learn (m/s^2) */                     \
+  X(kEstABiasTau, "EST_ABIAS_TAU", 10.0f, 0.0f, 600.0f)                                          \
+  X(kEstABiasMax, "EST_ABIAS_MAX", 0.15f, 0.0f, 1.0f)                                            \
   /* vision: the star's NED position (m) */                                                      \
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
