@@ -45,7 +45,9 @@ std::string read_text(const fs::path& p) {
 // Runs a command on a virtual X server. Leak detection is off for these runs only: Mesa's software GL
 // driver is dlopen()ed, leaks a few bytes per context and is unloaded before LeakSanitizer reports, so
 // its frames cannot be named in a suppression. Every other quad_sim run in the suite keeps it on.
-const std::string kXvfb = "env ASAN_OPTIONS=detect_leaks=0 xvfb-run -a -s '-screen 0 1280x720x24' ";
+// One virtual display at a time across the suite (ctest runs tests in parallel; two xvfb-run -a starting
+// together can pick the same display, and then one fails cleaning up): flock serialises them.
+const std::string kXvfb = "flock /tmp/quad_xvfb.lock env ASAN_OPTIONS=detect_leaks=0 xvfb-run -a -s '-screen 0 1280x720x24' ";
 
 bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
 

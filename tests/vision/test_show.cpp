@@ -40,7 +40,8 @@ std::string read_text(const fs::path& p) {
 bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
 
 // The screen is wide enough for the 2 × 728 px window.
-const std::string kXvfb = "xvfb-run -a -s '-screen 0 1600x900x24' ";
+// One virtual display at a time across the suite (the simulator's viewer tests use the same lock).
+const std::string kXvfb = "flock /tmp/quad_xvfb.lock xvfb-run -a -s '-screen 0 1600x900x24' ";
 
 // Rendered pairs (files: source, pairs.csv order) and the thesis calibration; for each pair, where the
 // star's centre and a tip project in both views.
