@@ -639,20 +639,19 @@ TEST(FirmwareApp, HoverTrimRemovesTheOffsetOfAFivePercentMassMismatch) {
 
 TEST(PositionTrim, IntegratesWithTheRightSignAndStopsAtTheLimit) {
   quad::fw::AxisTrim t;
-  t.configure(1.0f, 2.0f);
-  t.update(0.1f, 0.5f);  // 10 cm low (NED z larger than the setpoint): more thrust = negative a_d,z
+  t.update(0.1f, 0.5f, 1.0f, 2.0f);  // 10 cm low (NED z larger than the setpoint): more thrust = negative a_d,z
   EXPECT_FLOAT_EQ(t.accel(), -0.05f);
-  for (int i = 0; i < 1000; ++i) t.update(1.0f, 0.1f);
+  for (int i = 0; i < 1000; ++i) t.update(1.0f, 0.1f, 1.0f, 2.0f);
   EXPECT_FLOAT_EQ(t.accel(), -2.0f) << "clamped";
-  t.update(-0.1f, 1.0f);
+  t.update(-0.1f, 1.0f, 1.0f, 2.0f);
   EXPECT_FLOAT_EQ(t.accel(), -1.9f) << "unwinds at once from the limit (no hidden wind-up)";
-  t.update(-5.0f, 1.0f);
+  t.update(-5.0f, 1.0f, 1.0f, 2.0f);
   EXPECT_FLOAT_EQ(t.accel(), -1.7f) << "a 5 m error is learned as 0.2 m (a transient, not an offset)";
-  t.update(NAN, 0.1f);
+  t.update(NAN, 0.1f, 1.0f, 2.0f);
   EXPECT_FLOAT_EQ(t.accel(), -1.7f) << "a non-finite error changes nothing";
-  t.configure(0.0f, 0.5f);
+  t.clamp(0.5f);
   EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "a smaller limit clamps the held value";
-  t.update(1.0f, 1.0f);
+  t.update(1.0f, 1.0f, 0.0f, 0.5f);
   EXPECT_FLOAT_EQ(t.accel(), -0.5f) << "gain 0: held, no learning";
 }
 
@@ -672,6 +671,10 @@ TEST(PositionTrim, HorizontalAndVerticalAxesHaveTheirOwnGainsAndFreezeWhenAsked)
   EXPECT_FLOAT_EQ(t.accel().x, -1.0f) << "horizontal limit";
   EXPECT_FLOAT_EQ(t.accel().y, 1.0f);
   EXPECT_FLOAT_EQ(t.accel_z(), -3.0f) << "vertical limit";
+  t.configure(0.5f, 0.4f, 2.0f, 3.0f);
+  EXPECT_FLOAT_EQ(t.accel().x, -0.4f) << "a new horizontal limit clamps x and y, not z";
+  EXPECT_FLOAT_EQ(t.accel().y, 0.4f);
+  EXPECT_FLOAT_EQ(t.accel_z(), -3.0f);
   t.reset();
   EXPECT_FLOAT_EQ(t.accel().x, 0.0f);
   EXPECT_FLOAT_EQ(t.accel_z(), 0.0f);

@@ -121,7 +121,7 @@ TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
   const Eigen::Vector3f axis = Eigen::Vector3f(0.3f, -0.5f, 0.8f).normalized();
   auto truth = [&](double t) { return Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(t), axis)); };
   AttitudeHistory h;
-  h.set_decimation(2);  // one record per 20 ms
+  h.set_decimation(3);  // one record per 30 ms
   for (int k = 0; k <= 40; ++k) {
     const Eigen::Quaternionf q = truth(k * 0.01);
     h.push(static_cast<uint32_t>(k * 10000), quad::Quat{q.w(), q.x(), q.y(), q.z()});
@@ -134,8 +134,8 @@ TEST(AttitudeHistory, LooksUpPastAttitudesOfARotatingVehicle) {
   const Eigen::Quaternionf expect = truth(t_query * 1e-6);
   const float err = Eigen::Quaternionf(q.w, q.x, q.y, q.z).angularDistance(expect);
   EXPECT_LT(err, 3e-4f);
-  // Older than the oldest record (16 records at 20 ms span 0.30 s): refused rather than guessed.
-  EXPECT_FALSE(h.lookup(400000 - 320000, q));
+  // Older than the oldest record (12 records at 30 ms span 0.33 s): refused rather than guessed.
+  EXPECT_FALSE(h.lookup(400000 - 350000, q));
   // Newer than the last push: refused.
   EXPECT_FALSE(h.lookup(400001, q));
   EXPECT_TRUE(h.lookup(400000, q));

@@ -30,19 +30,19 @@ class HoverAccelBias {
  public:
   // tau_s: time constant of the mean (s; 0 turns the tracker off and clears it); limit: m/s^2 per axis.
   void configure(float tau_s, float limit);
-  void reset() { bias_ = Vec3{}; }
+  void reset() { bx_ = by_ = 0.0f; }
 
   // One accelerometer sample (specific force, FRD, m/s^2, boot-calibrated) over dt seconds; learns
   // only when `hovering`.
   void update(const Vec3& accel_frd, bool hovering, float dt);
 
   // The learned bias (FRD, m/s^2; z is always zero): subtract it from the accelerometer.
-  const Vec3& bias() const { return bias_; }
+  Vec3 bias() const { return {bx_, by_, 0.0f}; }
 
  private:
   float inv_tau_ = 0.0f;
   float limit_ = 0.0f;
-  Vec3 bias_;
+  float bx_ = 0.0f, by_ = 0.0f;  // x and y only (RAM: the ATmega2560's scarcest resource)
 };
 
 }  // namespace est

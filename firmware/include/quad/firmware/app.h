@@ -119,7 +119,7 @@ class FlightApp {
   LoopTimer& loop_timer() { return loop_timer_; }
   Vec3 position() const { return filter_.position(); }
   uint32_t filter_resets() const { return filter_.health().resets; }
-  const Vec3& accel_bias() const { return accel_bias_.bias(); }
+  Vec3 accel_bias() const { return accel_bias_.bias(); }
   float hover_trim() const { return trim_.accel_z(); }
   Vec3 position_trim() const { return trim_.accel(); }
   Vec3 velocity() const { return filter_.velocity(); }

@@ -28,25 +28,24 @@
 namespace quad {
 namespace fw {
 
-// One axis.
+// One axis: the integrator itself (its gain and limit are the caller's, so the axes that share them
+// store them once: RAM is the ATmega2560's scarcest resource).
 class AxisTrim {
  public:
   // m: errors beyond this are integrated as this (a transient, not an offset; see update()).
   static constexpr float kMaxLearnedError = 0.2f;
 
-  // ki: 1/s^2 per m (0 turns the trim off); limit: m/s^2.
-  void configure(float ki, float limit);
   void reset() { accel_ = 0.0f; }
-
-  // One step with the position error p_i - p_d,i (NED, m) over dt seconds.
-  void update(float position_error, float dt);
+  // Clamps the held value into a (new) limit.
+  void clamp(float limit);
+  // One step with the position error p_i - p_d,i (NED, m) over dt seconds, gain ki (1/s^2 per m, 0:
+  // held), limit in m/s^2.
+  void update(float position_error, float dt, float ki, float limit);
 
   // The acceleration feed-forward to add to a_d,i (NED, m/s^2; on z negative = more thrust).
   float accel() const { return accel_; }
 
  private:
-  float ki_ = 0.0f;
-  float limit_ = 0.0f;
   float accel_ = 0.0f;
 };
 
@@ -62,6 +61,8 @@ class PositionTrim {
   float accel_z() const { return axis_[2].accel(); }
 
  private:
+  float ki_[2] = {0.0f, 0.0f};     // horizontal, vertical
+  float limit_[2] = {0.0f, 0.0f};
   AxisTrim axis_[3];
 };
 

@@ -17,11 +17,12 @@
 namespace quad {
 namespace fw {
 
-// Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad): 16 records
-// of 12 bytes cover a few hundred milliseconds (every 3rd iteration at 100 Hz spans 0.48 s).
+// Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad): 12 records
+// of 12 bytes cover a few hundred milliseconds (every 3rd iteration at 100 Hz spans 0.36 s). 12, not
+// more: the ATmega2560's 6 KiB budget (data + bss + peak stack) has no room for more.
 class AttitudeHistory {
  public:
-  static constexpr uint8_t kCapacity = 16;
+  static constexpr uint8_t kCapacity = 12;
 
   // The smallest decimation at which the records span at least span_s at loop_hz (two records spare
   // for the interpolation at both ends).
