@@ -36,6 +36,10 @@ constexpr uint8_t kJumpReportRejections = 3;
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
+// The shaped setpoint moves along axis i (its tracking lag is not an offset to learn, nor is the
+// vehicle hovering).
+bool setpoint_moving(const ctrl::PositionSetpoint& sp, int i) { return absf(sp.v_d[i]) >= kTrimMovingSpeed; }
+
 // |det W| below this is not a calibration but a broken matrix (a fitted W is near a rotation-free scale).
 constexpr float kMinSoftIronDeterminant = 0.05f;
 
@@ -605,9 +609,10 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
 // iteration's setpoint and estimate.
 bool FlightApp::hovering() const {
   if (modes_.mode() != FlightMode::kAuto || landed_) return false;
-  const Vec3& v_d = setpoint_.v_d;
-  return absf(v_d.x) < kTrimMovingSpeed && absf(v_d.y) < kTrimMovingSpeed && absf(v_d.z) < kTrimMovingSpeed &&
-         norm_sq(filter_.velocity()) < sqf(kHoverMaxSpeed);
+  for (int i = 0; i < 3; ++i) {
+    if (setpoint_moving(setpoint_, i)) return false;
+  }
+  return norm_sq(filter_.velocity()) < sqf(kHoverMaxSpeed);
 }
 
 void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) {
@@ -753,8 +758,7 @@ void FlightApp::control(float dt) {
       // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
       // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
       if (!landed_) {
-        const bool learn[3] = {absf(setpoint_.v_d.x) < kTrimMovingSpeed, absf(setpoint_.v_d.y) < kTrimMovingSpeed,
-                               absf(setpoint_.v_d.z) < kTrimMovingSpeed};
+        const bool learn[3] = {!setpoint_moving(setpoint_, 0), !setpoint_moving(setpoint_, 1), !setpoint_moving(setpoint_, 2)};
         trim_.update(s.p - setpoint_.p_d, learn, dt);
       }
       ctrl::PositionSetpoint sp = setpoint_;
@@ -835,8 +839,9 @@ void FlightApp::send_actuators(uint64_t time_usec) {
   out.time_usec = time_usec;
   for (uint8_t i = 0; i < hal::kMotorCount; ++i) out.controls[i] = motors_[i];
   out.mode = base_mode();
-  // One answer per HIL_SENSOR, stamped with its time: the firmware is lockstep-capable by design.
-  out.flags = mav::kHilActuatorControlsFlagLockstep;
+  // One answer per HIL_SENSOR, stamped with its time, in both modes; the flag says which one the
+  // simulator asked for (HIL_LOCKSTEP), as PX4's does.
+  out.flags = params_.get(kHilLockstep) >= 0.5f ? mav::kHilActuatorControlsFlagLockstep : 0;
   send(hal::kUart0, out);
 }
 

@@ -133,6 +133,7 @@ class Session {
   // The exchange. Answers take effect in order, each when its last byte has crossed UART0.
   std::deque<std::pair<double, std::array<double, 4>>> pending_commands_;  // (apply time, commands)
   std::optional<mav::HilActuatorControls> answer_;
+  bool lockstep_mismatch_reported_ = false;  // an answer flagged for the other mode, said once
   uint64_t awaited_usec_ = 0;  // lockstep: the time stamp of the answer being waited for
   bool radio_written_ = false;
   bool firmware_spoke_first_ = false;
@@ -361,6 +362,13 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
       mav::HilActuatorControls m;
       if (!mav::decode(f, m)) break;
       answer_ = m;
+      const bool lockstep_flag = (m.flags & mav::kHilActuatorControlsFlagLockstep) != 0;
+      if (lockstep_flag == o_.realtime && !lockstep_mismatch_reported_) {
+        // A firmware that did not get (or ignores) HIL_LOCKSTEP: the run goes on, the log says so.
+        event(t, std::string("firmware answers flagged ") + (lockstep_flag ? "lockstep" : "real time") + " in a " +
+                     (o_.realtime ? "real-time" : "lockstep") + " run");
+        lockstep_mismatch_reported_ = true;
+      }
       // The answer closes its exchange's byte count (a stale or repeated answer does not, in lockstep).
       if (o_.realtime || m.time_usec == awaited_usec_) {
         uart0_in_exchange_bytes_ += uart0_in_since_answer_;
@@ -712,6 +720,10 @@ SessionResult Session::run() {
     std::snprintf(line, sizeof line, "%s %.9g\n", name.c_str(), value);
     params += line;
   }
+  // The mode this run steps in: the firmware flags its answers with it (docs/hil-protocol.md).
+  const bool scenario_sets_it = std::any_of(s_.firmware_params.begin(), s_.firmware_params.end(),
+                                            [](const auto& p) { return p.first == "HIL_LOCKSTEP"; });
+  if (!scenario_sets_it) params += o_.realtime ? "HIL_LOCKSTEP 0\n" : "HIL_LOCKSTEP 1\n";
   write_file_atomically(o_.out_dir + "/firmware_params.txt", params);
   std::vector<std::string> argv = o_.firmware_argv;
   for (const std::string& a : {std::string("--uart0"), uart0_.slave_path(), std::string("--uart0-baud"),

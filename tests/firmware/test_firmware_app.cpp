@@ -169,6 +169,19 @@ TEST(FirmwareApp, ArmingChecksOverMavlink) {
   EXPECT_EQ(b.command(mav::kCmdDoSetMode, 1.0f, 7.0f), mav::kResultDenied) << "no custom mode 7";
 }
 
+TEST(FirmwareApp, FlagsItsAnswersWithTheModeTheSimulatorAskedFor) {
+  Bench b;
+  b.boot();
+  for (int i = 0; i < 3; ++i) b.still_step();
+  ASSERT_FALSE(b.actuators.empty());
+  EXPECT_EQ(b.actuators.back().flags, mav::kHilActuatorControlsFlagLockstep) << "HIL_LOCKSTEP 1 by default";
+  ASSERT_EQ(b.app->override_param(quad::fw::kHilLockstep, 0.0f), nullptr);  // quad_sim --realtime
+  const size_t before = b.actuators.size();
+  for (int i = 0; i < 3; ++i) b.still_step();
+  ASSERT_EQ(b.actuators.size(), before + 3) << "still one answer per HIL_SENSOR";
+  EXPECT_EQ(b.actuators.back().flags, 0u);
+}
+
 TEST(FirmwareApp, AnswersEachHilSensorOnceAndRepeatsWithoutSteppingTwice) {
   Bench b;
   b.boot();

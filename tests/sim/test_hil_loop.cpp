@@ -358,6 +358,13 @@ TEST(HilLoop, RealTimeModeFliesOnTheWallClock) {
   const std::string summary = slurp(o.out_dir + "/summary.json");
   EXPECT_NE(summary.find("\"mode\": \"realtime\""), std::string::npos);
   EXPECT_GT(json_number(summary, "lockstep_exchanges", "real_time_factor"), 80.0) << "answers used";
+  // The firmware is told the mode (HIL_LOCKSTEP 0); the stand-in flags lockstep regardless, which the
+  // run notes once and survives.
+  EXPECT_NE(slurp(o.out_dir + "/firmware_params.txt").find("HIL_LOCKSTEP 0\n"), std::string::npos);
+  const std::string events = slurp(o.out_dir + "/events.log");
+  const std::string mismatch = "firmware answers flagged lockstep in a real-time run";
+  EXPECT_NE(events.find(mismatch), std::string::npos) << events;
+  EXPECT_EQ(events.find(mismatch), events.rfind(mismatch)) << "said once";
 }
 
 TEST(HilLoop, TheSameSeedGivesTheSameLog) {

@@ -18,6 +18,9 @@ namespace fw {
 #define QUAD_PARAM_TABLE(X)                                                                      \
   /* scheduler: the control loop rate (HIL: the rate the simulator sends HIL_SENSOR at) */       \
   X(kLoopHz, "SYS_LOOP_HZ", 100.0f, 50.0f, 1000.0f)                                              \
+  /* HIL: 1 when the simulator steps in lockstep with the answers (HIL_ACTUATOR_CONTROLS flags bit 0); */ \
+  /* quad_sim sets it from its mode (0 with --realtime) */                                     \
+  X(kHilLockstep, "HIL_LOCKSTEP", 1.0f, 0.0f, 1.0f)                                              \
   /* boot calibration (thesis eq. 7.2, 7.4): windows of CAL_TIME s, still and level */          \
   X(kCalTime, "CAL_TIME", 2.0f, 0.2f, 30.0f)                                                     \
   X(kCalGyroStd, "CAL_GYRO_STD", 0.01f, 0.0001f, 1.0f)                                           \
