@@ -23,6 +23,29 @@ using ::quad::fw::FlightMode;
 
 constexpr float kG = 9.80665f;
 
+// A vehicle that moves only vertically (level, heading north) under the four rotor thrusts
+// f_i = f_max u_i^2 (control/vehicle.h), standing on the ground at z = 0;
+// the airframe of the default parameters (1.4 kg, 880 g per motor).
+struct VerticalVehicle {
+  float z = 0.0f, vz = 0.0f;
+  float f_max = 0.880f * kG, mass = 1.4f;
+  // Integrates one step of dt; returns the specific force along body z the accelerometer reads.
+  float step(const float (&u)[16], float dt) {
+    float thrust = 0.0f;
+    for (int i = 0; i < 4; ++i) thrust += f_max * u[i] * u[i];
+    float az = kG - thrust / mass;
+    if (z >= 0.0f && az > 0.0f) az = 0.0f;  // the ground holds it
+    vz += az * dt;
+    z += vz * dt;
+    if (z > 0.0f) {
+      z = 0.0f;
+      vz = 0.0f;
+    }
+    const bool on_ground = z >= 0.0f && vz == 0.0f;
+    return on_ground ? -kG : -thrust / mass;
+  }
+};
+
 // The world around one FlightApp: storage, clock, and everything it sends, decoded.
 class Bench {
  public:

@@ -19,6 +19,7 @@
 namespace {
 
 using quad::fw::test::Bench;
+using quad::fw::test::VerticalVehicle;
 namespace mav = quad::mavlink;
 using quad::fw::FlightMode;
 constexpr float kG = quad::fw::test::kG;
@@ -537,27 +538,6 @@ TEST(FirmwareApp, NoRcFailsafeWhenRcIsNotRequired) {
   EXPECT_EQ(b.app->mode(), FlightMode::kManual);
 }
 
-// A vehicle that moves only vertically (level, heading north) under the four rotor thrusts
-// f_i = f_max u_i^2 (control/vehicle.h), standing on the ground at z = 0.
-struct VerticalVehicle {
-  float z = 0.0f, vz = 0.0f;
-  float f_max = 0.880f * kG, mass = 1.4f;
-  // Specific force along body z for the commands; integrates one 10 ms step.
-  float step(const float (&u)[16], float dt) {
-    float thrust = 0.0f;
-    for (int i = 0; i < 4; ++i) thrust += f_max * u[i] * u[i];
-    float az = kG - thrust / mass;
-    if (z >= 0.0f && az > 0.0f) az = 0.0f;  // the ground holds it
-    vz += az * dt;
-    z += vz * dt;
-    if (z > 0.0f) {
-      z = 0.0f;
-      vz = 0.0f;
-    }
-    const bool on_ground = z >= 0.0f && vz == 0.0f;
-    return on_ground ? -kG : -thrust / mass;
-  }
-};
 
 TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
   Bench b;

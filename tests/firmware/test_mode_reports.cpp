@@ -18,6 +18,7 @@
 namespace {
 
 using quad::fw::test::Bench;
+using quad::fw::test::VerticalVehicle;
 namespace mav = quad::mavlink;
 using quad::fw::FlightMode;
 constexpr float kG = quad::fw::test::kG;
@@ -305,27 +306,6 @@ TEST(ModeReports, LandingHoldingPositionLosesTheFixAndTurnsLevel) {
 
 // --- The vision-lost failsafe in numbers -----------------------------------------------------------
 
-// A vehicle that moves only vertically (level, heading north) under the four rotor thrusts
-// f_i = f_max u_i^2 (control/vehicle.h), standing on the ground at z = 0; the airframe of the default
-// parameters (1.4 kg, 880 g per motor).
-struct VerticalVehicle {
-  float z = 0.0f, vz = 0.0f;
-  float f_max = 0.880f * kG, mass = 1.4f;
-  // Integrates one step; returns the specific force along body z the accelerometer reads.
-  float step(const float (&u)[16], float dt) {
-    float thrust = 0.0f;
-    for (int i = 0; i < 4; ++i) thrust += f_max * u[i] * u[i];
-    float az = kG - thrust / mass;
-    if (z >= 0.0f && az > 0.0f) az = 0.0f;  // the ground holds it
-    vz += az * dt;
-    z += vz * dt;
-    if (z > 0.0f) {
-      z = 0.0f;
-      vz = 0.0f;
-    }
-    return z >= 0.0f && vz == 0.0f ? -kG : -thrust / mass;
-  }
-};
 
 // Torque shares of the last motor commands, plus layout (VEH_FRAME 0; motor 0 front, 1 left, 2 back,
 // 3 right): pitch (nose up) ~ f_front - f_back, roll (right down) ~ f_left - f_right, as a fraction of

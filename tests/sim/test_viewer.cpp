@@ -16,6 +16,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "x_display.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -30,26 +32,12 @@ fs::path fresh_dir(const std::string& name) {
   return d;
 }
 
-int exit_code(const std::string& cmd) {
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using quad_test::exit_code;
+using quad_test::have_xvfb;
+using quad_test::read_text;
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Runs a command on a virtual X server. Leak detection is off for these runs only: Mesa's software GL
-// driver is dlopen()ed, leaks a few bytes per context and is unloaded before LeakSanitizer reports, so
-// its frames cannot be named in a suppression. Every other quad_sim run in the suite keeps it on.
-// One virtual display at a time across the suite (ctest runs tests in parallel; two xvfb-run -a starting
-// together can pick the same display, and then one fails cleaning up): flock serialises them.
-const std::string kXvfb = "flock /tmp/quad_xvfb.lock env ASAN_OPTIONS=detect_leaks=0 xvfb-run -a -s '-screen 0 1280x720x24' ";
-
-bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
+// Runs a command on a virtual X server (leak detection off for these runs only: see x_display.h).
+const std::string kXvfb = quad_test::xvfb_run("1280x720x24", true);
 
 }  // namespace
 

@@ -19,29 +19,19 @@
 #include "quad/vision/ideal_star.h"
 #include "quad/vision/stereo_calibration.h"
 #include "star_scenes.h"
+#include "x_display.h"
 
 namespace quad::vision {
 namespace {
 
 namespace fs = std::filesystem;
 
-int exit_code(const std::string& cmd) {
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
+using quad_test::exit_code;
+using quad_test::have_xvfb;
+using quad_test::read_text;
 
 // The screen is wide enough for the 2 × 728 px window.
-// One virtual display at a time across the suite (the simulator's viewer tests use the same lock).
-const std::string kXvfb = "flock /tmp/quad_xvfb.lock xvfb-run -a -s '-screen 0 1600x900x24' ";
+const std::string kXvfb = quad_test::xvfb_run("1600x900x24");
 
 // Rendered pairs (files: source, pairs.csv order) and the thesis calibration; for each pair, where the
 // star's centre and a tip project in both views.

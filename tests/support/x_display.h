@@ -1,0 +1,40 @@
+// Test helpers for programs run as a user would run them, some on a virtual X server: a command's exit
+// code, a file's text, and the xvfb-run prefix every display test of the suite shares.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace quad_test {
+
+// The exit code of a shell command (-1 if it did not exit normally).
+inline int exit_code(const std::string& cmd) {
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+inline std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+inline bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
+
+// The prefix that runs a command on a virtual X server of `screen` (e.g. "1280x720x24"). One virtual
+// display at a time across the suite: ctest runs tests in parallel, two `xvfb-run -a` starting together
+// can pick the same display and one then fails cleaning up, so flock serialises them. `no_leak_check`
+// turns LeakSanitizer off for the command (Mesa's software GL driver leaks and is unloaded before the
+// report, so its frames cannot be named in a suppression).
+inline std::string xvfb_run(const std::string& screen, bool no_leak_check = false) {
+  return std::string("flock /tmp/quad_xvfb.lock ") + (no_leak_check ? "env ASAN_OPTIONS=detect_leaks=0 " : "") +
+         "xvfb-run -a -s '-screen 0 " + screen + "' ";
+}
+
+}  // namespace quad_test
