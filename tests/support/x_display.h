@@ -27,14 +27,13 @@ inline std::string read_text(const std::filesystem::path& p) {
 
 inline bool have_xvfb() { return exit_code("command -v xvfb-run >/dev/null 2>&1") == 0; }
 
-// The prefix that runs a command on a virtual X server of `screen` (e.g. "1280x720x24"). One virtual
-// display at a time across the suite: ctest runs tests in parallel, two `xvfb-run -a` starting together
-// can pick the same display and one then fails cleaning up, so flock serialises them. `no_leak_check`
-// turns LeakSanitizer off for the command (Mesa's software GL driver leaks and is unloaded before the
-// report, so its frames cannot be named in a suppression).
-inline std::string xvfb_run(const std::string& screen, bool no_leak_check = false) {
-  return std::string("flock /tmp/quad_xvfb.lock ") + (no_leak_check ? "env ASAN_OPTIONS=detect_leaks=0 " : "") +
-         "xvfb-run -a -s '-screen 0 " + screen + "' ";
+// The prefix that runs a command on a virtual X server of `screen` (e.g. "1280x720x24"), with `env`
+// (variable assignments, e.g. sanitizer options) in its environment. One virtual display at a time across
+// the suite: ctest runs tests in parallel, two `xvfb-run -a` starting together can pick the same display
+// and one then fails cleaning up, so flock serialises them.
+inline std::string xvfb_run(const std::string& screen, const std::string& env = "") {
+  return std::string("flock /tmp/quad_xvfb.lock ") + (env.empty() ? "" : "env " + env + " ") + "xvfb-run -a -s '-screen 0 " +
+         screen + "' ";
 }
 
 }  // namespace quad_test
