@@ -292,21 +292,23 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
   if (!(tau > 0.0f) || tau > kMaxStep) capture_us = now;
   // A jump of the fix says nothing about the acceleration bias (a property of the IMU and the tilt
   // estimate): the learned biases and their variances survive the reset, uncorrelated with the new state.
+  // (Axes without a bias state hold b = 0 and bb = 0 already: set_params() clears them.)
   float bias[3], bias_var[2];
   for (int i = 0; i < 3; ++i) bias[i] = x_[i].b;
-  for (int c = 0; c < 2; ++c) bias_var[c] = p_[c == 1 && one_class_ ? 0 : c].bb;
+  for (int c = 0; c < 2; ++c) bias_var[c] = p_[covariance_class(c == 1 ? 2 : 0)].bb;
   // The velocity too: it comes from the IMU, not the fix, and zeroing it in flight (a fix back after
   // an outage during a failsafe descent) would let the vehicle speed up while the filter catches up. It
   // keeps the initial velocity uncertainty, so the fixes still correct it.
-  const bool keep_bias = initialized_;
+  // A diverged filter (the reset's other cause) keeps nothing that is not finite.
+  bool keep_bias = initialized_;
+  for (int i = 0; i < 3; ++i) keep_bias = keep_bias && is_finite(bias[i]);
+  for (int c = 0; c < 2; ++c) keep_bias = keep_bias && is_finite(bias_var[c]) && bias_var[c] >= 0.0f;
   const Vec3 v = velocity();
   const bool keep_velocity = initialized_ && is_finite(v) && norm(v) < kMaxKeptSpeed;
   reset(p_ned, keep_velocity ? v : Vec3{}, capture_us);
   if (keep_bias) {
-    for (int i = 0; i < 3; ++i) x_[i].b = has_bias(i) ? bias[i] : 0.0f;
-    for (int c = 0; c < 2; ++c) {
-      if (class_has_bias(c) && bias_var[c] > 0.0f) p_[c].bb = bias_var[c];
-    }
+    for (int i = 0; i < 3; ++i) x_[i].b = bias[i];
+    for (int c = 0; c < 2; ++c) p_[c].bb = bias_var[c];
     update_class_sharing();
   }
   if (capture_us != now) {

@@ -149,6 +149,7 @@ Flight fly(const std::string& name) {
   f.scenario = load_scenario(scenario);
   f.dir = std::string(::testing::TempDir()) + "/fault_" + name + "_" + std::to_string(getpid());
   const char* seed = std::getenv("QUAD_FAULT_SEED");
+  if (seed != nullptr && *seed == '\0') seed = nullptr;  // QUAD_FAULT_SEED= (empty) means the scenario's own
   const std::string cmd = std::string(QUAD_SIM_EXE) + " --scenario " + scenario + " --out " + f.dir +
                           " --firmware " + QUAD_FIRMWARE_EXE + (seed ? std::string(" --seed ") + seed : "") +
                           " --no-plots --quiet > " + f.dir + ".out 2>&1";

@@ -163,18 +163,41 @@ Result gs(const std::string& port, const std::string& args) {
   return r;
 }
 
-TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
-  Pty uart0, uart2, ground;
-  ASSERT_FALSE(ground.path.empty());
-  const std::string params = ::testing::TempDir() + "gs_test.params";
-  // Short calibration; no RC in this session, so RC is not required.
+// Starts the host firmware on the two pseudo-terminals with a short calibration and no RC requirement
+// (these sessions have no sticks), and with `storage` as its parameter store when given.
+pid_t start_firmware(const Pty& uart0, const Pty& uart2, const std::string& name, const std::string& storage = "") {
+  const std::string params = ::testing::TempDir() + name + ".params";
   std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
   const pid_t pid = fork();
   if (pid == 0) {
-    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
-          "--params", params.c_str(), static_cast<char*>(nullptr));
+    if (storage.empty()) {
+      execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
+            "--params", params.c_str(), static_cast<char*>(nullptr));
+    } else {
+      execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
+            "--params", params.c_str(), "--storage", storage.c_str(), static_cast<char*>(nullptr));
+    }
     _exit(127);
   }
+  return pid;
+}
+
+// Hangs up UART0, which ends the firmware; true if it ended by itself within 3 s (else it is killed).
+bool stop_firmware(Pty& uart0, pid_t pid) {
+  close(uart0.master);
+  uart0.master = -1;
+  int status = 0;
+  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (waitpid(pid, &status, WNOHANG) != 0) return true;
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return false;
+}
+
+TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
+  Pty uart0, uart2, ground;
+  ASSERT_FALSE(ground.path.empty());
+  const pid_t pid = start_firmware(uart0, uart2, "gs_test");
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master);
@@ -235,15 +258,7 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
     r = gs(ground.path, "get NO_SUCH_PARAM");
     EXPECT_EQ(r.status, 1) << r.out;
   }
-  close(uart0.master);
-  uart0.master = -1;
-  int status = 0;
-  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  if (waitpid(pid, &status, WNOHANG) == 0) {
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
-    ADD_FAILURE() << "the firmware did not end when UART0 hung up";
-  }
+  EXPECT_TRUE(stop_firmware(uart0, pid)) << "the firmware did not end when UART0 hung up";
 }
 
 // The motor commands as shares of the mean rotor thrust f_i = f_max u_i^2 (VEH_FRAME 0, the plus layout:
@@ -272,14 +287,7 @@ void wait_steps(const World& world, int n) {
 TEST(GroundStation, AutoSetpointAndLand) {
   Pty uart0, uart2, ground;
   ASSERT_FALSE(ground.path.empty());
-  const std::string params = ::testing::TempDir() + "gs_auto_test.params";
-  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
-          "--params", params.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t pid = start_firmware(uart0, uart2, "gs_auto_test");
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master);
@@ -324,14 +332,7 @@ TEST(GroundStation, AutoSetpointAndLand) {
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("mode DISARMED"), std::string::npos) << r.out;
   }
-  close(uart0.master);
-  uart0.master = -1;
-  int status = 0;
-  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  if (waitpid(pid, &status, WNOHANG) == 0) {
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
-  }
+  stop_firmware(uart0, pid);
 }
 
 // The signed radio: the key goes in over the USB cable (quad_gs signing-setup), SIGN_ENABLE is set, and
@@ -339,16 +340,9 @@ TEST(GroundStation, AutoSetpointAndLand) {
 TEST(GroundStation, SignedRadioSession) {
   Pty uart0, uart2, ground, usb;
   ASSERT_FALSE(usb.path.empty());
-  const std::string params = ::testing::TempDir() + "gs_sign_test.params";
   const std::string storage = ::testing::TempDir() + "gs_sign_test.storage";
   std::remove(storage.c_str());
-  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
-          "--params", params.c_str(), "--storage", storage.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t pid = start_firmware(uart0, uart2, "gs_sign_test", storage);
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master, usb.master);
@@ -380,14 +374,7 @@ TEST(GroundStation, SignedRadioSession) {
     r = gs(ground.path, key + "get SIGN_ENABLE");
     EXPECT_EQ(r.status, 0) << r.out;
   }
-  close(uart0.master);
-  uart0.master = -1;
-  int status = 0;
-  for (int i = 0; i < 300 && waitpid(pid, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  if (waitpid(pid, &status, WNOHANG) == 0) {
-    kill(pid, SIGKILL);
-    waitpid(pid, &status, 0);
-  }
+  stop_firmware(uart0, pid);
   std::remove(storage.c_str());
 }
 

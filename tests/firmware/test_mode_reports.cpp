@@ -211,6 +211,17 @@ TEST(ModeReports, AJumpOfTheEstimateToTheFixIsReported) {
   }
 }
 
+// After `mark`, the first STATUSTEXT is `text` at CRITICAL severity, and the mode went to LANDING
+// within [min_steps, max_steps] of the cause (steps as `until` counted them).
+void expect_failsafe_report(const Bench& b, size_t mark, int steps, int min_steps, int max_steps, const std::string& text) {
+  EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
+  EXPECT_GE(steps, min_steps);
+  EXPECT_LE(steps, max_steps);
+  ASSERT_FALSE(since(b, mark).empty());
+  EXPECT_EQ(since(b, mark).front(), text);
+  EXPECT_EQ(b.statustexts[mark].first, mav::kSeverityCritical);
+}
+
 TEST(ModeReports, VisionLostFailsafeInAuto) {
   Bench b;
   b.boot();
@@ -219,12 +230,7 @@ TEST(ModeReports, VisionLostFailsafeInAuto) {
   const size_t mark = b.statustexts.size();
   // Fixes stop, RC goes on: LANDING 0.5 s (FS_VIS_TIMEOUT) after the last fix arrived.
   const int steps = until(b, FlightMode::kLanding, 200, false, true);
-  EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
-  EXPECT_GE(steps, 49);
-  EXPECT_LE(steps, 52);
-  ASSERT_FALSE(since(b, mark).empty());
-  EXPECT_EQ(since(b, mark).front(), "LANDING: FAILSAFE vision lost: level, land");
-  EXPECT_EQ(b.statustexts[mark].first, mav::kSeverityCritical);
+  expect_failsafe_report(b, mark, steps, 49, 52, "LANDING: FAILSAFE vision lost: level, land");
 }
 
 TEST(ModeReports, RcLostFailsafeFromManualAndFromAuto) {
@@ -238,12 +244,7 @@ TEST(ModeReports, RcLostFailsafeFromManualAndFromAuto) {
     const size_t mark = b.statustexts.size();
     // The sticks stop (the fixes go on): LANDING 1 s (FS_RC_TIMEOUT) after the last RC frame.
     const int steps = until(b, FlightMode::kLanding, 200, true, false);
-    EXPECT_EQ(b.app->mode(), FlightMode::kLanding);
-    EXPECT_GE(steps, 96);
-    EXPECT_LE(steps, 101);
-    ASSERT_FALSE(since(b, mark).empty());
-    EXPECT_EQ(since(b, mark).front(), "LANDING: FAILSAFE RC lost: land");
-    EXPECT_EQ(b.statustexts[mark].first, mav::kSeverityCritical);
+    expect_failsafe_report(b, mark, steps, 96, 101, "LANDING: FAILSAFE RC lost: land");
     // On the ground the landing ends, reported as such.
     until(b, FlightMode::kDisarmed, 300, true, false);
     EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
