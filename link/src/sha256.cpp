@@ -113,15 +113,20 @@ QUAD_SHA256_INLINE uint32_t schedule(uint32_t* w, uint8_t t) {
   return wt;
 }
 
-// One round of section 6.2.2 step 3 with the working variables in their current roles. Instead of
-// moving a..h down by one each round (28 register or memory moves per round on the AVR), eight unrolled
-// calls rotate the roles: after round t the new `a` is the old `h` and the new `e` the old `d`. On the
-// AVR that saves a fifth of the cycles (54 600 -> 44 300 per block) for 7 kB more flash.
-QUAD_SHA256_INLINE void sha_round(uint32_t a, uint32_t b, uint32_t c, uint32_t& d, uint32_t e, uint32_t f, uint32_t g,
-                                  uint32_t& h, uint32_t k_plus_w) {
-  const uint32_t t1 = h + big_sigma1(e) + ch(e, f, g) + k_plus_w;
+// One round of section 6.2.2 step 3. The working variables a..h live in v[8] and change roles instead of
+// places: in round t, a is v[(8 - t) mod 8], b the next slot, and so on, so a round writes only the new
+// e (into d's slot) and the new a (into h's slot) instead of moving all eight down by one (28 word moves
+// per round on the AVR). One round in a loop, not eight unrolled ones: on the AVR the unrolled rounds
+// cost 7 kB of flash for a fifth of the cycles, and the APM 2.5 image has no flash to spare (issue 9).
+inline void sha_round(uint32_t* v, uint8_t t, uint32_t k_plus_w) {
+  const uint8_t r = static_cast<uint8_t>(8u - (t & 7u));
+  uint32_t& a = v[r & 7u];
+  uint32_t& d = v[(r + 3u) & 7u];
+  uint32_t& e = v[(r + 4u) & 7u];
+  uint32_t& h = v[(r + 7u) & 7u];
+  const uint32_t t1 = h + big_sigma1(e) + ch(e, v[(r + 5u) & 7u], v[(r + 6u) & 7u]) + k_plus_w;
   d += t1;
-  h = t1 + big_sigma0(a) + maj(a, b, c);
+  h = t1 + big_sigma0(a) + maj(a, v[(r + 1u) & 7u], v[(r + 2u) & 7u]);
 }
 
 }  // namespace
@@ -145,26 +150,10 @@ void Sha256::compress(const uint8_t* block) {
   uint32_t w[16];
   for (uint8_t t = 0; t < 16; ++t) w[t] = load_be32(block + 4 * t);
 
-  uint32_t a = state_[0], b = state_[1], c = state_[2], d = state_[3];
-  uint32_t e = state_[4], f = state_[5], g = state_[6], h = state_[7];
-  for (uint8_t t = 0; t < 64; t += 8) {
-    sha_round(a, b, c, d, e, f, g, h, round_constant(t) + schedule(w, t));
-    sha_round(h, a, b, c, d, e, f, g, round_constant(t + 1) + schedule(w, t + 1));
-    sha_round(g, h, a, b, c, d, e, f, round_constant(t + 2) + schedule(w, t + 2));
-    sha_round(f, g, h, a, b, c, d, e, round_constant(t + 3) + schedule(w, t + 3));
-    sha_round(e, f, g, h, a, b, c, d, round_constant(t + 4) + schedule(w, t + 4));
-    sha_round(d, e, f, g, h, a, b, c, round_constant(t + 5) + schedule(w, t + 5));
-    sha_round(c, d, e, f, g, h, a, b, round_constant(t + 6) + schedule(w, t + 6));
-    sha_round(b, c, d, e, f, g, h, a, round_constant(t + 7) + schedule(w, t + 7));
-  }
-  state_[0] += a;
-  state_[1] += b;
-  state_[2] += c;
-  state_[3] += d;
-  state_[4] += e;
-  state_[5] += f;
-  state_[6] += g;
-  state_[7] += h;
+  uint32_t v[8];
+  memcpy(v, state_, sizeof v);
+  for (uint8_t t = 0; t < 64; ++t) sha_round(v, t, round_constant(t) + schedule(w, t));
+  for (uint8_t i = 0; i < 8; ++i) state_[i] += v[i];  // after 64 rounds the roles are back in place
 }
 
 void Sha256::update(const uint8_t* data, size_t length) {

@@ -25,54 +25,59 @@ struct Quat {
   Vec3 vec() const { return {x, y, z}; }
 };
 
-inline Quat operator*(const Quat& q, float s) { return {q.w * s, q.x * s, q.y * s, q.z * s}; }
-inline Quat operator+(const Quat& a, const Quat& b) { return {a.w + b.w, a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline Quat operator-(const Quat& q) { return {-q.w, -q.x, -q.y, -q.z}; }
+QUAD_MATH_FN Quat operator*(const Quat& q, float s) { return {q.w * s, q.x * s, q.y * s, q.z * s}; }
+QUAD_MATH_FN Quat operator+(const Quat& a, const Quat& b) { return {a.w + b.w, a.x + b.x, a.y + b.y, a.z + b.z}; }
+QUAD_MATH_FN Quat operator-(const Quat& q) { return {-q.w, -q.x, -q.y, -q.z}; }
 
 // P (x) Q = [p0 q0 - p.q ; p0 q + q0 p + p x q]   (thesis eq. 3.11). No normalisation: |P Q| = |P| |Q|.
-inline Quat operator*(const Quat& p, const Quat& q) {
+QUAD_MATH_FN Quat operator*(const Quat& p, const Quat& q) {
   return {p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z,
           p.w * q.x + p.x * q.w + p.y * q.z - p.z * q.y,
           p.w * q.y - p.x * q.z + p.y * q.w + p.z * q.x,
           p.w * q.z + p.x * q.y - p.y * q.x + p.z * q.w};
 }
 
-inline float dot(const Quat& a, const Quat& b) { return a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z; }
-inline float norm_sq(const Quat& q) { return dot(q, q); }
-inline float norm(const Quat& q) { return sqrtf(dot(q, q)); }
+QUAD_MATH_FN float dot(const Quat& a, const Quat& b) { return a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z; }
+QUAD_MATH_FN float norm_sq(const Quat& q) { return dot(q, q); }
+QUAD_MATH_FN float norm(const Quat& q) { return sqrtf(dot(q, q)); }
 
 // Q* = [q0; -q], which is Q^-1 (thesis eq. 3.12) for a unit Q. For any Q, Q (x) Q* = |Q|^2 [1; 0], so the
 // inverse of a non-unit Q is Q* / |Q|^2; this function does not divide.
-inline Quat conjugate(const Quat& q) { return {q.w, -q.x, -q.y, -q.z}; }
+QUAD_MATH_FN Quat conjugate(const Quat& q) { return {q.w, -q.x, -q.y, -q.z}; }
 
 // Unit quaternion along q; a zero (|q| <= 1e-10), overflowing (|q|^2 not finite in float, |q| >~ 1.8e19)
 // or non-finite input yields the identity instead of NaN.
-inline Quat normalized(const Quat& q) {
-  const float n2 = norm_sq(q);
+QUAD_MATH_FN Quat normalized(const Quat& q) {
+  const float n2 = q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z;  // norm_sq, inline (hot path)
   if (!(n2 > 1e-20f) || !is_finite(n2)) return Quat::identity();
-  return q * (1.0f / sqrtf(n2));
+  const float s = 1.0f / sqrtf(n2);
+  return {q.w * s, q.x * s, q.y * s, q.z * s};
 }
 
 // The representative with a non-negative scalar part: q and -q are the same attitude, and controllers
 // that act on the vector part must use this one to turn the short way.
-inline Quat canonical(const Quat& q) { return q.w < 0.0f ? -q : q; }
+QUAD_MATH_FN Quat canonical(const Quat& q) { return q.w < 0.0f ? -q : q; }
 
-inline bool is_finite(const Quat& q) { return is_finite(q.w) && is_finite(q.x) && is_finite(q.y) && is_finite(q.z); }
+QUAD_MATH_FN bool is_finite(const Quat& q) { return is_finite(q.w) && is_finite(q.x) && is_finite(q.y) && is_finite(q.z); }
 
 // v_I = q (x) [0 v_B] (x) q^-1 for a unit q, in the cheap form v + 2 w (u x v) + 2 u x (u x v).
 // No normalisation (hot path). For a non-unit q = s u (u unit, s = |q|) the result is exactly
 // to_dcm(q) v = s^2 R(u) v + (1 - s^2) v = R(u) v + (s^2 - 1)(R(u) - I) v: neither R(u) v (what the
 // sandwich of eq. 3.14 gives for any |q|) nor s^2 R(u) v. Its error against R(u) v is at most
 // 2 |s^2 - 1| |v|, about 4 |s - 1| |v| for a small drift of the norm.
-inline Vec3 rotate(const Quat& q, const Vec3& v) {
-  const Vec3 u = q.vec();
-  const Vec3 t = cross(u, v) * 2.0f;
-  return v + t * q.w + cross(u, t);
+// Written out in components (same operations in the same order as t = 2 u x v, v + w t + u x t): on the
+// AVR the vector helpers are calls, and this is a hot path.
+QUAD_MATH_FN Vec3 rotate(const Quat& q, const Vec3& v) {
+  const float tx = (q.y * v.z - q.z * v.y) * 2.0f;
+  const float ty = (q.z * v.x - q.x * v.z) * 2.0f;
+  const float tz = (q.x * v.y - q.y * v.x) * 2.0f;
+  return {v.x + tx * q.w + (q.y * tz - q.z * ty), v.y + ty * q.w + (q.z * tx - q.x * tz),
+          v.z + tz * q.w + (q.x * ty - q.y * tx)};
 }
 
 // v_B = q^-1 (x) [0 v_I] (x) q: inertial to body, for a unit q. rotate() of conjugate(q): for q = s u it
 // gives s^2 R(u)^T v + (1 - s^2) v (error at most 2 |s^2 - 1| |v|, as above).
-inline Vec3 rotate_inverse(const Quat& q, const Vec3& v) { return rotate(conjugate(q), v); }
+QUAD_MATH_FN Vec3 rotate_inverse(const Quat& q, const Vec3& v) { return rotate(conjugate(q), v); }
 
 // R(Q), the Rodrigues map   (thesis eq. 3.16/3.18); R = R_IB for q = q_IB, for a unit q.
 // No normalisation (hot path). It evaluates eq. 3.18 as printed (1 - 2 (q2^2 + q3^2) on the diagonal), which

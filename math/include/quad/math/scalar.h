@@ -9,6 +9,17 @@
 #include <stdint.h>
 #include <string.h>
 
+// Vector, quaternion and matrix operations are inline on the 32-bit targets (the FPU does them in a few
+// cycles each, so inlining wins) and out of line on the AVR: there every float operation is a call into
+// the software float library with its operands moved into registers, about 40 bytes of code each, so an
+// inlined three-component expression costs more flash than a call does; the call itself costs under 20
+// cycles against 140-500 for each float operation inside (docs/targets.md, "Memory").
+#if defined(QUAD_TARGET_AVR)
+#define QUAD_MATH_FN inline __attribute__((noinline))
+#else
+#define QUAD_MATH_FN inline
+#endif
+
 namespace quad {
 
 constexpr float kPi = 3.14159265358979323846f;
