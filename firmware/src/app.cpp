@@ -389,7 +389,9 @@ void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
     return;
   }
   const uint32_t resets_before = filter_.health().resets;
+  mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = filter_.fuse_position(p_ned, capture_us);
+  mark(hal::TracePoint::kFixEnd);
   const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
   if (taken && (filter_.health().resets != resets_before || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
     // The estimate jumped to a fix it had refused before (a decoy taken for the star, a moved marker,
@@ -562,6 +564,7 @@ void FlightApp::on_param_set(uint8_t port, const mav::ParamSet& msg) {
 // The control iteration
 
 void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag) {
+  mark(hal::TracePoint::kStepBegin);
   const uint32_t begin = io_.micros();
   loop_timer_.begin(begin);
   const float nominal_dt = static_cast<float>(loop_timer_.period_us()) * 1e-6f;
@@ -594,6 +597,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground.
   if (!modes_.armed()) radio_.persist_clock(io_.storage, now_us_, false);
   control(dt);
+  mark(modes_.mode() == FlightMode::kDisarmed ? hal::TracePoint::kControlIdle : hal::TracePoint::kControlFlown);
   detect_landing(dt);
   telemetry();
 
@@ -602,6 +606,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     if (++param_stream_next_ >= kParamCount) param_stream_next_ = -1;
   }
   loop_timer_.end(io_.micros());
+  mark(hal::TracePoint::kStepEnd);
 }
 
 // Hovering still in AUTO: airborne, the shaped setpoint at rest and the vehicle slow, so the mean

@@ -19,6 +19,7 @@ AppIo hal_app_io() {
   io.storage = StorageIo{hal::storage_read, hal::storage_write};
   io.write = write_port;
   io.micros = hal::micros;
+  io.trace = hal::trace;
   return io;
 }
 

@@ -32,5 +32,8 @@ void led_write(bool on) {
   else PORTA |= avr::kLedA;
 }
 
+// GPIOR1 is free on this board (the cycle benchmarks' probes use GPIOR0 and GPIOR2).
+void trace(TracePoint point) { GPIOR1 = static_cast<uint8_t>(point); }
+
 }  // namespace hal
 }  // namespace quad

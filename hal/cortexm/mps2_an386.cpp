@@ -125,6 +125,8 @@ bool storage_write(uint16_t offset, const void* src, uint16_t length) {
 
 void led_write(bool on) { cortexm::kFpgaIoLed = on ? 1u : 0u; }
 
+void trace(TracePoint) {}  // QEMU's -icount counts the Cortex-M iteration instead (docs/performance.md)
+
 }  // namespace hal
 }  // namespace quad
 

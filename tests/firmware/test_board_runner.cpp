@@ -28,6 +28,7 @@ struct FakeBoard {
   quad::hal::RcFrame rc{};
   std::vector<std::vector<float>> motor_writes;
   std::vector<bool> led;
+  std::vector<quad::hal::TracePoint> trace;
 };
 FakeBoard* g_board = nullptr;
 
@@ -61,6 +62,7 @@ bool storage_write(uint16_t offset, const void* src, uint16_t length) {
   return true;
 }
 void led_write(bool on) { g_board->led.push_back(on); }
+void trace(TracePoint point) { g_board->trace.push_back(point); }
 bool imu_read(ImuSample& out) {
   if (!g_board->imu_new) return false;
   out = g_board->imu;
@@ -191,6 +193,38 @@ TEST_F(BoardRunner, MotorEnableChannelArmsAndKills) {
   rc(1000, 1000);  // ... and low again: disarm
   run_for(0.05f);
   EXPECT_EQ(app_->mode(), quad::fw::FlightMode::kDisarmed);
+}
+
+// avr_pil times the phases between these marks: every iteration must be bracketed, with its control
+// part marked once as flown (a motor command computed) or idle (disarmed), and nothing else inside.
+TEST_F(BoardRunner, EveryIterationIsBracketedByTraceMarks) {
+  using quad::hal::TracePoint;
+  run_for(2.5f);
+  ASSERT_TRUE(app_->calibrated());
+  rc(1000);
+  run_for(0.05f);
+  mav::CommandLong arm;
+  arm.command = mav::kCmdComponentArmDisarm;
+  arm.param1 = 1.0f;
+  arm.target_system = 1;
+  receive(quad::hal::kUart0, arm);
+  const int iterations = run_for(0.5f) + 255;  // 2.5 s + 0.05 s before, at 100 Hz
+  ASSERT_EQ(app_->mode(), quad::fw::FlightMode::kManual);
+
+  int idle = 0, flown = 0, complete = 0;
+  const std::vector<TracePoint>& t = board_.trace;
+  for (size_t i = 0; i < t.size();) {
+    ASSERT_EQ(t[i], TracePoint::kStepBegin) << "mark " << i;
+    ASSERT_LT(i + 2, t.size());
+    ASSERT_TRUE(t[i + 1] == TracePoint::kControlIdle || t[i + 1] == TracePoint::kControlFlown) << "mark " << i + 1;
+    (t[i + 1] == TracePoint::kControlFlown ? flown : idle) += 1;
+    ASSERT_EQ(t[i + 2], TracePoint::kStepEnd) << "mark " << i + 2;
+    ++complete;
+    i += 3;
+  }
+  EXPECT_EQ(complete, iterations);
+  EXPECT_NEAR(flown, 50, 1) << "armed in MANUAL for the last 0.5 s";
+  EXPECT_EQ(idle + flown, complete);
 }
 
 TEST_F(BoardRunner, NoIterationWithoutANewImuSample) {

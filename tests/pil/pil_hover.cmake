@@ -4,7 +4,7 @@
 # firmware parameters applied, and horizontal standard deviation over the hold within MAX_STD_RATIO of
 # the host firmware's.
 #   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
-#         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] -P pil_hover.cmake
+#         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] [-DPERIOD_CYCLES=<cycles>] -P pil_hover.cmake
 foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "pil_hover.cmake: ${var} is not set")
@@ -104,6 +104,23 @@ if(DEFINED RAM_BUDGET)
     if(ram GREATER RAM_BUDGET)
       list(APPEND failures "RAM ${ram} bytes exceeds ${RAM_BUDGET}")
     endif()
+  endif()
+endif()
+
+# Optional (AVR): the firmware's own iteration, timed to the cycle by avr_pil (hal::TracePoint marks):
+# printed for the record, and the whole iteration (with telemetry) must fit the control period.
+if(DEFINED PERIOD_CYCLES)
+  file(READ "${OUT}/target/firmware.log" log)
+  string(REGEX MATCHALL "avr_pil: cycles of [^\n]*" profile "${log}")
+  foreach(line ${profile})
+    message(STATUS "${line}")
+  endforeach()
+  string(REGEX MATCH "cycles of whole iteration: [0-9]+ samples, median [0-9]+, p99 [0-9]+, max ([0-9]+)" found "${log}")
+  set(step_max "${CMAKE_MATCH_1}")
+  if(step_max STREQUAL "")
+    list(APPEND failures "no iteration profile in ${OUT}/target/firmware.log (hal::trace not wired?)")
+  elseif(step_max GREATER PERIOD_CYCLES)
+    list(APPEND failures "the longest iteration took ${step_max} cycles, more than the ${PERIOD_CYCLES} of a control period")
   endif()
 endif()
 

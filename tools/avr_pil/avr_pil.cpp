@@ -11,6 +11,11 @@
 // compatibility: the bytes' timing on the wire is the AVR's own (simavr times its UARTs from UBRR).
 // simavr's uart_pty part is not used: it drops input bytes; this bridge feeds input only while the
 // UART signals XON.
+//
+// It also times the firmware's own work to the cycle: the flight application marks the phases of each
+// iteration on GPIOR1 (hal::TracePoint), and at exit this prints the cycles of the control part
+// (estimation, modes, control, mixing: no I/O) of the iterations flown and of those on the ground, of
+// the whole iteration with telemetry, and of each vision fix fused (median, 99th percentile, maximum).
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -29,6 +34,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
 #include <deque>
 #include <string>
 #include <thread>
@@ -116,6 +122,50 @@ int open_port(const std::string& path, char uart) {
   // The slave stays open so the master does not see hang-ups between clients.
   return master;
 }
+
+// Cycle counts of the phases the firmware marks on GPIOR1 (quad/hal/hal.h, hal::TracePoint).
+constexpr avr_io_addr_t kGpior1 = 0x4A;
+struct PhaseProfile {
+  uint64_t step_begin = 0, fix_begin = 0;
+  bool in_step = false, in_fix = false;
+  struct Sample {
+    uint32_t cycles;
+    uint32_t iteration;  // which iteration (0 the first), the simulator's step at its rate
+  };
+  std::vector<Sample> control_flown, control_idle, step, fix;
+  uint32_t iterations = 0;
+  Sample sample(const avr_t* avr, uint64_t since) const {
+    return {static_cast<uint32_t>(avr->cycle - since), iterations == 0 ? 0 : iterations - 1};
+  }
+
+  static void on_write(avr_t* avr, avr_io_addr_t, uint8_t v, void* param) {
+    auto* p = static_cast<PhaseProfile*>(param);
+    const uint64_t now = avr->cycle;
+    switch (v) {
+      case 1: p->step_begin = now; p->in_step = true; ++p->iterations; break;
+      case 2: if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin)); break;
+      case 3: if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin)); break;
+      case 4: if (p->in_step) p->step.push_back(p->sample(avr, p->step_begin)); p->in_step = false; break;
+      case 5: p->fix_begin = now; p->in_fix = true; break;
+      case 6: if (p->in_fix) p->fix.push_back(p->sample(avr, p->fix_begin)); p->in_fix = false; break;
+      default: break;
+    }
+  }
+
+  static void report(const char* what, std::vector<Sample> v) {
+    if (v.empty()) return;
+    std::sort(v.begin(), v.end(), [](const Sample& a, const Sample& b) { return a.cycles < b.cycles; });
+    std::fprintf(stderr, "avr_pil: cycles of %s: %zu samples, median %u, p99 %u, max %u (iteration %u)\n", what,
+                 v.size(), v[v.size() / 2].cycles, v[std::min(v.size() - 1, v.size() * 99 / 100)].cycles,
+                 v.back().cycles, v.back().iteration);
+  }
+  void report() const {
+    report("control flown", control_flown);
+    report("control on the ground", control_idle);
+    report("whole iteration", step);
+    report("vision fix", fix);
+  }
+};
 
 void attach(avr_t* avr, UartBridge& u) {
   u.avr = avr;
@@ -227,6 +277,9 @@ int main(int argc, char** argv) {
   attach(avr, u0);
   attach(avr, u2);
 
+  PhaseProfile profile;
+  avr_register_io_write(avr, kGpior1, &PhaseProfile::on_write, &profile);
+
   signal(SIGINT, on_signal);
   signal(SIGTERM, on_signal);
   signal(SIGPIPE, SIG_IGN);
@@ -264,6 +317,7 @@ int main(int argc, char** argv) {
                static_cast<unsigned long long>(u0.bytes_out), static_cast<unsigned long long>(u2.bytes_in),
                static_cast<unsigned long long>(u2.bytes_out));
   std::fprintf(stderr, "avr_pil: peak stack %u bytes\n", static_cast<unsigned>(avr->ramend - lowest_sp));
+  profile.report();
   avr_terminate(avr);
   return 0;
 }

@@ -59,6 +59,8 @@ struct AppIo {
   uint32_t (*micros)();
   // Optional: every STATUSTEXT line also goes here (the host prints it on stderr); null on a board.
   void (*console)(uint8_t severity, const char* text, uint8_t length) = nullptr;
+  // Optional: marks the phases of an iteration for a profiler (hal::trace on a board).
+  void (*trace)(hal::TracePoint point) = nullptr;
 };
 
 // The toggle switches of the RC transmitter (thesis sec. 6.1.4: 1000 or 2000 us).
@@ -156,6 +158,9 @@ class FlightApp {
   void control(float dt);
   void detect_landing(float dt);
   void telemetry();
+  void mark(hal::TracePoint point) const {
+    if (io_.trace != nullptr) io_.trace(point);
+  }
 
   void send_statustext(uint8_t severity, FlashText text);
   void send_statustext(const mavlink::Statustext& msg);

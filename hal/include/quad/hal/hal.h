@@ -61,6 +61,19 @@ bool storage_write(uint16_t offset, const void* src, uint16_t length);
 // Status LED.
 void led_write(bool on);
 
+// Phases of the flight application's work, marked for a processor-in-the-loop profiler: on the AVR a
+// one-cycle write of the phase number to GPIOR1, which tools/avr_pil times to the cycle
+// (docs/performance.md, "The firmware's own iteration"); a no-op on the other targets.
+enum class TracePoint : uint8_t {
+  kStepBegin = 1,     // a control iteration starts (sensor sample in hand)
+  kControlIdle = 2,   // estimation, modes and control done; disarmed, no motor command computed
+  kControlFlown = 3,  // estimation, modes and control done; the cascade computed the motor commands
+  kStepEnd = 4,       // landing detection, telemetry and parameter streaming done
+  kFixBegin = 5,      // a vision fix is about to be fused
+  kFixEnd = 6,
+};
+void trace(TracePoint point);
+
 // Board sensors and actuators, defined only by targets that have them (not the host).
 bool imu_read(ImuSample& out);  // true when a new sample arrived since the last call
 bool mag_read(MagSample& out);  // true when a new sample arrived since the last call
