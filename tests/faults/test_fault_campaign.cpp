@@ -187,19 +187,21 @@ void expect_safe(const Flight& f) {
   EXPECT_NE(f.summary.find("\"complete\": true"), std::string::npos) << f.summary;
   EXPECT_NE(f.summary.find("\"crashed\": false"), std::string::npos) << "crash (tilt > 60 deg or ground > 2 m/s)";
 
-  // The estimate is finite in every row from its first report on (before that the log holds NaN for
-  // "nothing received yet"); the first report comes before arming.
+  // Each estimate column is finite in every row from its message's first report on (before that the
+  // log holds NaN for "nothing received yet"; LOCAL_POSITION_NED and ATTITUDE_QUATERNION start in
+  // different iterations); the first reports come before arming.
   const char* est[] = {"est_n", "est_e", "est_d", "est_vn", "est_ve", "est_vd", "est_roll", "est_pitch", "est_yaw"};
-  std::optional<size_t> first;
-  for (size_t r = 0; r < f.rows.size() && !first; ++r)
-    if (std::isfinite(f.at(r, "est_n"))) first = r;
-  ASSERT_TRUE(first) << "no estimate ever reported";
-  EXPECT_LT(f.at(*first, "t"), 3.0);
   size_t non_finite = 0;
   double first_bad = NAN;
-  for (size_t r = *first; r < f.rows.size(); ++r)
-    for (const char* c : est)
+  for (const char* c : est) {
+    std::optional<size_t> first;
+    for (size_t r = 0; r < f.rows.size() && !first; ++r)
+      if (std::isfinite(f.at(r, c))) first = r;
+    ASSERT_TRUE(first) << c << " never reported";
+    EXPECT_LT(f.at(*first, "t"), 3.0) << c;
+    for (size_t r = *first; r < f.rows.size(); ++r)
       if (!std::isfinite(f.at(r, c)) && non_finite++ == 0) first_bad = f.at(r, "t");
+  }
   EXPECT_EQ(non_finite, 0u) << "non-finite estimate first at t = " << first_bad << " s";
 
   // Touchdown: the true descent speed while within 5 cm of the resting height, once airborne.

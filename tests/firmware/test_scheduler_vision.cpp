@@ -78,6 +78,46 @@ TEST(LoopTimer, SurvivesClockWrap) {
   EXPECT_EQ(t.overruns(), 0u);
 }
 
+// The firmware's telemetry streams (1, 10, 10, 1 Hz out of 100 Hz, slots 1, 0, 5, 3) never share an
+// iteration, and a slot moves the grid without changing the rate.
+TEST(RateDivider, SlotsKeepStreamsOutOfEachOthersIterations) {
+  struct Stream {
+    float hz;
+    uint8_t slot;
+  };
+  const Stream streams[] = {{1.0f, 1}, {10.0f, 0}, {10.0f, 5}, {1.0f, 3}};
+  for (const float loop_hz : {100.0f, 400.0f}) {
+    RateDivider d[4];
+    for (int s = 0; s < 4; ++s) d[s].configure(streams[s].hz, loop_hz, streams[s].slot);
+    int runs[4] = {0, 0, 0, 0};
+    int shared = 0;
+    const int n = static_cast<int>(10.0f * loop_hz);  // 10 s
+    for (int i = 0; i < n; ++i) {
+      int fired = 0;
+      for (int s = 0; s < 4; ++s) {
+        if (d[s].tick()) {
+          ++runs[s];
+          ++fired;
+        }
+      }
+      shared += fired > 1 ? 1 : 0;
+    }
+    EXPECT_EQ(shared, 0) << loop_hz << " Hz loop";
+    for (int s = 0; s < 4; ++s) EXPECT_EQ(runs[s], static_cast<int>(10.0f * streams[s].hz)) << "stream " << s;
+  }
+  // Without slots the same streams collide: the test above would catch slots that did nothing.
+  RateDivider a, b;
+  a.configure(10.0f, 100.0f);
+  b.configure(10.0f, 100.0f);
+  int together = 0;
+  for (int i = 0; i < 100; ++i) {
+    const bool fa = a.tick();
+    const bool fb = b.tick();
+    together += fa && fb ? 1 : 0;
+  }
+  EXPECT_EQ(together, 10);
+}
+
 TEST(RateDivider, RunsAtTheRequestedShareOfTheLoop) {
   RateDivider d;
   d.configure(10.0f, 100.0f);

@@ -47,9 +47,14 @@ class LoopTimer {
 // lockstep). A rate of 0 turns the task off; rates above the loop rate run every iteration. A rate that
 // does not divide the loop rate is kept on average (30 Hz out of 100 Hz: 3 runs in every 10
 // iterations), by a phase accumulator in tenths of a hertz (integers: no drift, 6 bytes of RAM).
+//
+// Tasks at the same or related rates would all fire in the same iteration (every 100th at 1 Hz and
+// 10 Hz out of 100 Hz), and on the AVR four telemetry frames to two ports take about 45 000 cycles: a
+// `slot` delays the task's grid by that many iterations, so tasks given different slots never share an
+// iteration while the gaps between their runs allow it.
 class RateDivider {
  public:
-  void configure(float rate_hz, float loop_hz);
+  void configure(float rate_hz, float loop_hz, uint8_t slot = 0);
   bool tick();  // call once per loop iteration; true when the task should run now
 
  private:
