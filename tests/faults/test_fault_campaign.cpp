@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -38,7 +39,25 @@ struct Event {
 // One finished run: the scenario, log.csv by column, events.log, summary.json.
 struct Flight {
   Scenario scenario;
-  std::string dir;
+  std::string dir;  // the run's output: removed when the test passed, kept (and named) when it failed
+
+  Flight() = default;
+  Flight(const Flight&) = delete;
+  Flight(Flight&& o) noexcept
+      : scenario(std::move(o.scenario)), dir(std::move(o.dir)), column(std::move(o.column)), rows(std::move(o.rows)),
+        events(std::move(o.events)), summary(std::move(o.summary)) {
+    o.dir.clear();
+  }
+  ~Flight() {
+    if (dir.empty()) return;
+    if (::testing::Test::HasFailure()) {
+      std::fprintf(stderr, "fault run kept in %s\n", dir.c_str());
+      return;
+    }
+    std::error_code ec;  // best effort: a leftover directory is not a test failure
+    std::filesystem::remove_all(dir, ec);
+    std::filesystem::remove(dir + ".out", ec);
+  }
   std::map<std::string, size_t> column;
   std::vector<std::vector<double>> rows;
   std::vector<Event> events;
