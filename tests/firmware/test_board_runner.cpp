@@ -120,6 +120,16 @@ class BoardRunner : public ::testing::Test {
     board_.rc.pulse_us[quad::fw::kRcAutoMode] = auto_mode;
     board_.rc_new = true;
   }
+  // Throttle low on the RC for 50 ms, then an arm command on UART0 (it takes effect on the next pass).
+  void send_arm() {
+    rc(1000);
+    run_for(0.05f);
+    mav::CommandLong arm;
+    arm.command = mav::kCmdComponentArmDisarm;
+    arm.param1 = 1.0f;
+    arm.target_system = 1;
+    receive(quad::hal::kUart0, arm);
+  }
   std::vector<mav::CommandAck> acks(uint8_t port) {
     std::vector<mav::CommandAck> out;
     mav::Parser parser;
@@ -162,13 +172,7 @@ TEST_F(BoardRunner, LedBlinksFastWhileCalibratingSlowWhenReadyAndStaysOnWhenArme
   size_t mark = board_.led.size();
   run_for(2.0f);
   EXPECT_NEAR(toggles(mark), 4, 1) << "1 Hz blink when ready";
-  rc(1000);
-  run_for(0.05f);
-  mav::CommandLong arm;
-  arm.command = mav::kCmdComponentArmDisarm;
-  arm.param1 = 1.0f;
-  arm.target_system = 1;
-  receive(quad::hal::kUart0, arm);
+  send_arm();
   run_for(0.05f);
   ASSERT_EQ(app_->mode(), quad::fw::FlightMode::kManual);
   mark = board_.led.size();
@@ -201,13 +205,7 @@ TEST_F(BoardRunner, EveryIterationIsBracketedByTraceMarks) {
   using quad::hal::TracePoint;
   run_for(2.5f);
   ASSERT_TRUE(app_->calibrated());
-  rc(1000);
-  run_for(0.05f);
-  mav::CommandLong arm;
-  arm.command = mav::kCmdComponentArmDisarm;
-  arm.param1 = 1.0f;
-  arm.target_system = 1;
-  receive(quad::hal::kUart0, arm);
+  send_arm();
   const int iterations = run_for(0.5f) + 255;  // 2.5 s + 0.05 s before, at 100 Hz
   ASSERT_EQ(app_->mode(), quad::fw::FlightMode::kManual);
 
