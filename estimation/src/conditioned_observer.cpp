@@ -9,20 +9,56 @@ namespace {
 
 constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 
+// The bit pattern of a float. For floats that are zero or positive (not NaN) the patterns order as the
+// values, so the comparisons of the hot path are integer ones (a few cycles) instead of calls into the
+// AVR's software float compare; each use below states why its operands qualify.
+uint32_t bits(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b;
+}
+constexpr uint32_t kOneBits = 0x3F800000u;  // 1.0f
+// |x| <= limit, limit zero or positive: exact (a NaN x fails, as the float comparison does).
+bool abs_at_most(float x, float limit) { return (bits(x) & 0x7FFFFFFFu) <= bits(limit); }
+
+// x / 2 in the hot paths: exact_half() on the AVR, the multiplication elsewhere (bit-identical).
+inline float half(float x) {
+#if defined(QUAD_TARGET_AVR)
+  return exact_half(x);
+#else
+  return 0.5f * x;
+#endif
+}
+
 // Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
 // approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
 // renormalises to round-off without the square root and division of a full normalisation.
 // half_dt_sq = (dt/2)^2 comes from the caller's per-dt cache.
 Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float half_dt_sq) {
-  const float half_dt = 0.5f * dt;
-  const float x2 = half_dt_sq * norm_sq(omega);
+  const float half_dt = half(dt);
+  const float x2 = half_dt_sq * dot(omega, omega);
   const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
-  const Quat d{1.0f - 0.5f * x2, omega.x * k, omega.y * k, omega.z * k};
+  const Quat d{1.0f - half(x2), omega.x * k, omega.y * k, omega.z * k};
   const Quat n = q * d;  // A(Omega) q = q (x) [0, Omega]
-  return n * (1.5f - 0.5f * norm_sq(n));
+  return n * (1.5f - half(dot(n, n)));
 }
 
 }  // namespace
+
+#if defined(QUAD_TARGET_AVR)
+__attribute__((noinline))  // one copy for every caller (flash)
+#endif
+float exact_half(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  const uint32_t e = b & 0x7F800000u;
+  if (e > 0x00800000u && e != 0x7F800000u) {  // exponent field 2..254: the half is normal
+    b -= 0x00800000u;
+    memcpy(&x, &b, sizeof x);
+    return x;
+  }
+  return 0.5f * x;
+}
 
 ConditionedObserver::ConditionedObserver(const ObserverParams& params) : params_(params) { cache_reference(); }
 
@@ -42,6 +78,7 @@ void ConditionedObserver::cache_reference() {
   const float hi = (1.0f + params_.accel_norm_tolerance) * kGravity;
   accel_lo2_ = lo * lo;
   accel_hi2_ = hi * hi;
+  if (!(accel_hi2_ >= 0.0f)) accel_hi2_ = 0.0f;  // a NaN tolerance accepts nothing (update() compares bits)
   const Vec3& m = params_.mag_ref_ned;
   if (params_.innovation == Innovation::Conditioned) {
     // thesis eq. 4.7: v_I = pi_{e3} m_I / ||pi_{e3} m_I||; pi_{e3} m = (m_N, m_E, 0).
@@ -49,6 +86,9 @@ void ConditionedObserver::cache_reference() {
     const float n = norm(h);
     inv_mag_h_ = n > 0.0f ? 1.0f / n : 0.0f;  // eq. 4.8 denominator (errata: the inertial norm)
     v_ref_ = h * inv_mag_h_;
+    // A reference along magnetic north (the learned one: m_E = 0) is exactly e1, not m_N (1/m_N) (which
+    // can round to one ulp below 1): update() then takes row 0 of R as v_hat without multiplying.
+    if (m.y == 0.0f && n > 0.0f) v_ref_.x = m.x > 0.0f ? 1.0f : -1.0f;
   } else {
     // thesis eq. 4.3a: v_I = m_I / ||m_I||
     const float n = norm(m);
@@ -56,7 +96,9 @@ void ConditionedObserver::cache_reference() {
     v_ref_ = m * inv_mag_h_;
   }
   k2_mag_ = params_.k2 * inv_mag_h_;
-  inner_delta_ = params_.delta * 0.57735f;  // just below Delta / sqrt(3) (1/sqrt(3) = 0.5773503)
+  // just below Delta / sqrt(3) (1/sqrt(3) = 0.5773503); zero for a Delta that is not positive, so that the
+  // bit comparison in update() decides as the float one would
+  inner_delta_ = params_.delta > 0.0f ? params_.delta * 0.57735f : 0.0f;
   step_dt_ = -1.0f;  // the step gains below belong to the old parameters
 }
 
@@ -94,7 +136,11 @@ void ConditionedObserver::reset(const Quat& q_ib, const Vec3& gyro_bias) {
 }
 
 void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt) {
-  if (!is_finite(gyro) || !(dt > 0.0f) || !(dt <= kMaxDt)) {
+  // 0 < dt <= kMaxDt on the bits: as a signed integer the pattern is positive exactly for positive
+  // floats and positive NaNs (+0 is zero, everything with the sign bit negative), and a NaN's is above
+  // kMaxDt's, so this is the float test (NaN of either sign fails it).
+  const int32_t dt_bits = static_cast<int32_t>(bits(dt));
+  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(bits(kMaxDt)))) {
     ++health_.skipped;
     return;
   }
@@ -108,8 +154,10 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm.
   Vec3 u_meas;
   bool use_accel = false;
-  const float a2 = norm_sq(accel);
-  if (a2 > accel_lo2_ && a2 < accel_hi2_) {  // false for NaN
+  const float a2 = dot(accel, accel);  // (norm_sq, without its extra call level)
+  // a2 is a sum of squares (>= +0 or NaN) and both bounds are >= 0: integer comparisons are exact (a NaN
+  // pattern is above every finite one, so it fails the upper bound).
+  if (bits(a2) > bits(accel_lo2_) && bits(a2) < bits(accel_hi2_)) {
     u_meas = accel * (-1.0f / sqrtf(a2));
     use_accel = true;
   }
@@ -117,27 +165,28 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
 
   bool use_mag = false;
   if (mag_valid) {
-    use_mag = is_finite(mag) && inv_mag_h_ > 0.0f;
+    use_mag = is_finite(mag) && bits(inv_mag_h_) != 0u;  // inv_mag_h_ > 0 (it is +0 or positive)
     if (!use_mag) ++health_.mag_rejected;
   }
 
-  if (dt != step_dt_) cache_step(dt);
+  if (bits(dt) != bits(step_dt_)) cache_step(dt);  // (dt > 0 here: equal values have equal patterns)
 
   // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
   // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.
   Vec3 sigma_r, db;
   if (use_accel) {
     const Vec3 e_u = cross(u_meas, u_hat);
-    sigma_r = e_u * k.k1;
+    sigma_r = bits(k.k1) == kOneBits ? e_u : e_u * k.k1;  // table 8.1's k1 = 1: multiplying by one is exact
     db = e_u * -k3_dt_;
   }
   if (use_mag) {
     // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
     // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
     Vec3 v_hat;
-    if (v_ref_.x != 0.0f) v_hat = r_.row(0) * v_ref_.x;
-    if (v_ref_.y != 0.0f) v_hat += r_.row(1) * v_ref_.y;
-    if (v_ref_.z != 0.0f) v_hat += u_hat * v_ref_.z;
+    // (A component is zero when its pattern without the sign is; x 1 is exact.)
+    if (bits(v_ref_.x) << 1) v_hat = bits(v_ref_.x) == kOneBits ? r_.row(0) : r_.row(0) * v_ref_.x;
+    if (bits(v_ref_.y) << 1) v_hat += r_.row(1) * v_ref_.y;
+    if (bits(v_ref_.z) << 1) v_hat += u_hat * v_ref_.z;
     if (k.innovation == Innovation::Conditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.
@@ -165,8 +214,8 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // sat_Delta(b) - b = b (Delta/|b| - 1).
   // Inside the cube |b_i| <= Delta/sqrt(3) the norm cannot exceed Delta: three comparisons decide the
   // usual case without the squared norm.
-  if (k.innovation == Innovation::Conditioned && !(absf(bias_.x) <= inner_delta_ && absf(bias_.y) <= inner_delta_ &&
-                                                   absf(bias_.z) <= inner_delta_)) {
+  if (k.innovation == Innovation::Conditioned && !(abs_at_most(bias_.x, inner_delta_) && abs_at_most(bias_.y, inner_delta_) &&
+                                                   abs_at_most(bias_.z, inner_delta_))) {
     const float b2 = norm_sq(bias_);
     if (b2 > k.delta * k.delta) db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
   }

@@ -1,5 +1,7 @@
 #include "quad/estimation/position_filter.h"
 
+#include "quad/estimation/conditioned_observer.h"  // exact_half()
+
 namespace quad {
 namespace est {
 
@@ -16,20 +18,53 @@ float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static
 // fewer on the AVR).
 int32_t micros_between(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
 
+// |x| <= limit for a limit that is zero or positive (not NaN): the magnitudes of IEEE floats order as
+// their bit patterns, so an integer comparison decides it exactly, without the software float compare
+// (and false for a NaN x, as the float comparison is).
+uint32_t magnitude_bits(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b & 0x7FFFFFFFu;
+}
+bool abs_at_most(float x, float limit) { return magnitude_bits(x) <= magnitude_bits(limit); }
+// The same ordering for two floats that are both positive (not NaN): their patterns compare as the values.
+uint32_t bits(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+// x / 2 in the hot paths: exact_half() on the AVR, the multiplication elsewhere (bit-identical).
+inline float half(float x) {
+#if defined(QUAD_TARGET_AVR)
+  return exact_half(x);
+#else
+  return 0.5f * x;
+#endif
+}
+
+// g x, on the AVR without the software multiplication when g is exactly 1 (exact: table 8.1's Q = I2 T
+// has q_p = q_v = 1).
+#if defined(QUAD_TARGET_AVR)
+__attribute__((noinline)) float times(float g, float x) { return bits(g) == 0x3F800000u ? x : g * x; }
+#else
+inline float times(float g, float x) { return g * x; }
+#endif
+
 // Q(T) = int_0^T Phi(t) diag(qp, qv, qb) Phi(t)^T dt for Phi(t) = [[1, t, -t^2/2], [0, 1, -t], [0, 0, 1]]:
 // the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12.
 AxisCovariance process_noise(float t, float qp, float qv, float qb) {
   const float t2 = t * t, t3 = t2 * t;
   AxisCovariance q;
-  q.pp = qp * t + qv * t3 * (1.0f / 3.0f);
-  q.pv = qv * t2 * 0.5f;
-  q.vv = qv * t;
+  q.pp = times(qp, t) + times(qv, t3) * (1.0f / 3.0f);
+  q.pv = half(times(qv, t2));
+  q.vv = times(qv, t);
   if (qb > 0.0f) {
     q.pp += qb * t3 * t2 * (1.0f / 20.0f);
     q.pv += qb * t2 * t2 * 0.125f;
     q.vv += qb * t3 * (1.0f / 3.0f);
     q.pb = -qb * t3 * (1.0f / 6.0f);
-    q.vb = -qb * t2 * 0.5f;
+    q.vb = half(-qb * t2);
     q.bb = qb * t;
   }
   return q;
@@ -38,12 +73,12 @@ AxisCovariance process_noise(float t, float qp, float qv, float qb) {
 // P <- Phi(T) P Phi(T)^T + Q(T)   (thesis eq. 8.11a, F of eq. 8.10 extended by the bias column).
 void propagate_covariance(AxisCovariance& p, float t, bool bias, const AxisCovariance& q) {
   if (!bias) {
-    p.pp += t * (2.0f * p.pv + t * p.vv) + q.pp;
+    p.pp += t * ((p.pv + p.pv) + t * p.vv) + q.pp;  // (2 pv as pv + pv: exact, an addition is cheaper)
     p.pv += t * p.vv + q.pv;
     p.vv += q.vv;
     return;
   }
-  const float h = 0.5f * t * t;
+  const float h = half(t) * t;
   // A = Phi P, rows r0, r1 (r2 = P's last row), then P' = A Phi^T.
   const float r00 = p.pp + t * p.pv - h * p.pb, r01 = p.pv + t * p.vv - h * p.vb, r02 = p.pb + t * p.vb - h * p.bb;
   const float r11 = p.vv - t * p.vb, r12 = p.vb - t * p.bb;
@@ -70,7 +105,7 @@ Vec3 kinematic_acceleration(const Mat3& r_ib, const Vec3& specific_force_frd) {
 }
 
 PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params)
-    : history_(storage), capacity_(capacity) {
+    : params_(params), history_(storage), capacity_(capacity) {  // (a copy: smaller than the defaults' stores)
   set_params(params);
 }
 
@@ -106,10 +141,10 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
 // equal sigma) and its covariance is bit-identical now: the same operations then keep it identical, so
 // computing it once is exact, not an approximation.
 void PositionFilterCore::update_class_sharing() {
-  const AxisCovariance& a = p_[0];
-  const AxisCovariance& b = p_[1];
+  // The covariances compared as bits (one memcmp instead of six float comparisons: smaller code, and
+  // exactly the "identical numbers" the sharing needs; AxisCovariance is six floats, no padding).
   one_class_ = qb_[0] == qb_[1] && params_.z_accel_bias == params_.xy_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z &&
-               a.pp == b.pp && a.pv == b.pv && a.vv == b.vv && a.pb == b.pb && a.vb == b.vb && a.bb == b.bb;
+               memcmp(&p_[0], &p_[1], sizeof(AxisCovariance)) == 0;
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
@@ -152,7 +187,7 @@ void PositionFilterCore::clear_history() {
 float PositionFilterCore::correction_position(int axis, float dt) const {
   const Correction& c = corr_[axis];
   if (!has_bias(axis)) return c.p + dt * c.v;  // c.b is zero
-  return c.p + dt * (c.v - 0.5f * dt * c.b);
+  return c.p + dt * (c.v - half(dt) * c.b);
 }
 
 // History entries hold p - (accumulated correction carried to their time); see the header.
@@ -160,7 +195,10 @@ void PositionFilterCore::push_history() {
   HistoryEntry& e = history_[head_];
   e.t_us = t_us_;
   const float dt = seconds_between(t_us_, corr_origin_us_);
-  for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - correction_position(i, dt);
+  for (int i = 0; i < 3; ++i) {
+    const Correction& c = corr_[i];  // correction_position(i, dt), written out for the axes without a bias
+    e.p[i] = x_[i].p - (has_bias(i) ? correction_position(i, dt) : c.p + dt * c.v);
+  }
   head_ = static_cast<uint16_t>(head_ + 1 == capacity_ ? 0 : head_ + 1);
   if (count_ < capacity_) ++count_;
   // Once the last fused fix is older than the whole history, no fix can be out of order with it; forget
@@ -182,7 +220,7 @@ void PositionFilterCore::rebase_correction(uint32_t t_us) {
       c.p += d * c.v;  // c.b is zero
       continue;
     }
-    c.p += d * (c.v - 0.5f * d * c.b);
+    c.p += d * (c.v - half(d) * c.b);
     c.v -= d * c.b;
   }
   corr_origin_us_ = t_us;
@@ -201,19 +239,23 @@ void PositionFilterCore::fold_correction() {
 
 // thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u - b with a bias).
 void PositionFilterCore::propagate(const Vec3& u, float dt) {
-  // Q(T) and T^2/2 depend only on T, which is the loop period on every step but the odd one: cache them.
-  if (dt != q_dt_) {
+  // Q(T) and T/2 depend only on T, which is the loop period on every step but the odd one: cache them.
+  if (bits(dt) != bits(q_dt_)) {  // (dt > 0: equal values have equal patterns)
     q_[0] = process_noise(dt, qp_, qv_, qb_[0]);
     q_[1] = qb_[1] == qb_[0] ? q_[0] : process_noise(dt, qp_, qv_, qb_[1]);
-    half_dt_sq_ = 0.5f * dt * dt;
+    half_dt_ = half(dt);
     q_dt_ = dt;
   }
-  const float h = half_dt_sq_;
+  // p + T v + (T^2/2) a = p + (T/2) (v + v'), v' = v + T a: the same step with one multiplication fewer
+  // per axis (float rounding only; PositionFilter.PredictMatchesEquation89InDouble bounds it).
+  const float h = half_dt_;
+  const float ua[3] = {u.x, u.y, u.z};
   for (int i = 0; i < 3; ++i) {
     AxisState& x = x_[i];
-    const float a = has_bias(i) ? u[i] - x.b : u[i];
-    x.p += dt * x.v + h * a;
-    x.v += dt * a;
+    const float a = has_bias(i) ? ua[i] - x.b : ua[i];
+    const float v0 = x.v;
+    x.v = v0 + dt * a;
+    x.p += h * (v0 + x.v);
   }
   propagate_covariance(p_[0], dt, class_has_bias(0), q_[0]);
   if (!one_class_) propagate_covariance(p_[1], dt, class_has_bias(1), q_[1]);
@@ -226,8 +268,8 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     clock_started_ = true;
     return;
   }
-  const float dt = seconds_between(t_us, t_us_);
-  if (!is_finite(u) || !(dt > 0.0f)) {
+  const int32_t step_us = micros_between(t_us, t_us_);
+  if (!is_finite(u) || step_us <= 0) {  // (dt > 0 exactly when the microseconds are)
     ++health_.predict_skipped;
     return;
   }
@@ -236,8 +278,9 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     corr_origin_us_ = t_us;
     return;
   }
+  const float dt = static_cast<float>(step_us) * 1e-6f;  // seconds_between(t_us, old t_us_)
   propagate(u, dt);
-  if (dt > kMaxStep) {
+  if (bits(dt) > bits(kMaxStep)) {  // dt > kMaxStep (both positive)
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
     corr_origin_us_ = t_us;
@@ -324,7 +367,8 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedInvalid;
   }
   const float lost = sqf(params_.reset_position_sigma);
-  const bool diverged = !(p_[0].pp <= lost) || !(p_[covariance_class(2)].pp <= lost);  // also catches NaN
+  // (also catches NaN; z's own entry only when it has one)
+  const bool diverged = !(p_[0].pp <= lost) || (!one_class_ && !(p_[1].pp <= lost));
   const bool rejected_too_often =
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
@@ -332,11 +376,12 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::Initialized;
   }
   // A fix stamped after "now" (clock offset) is taken as current.
-  float tau = seconds_between(t_us_, capture_us);
-  if (tau < 0.0f) {
-    tau = 0.0f;
+  int32_t tau_us = micros_between(t_us_, capture_us);
+  if (tau_us < 0) {  // (the float tau is negative exactly when the microseconds are)
+    tau_us = 0;
     capture_us = t_us_;
   }
+  const float tau = static_cast<float>(tau_us) * 1e-6f;  // seconds_between(t_us_, capture_us)
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
   if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
     ++health_.rejected_out_of_order;
@@ -353,7 +398,8 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   // correction carried to now is Phi(tau) K nu = D h nu / S. Computed once per covariance class.
   float w[2][3];
   float inv_s[2];
-  const float h1 = -tau, h2 = -0.5f * tau * tau;
+  const float h1 = -tau;
+  float h2 = 0.0f;  // -tau^2/2, needed by the bias terms only
   AxisCovariance q_tau[2];
   const int classes = class_count();
   q_tau[0] = process_noise(tau, qp_, qv_, qb_[0]);
@@ -367,24 +413,28 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     w[c][1] = dpv + h1 * dvv;
     w[c][2] = 0.0f;
     if (bias) {
+      h2 = -half(tau) * tau;  // (= -0.5f * tau * tau bit for bit)
       const float dpb = p.pb - q.pb, dvb = p.vb - q.vb, dbb = p.bb - q.bb;
       w[c][0] += h2 * dpb;
       w[c][1] += h2 * dvb;
       w[c][2] = dpb + h1 * dvb + h2 * dbb;
     }
+    // h^T D h; without a bias state w_2 = 0, and adding h2 w_2 = -0 would change nothing (exact).
+    float hdh = w[c][0] + h1 * w[c][1];
+    if (bias) hdh += h2 * w[c][2];
     const float r = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
     // h^T D h is the variance of the predicted position at capture time: never below zero.
-    inv_s[c] = 1.0f / (maxf(w[c][0] + h1 * w[c][1] + h2 * w[c][2], 0.0f) + r);
+    inv_s[c] = 1.0f / (maxf(hdh, 0.0f) + r);
   }
   // Mahalanobis gate per axis: nu^2 / S <= gate^2.
   float nu[3];
-  bool pass = true;
   float nis = 0.0f;
   const float gate2 = sqf(params_.gate_sigma);
+  bool pass = magnitude_bits(gate2) <= 0x7F800000u;  // a NaN gate passes nothing (as the float comparison)
   for (int i = 0; i < 3; ++i) {
     nu[i] = y[i] - p_s[i];
     const float d2 = nu[i] * nu[i] * inv_s[covariance_class(i)];
-    if (!(d2 <= gate2)) pass = false;  // also rejects a non-finite innovation
+    if (!abs_at_most(d2, gate2)) pass = false;  // d2 >= 0: exact; also rejects a non-finite innovation
     nis += d2;
   }
   last_nis_ = nis;
@@ -398,13 +448,15 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   gain_tau_ = tau;
   for (int c = 0; c < classes; ++c) {
     float* k = gain_[c];
-    for (int j = 0; j < 3; ++j) k[j] = w[c][j] * inv_s[c];
+    const bool bias = class_has_bias(c);
+    k[2] = 0.0f;  // w_2 = 0 without a bias state
+    for (int j = 0; j < (bias ? 3 : 2); ++j) k[j] = w[c][j] * inv_s[c];
     // thesis eq. 8.11b (errata) at capture time, carried to now: P_now -= (D h)(D h)^T / S.
     AxisCovariance& p = p_[c];
     p.pp -= k[0] * w[c][0];
     p.pv -= k[0] * w[c][1];
     p.vv -= k[1] * w[c][1];
-    if (class_has_bias(c)) {
+    if (bias) {
       p.pb -= k[0] * w[c][2];
       p.vb -= k[1] * w[c][2];
       p.bb -= k[2] * w[c][2];
@@ -425,7 +477,12 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
       x.b += db;
       c.b += db;
     }
-    if (absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) fold = true;
+    // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
+    // monotonic and 1 is a float): two integer comparisons decide the usual case exactly.
+    if (!(abs_at_most(c.p, 0.5f * kFoldThreshold) && abs_at_most(c.v, 2.0f * kFoldThreshold)) &&
+        absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) {
+      fold = true;
+    }
   }
   if (fold) fold_correction();
   last_fix_us_ = capture_us;

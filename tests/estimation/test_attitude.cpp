@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <iostream>
 #include <vector>
@@ -579,4 +580,230 @@ TEST(ConditionedObserver, DcmIsTheRotationOfTheAttitudeAfterEveryKindOfStep) {
   fresh.update(s.gyro, s.accel, s.mag, true, 0.0025f);
   EXPECT_LT(rotation_distance(to_eigen(a.attitude()), to_eigen(fresh.attitude())), 1e-6);
   EXPECT_LT((to_eigen(a.gyro_bias()) - to_eigen(fresh.gyro_bias())).norm(), 1e-8);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The AVR rewrites of the observer step (integer comparisons of the float bits, table 8.1's k1 = 1 and
+// a unit reference component not multiplied, halving on the exponent bits, dot instead of norm_sq) all
+// claim to be exact: the step must stay bit-for-bit the step as written before them, below in float with
+// the vector helpers. (The one intended difference: a reference along magnetic north is exactly e1.)
+
+namespace {
+
+struct LegacyFloatObserver {
+  ObserverParams p;
+  Vec3 v_ref;
+  float inv_mag_h = 0.0f;
+  quad::Quat q;
+  quad::Mat3 r;
+  Vec3 bias, rate;
+
+  explicit LegacyFloatObserver(const ConditionedObserver& obs) : p(obs.params()) {
+    const Vec3& m = p.mag_ref_ned;
+    if (p.innovation == quad::est::Innovation::Conditioned) {
+      const Vec3 h{m.x, m.y, 0.0f};
+      const float n = quad::norm(h);
+      inv_mag_h = n > 0.0f ? 1.0f / n : 0.0f;
+      v_ref = h * inv_mag_h;
+      if (m.y == 0.0f && n > 0.0f) v_ref.x = m.x > 0.0f ? 1.0f : -1.0f;
+    } else {
+      const float n = quad::norm(m);
+      inv_mag_h = n > 0.0f ? 1.0f / n : 0.0f;
+      v_ref = m * inv_mag_h;
+    }
+    q = obs.attitude();
+    r = obs.dcm();
+    bias = obs.gyro_bias();
+  }
+
+  void update(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt) {
+    if (!quad::is_finite(gyro) || !(dt > 0.0f) || !(dt <= 0.5f)) return;
+    const float lo = quad::maxf(1.0f - p.accel_norm_tolerance, 0.0f) * quad::kGravity;
+    const float hi = (1.0f + p.accel_norm_tolerance) * quad::kGravity;
+    const float half_dt_sq = 0.25f * dt * dt, k3_dt = p.k3 * dt, k4_mag_dt = p.k4 * inv_mag_h * dt;
+    const float k_i_dt = p.k_i * dt, kb_dt = p.kb * dt, k2_mag = p.k2 * inv_mag_h, inner = p.delta * 0.57735f;
+    const Vec3 u_hat = r.row(2);
+    Vec3 u_meas;
+    bool use_accel = false;
+    const float a2 = quad::norm_sq(accel);
+    if (a2 > lo * lo && a2 < hi * hi) {
+      u_meas = accel * (-1.0f / sqrtf(a2));
+      use_accel = true;
+    }
+    const bool use_mag = mag_valid && quad::is_finite(mag) && inv_mag_h > 0.0f;
+    Vec3 sigma_r, db;
+    if (use_accel) {
+      const Vec3 e_u = quad::cross(u_meas, u_hat);
+      sigma_r = e_u * p.k1;
+      db = e_u * -k3_dt;
+    }
+    if (use_mag) {
+      Vec3 v_hat;
+      if (v_ref.x != 0.0f) v_hat = r.row(0) * v_ref.x;
+      if (v_ref.y != 0.0f) v_hat += r.row(1) * v_ref.y;
+      if (v_ref.z != 0.0f) v_hat += u_hat * v_ref.z;
+      if (p.innovation == quad::est::Innovation::Conditioned) {
+        const Vec3& axis = use_accel ? u_meas : u_hat;
+        const Vec3 e_v = quad::cross(mag - axis * quad::dot(axis, mag), v_hat);
+        sigma_r += u_hat * (k2_mag * quad::dot(u_hat, e_v));
+        db -= e_v * k4_mag_dt;
+      } else {
+        const float m2 = quad::norm_sq(mag);
+        if (m2 > 0.0f) sigma_r += quad::cross(mag, v_hat) * (p.k2 / sqrtf(m2));
+      }
+    }
+    if (p.innovation == quad::est::Innovation::Unconditioned) db = sigma_r * -k_i_dt;
+    const Vec3 rate_now = gyro - bias;
+    const Vec3 omega = rate_now + sigma_r;
+    quad::Quat q_next;
+    if (p.propagator == quad::est::Propagator::Exact) {
+      q_next = quad::normalized(quad::integrate_exact(q, omega, dt));
+    } else {
+      const float half_dt = 0.5f * dt;
+      const float x2 = half_dt_sq * quad::norm_sq(omega);
+      const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
+      const quad::Quat d{1.0f - 0.5f * x2, omega.x * k, omega.y * k, omega.z * k};
+      const quad::Quat n = q * d;
+      q_next = n * (1.5f - 0.5f * quad::norm_sq(n));
+    }
+    if (p.innovation == quad::est::Innovation::Conditioned &&
+        !(quad::absf(bias.x) <= inner && quad::absf(bias.y) <= inner && quad::absf(bias.z) <= inner)) {
+      const float b2 = quad::norm_sq(bias);
+      if (b2 > p.delta * p.delta) db += bias * (kb_dt * (p.delta / sqrtf(b2) - 1.0f));
+    }
+    const Vec3 b_next = bias + db;
+    if (!quad::is_finite(q_next) || !quad::is_finite(b_next)) return;
+    q = q_next;
+    r = quad::to_dcm(q_next);
+    bias = b_next;
+    rate = rate_now;
+  }
+};
+
+uint32_t float_bits(float x) {
+  uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+}  // namespace
+
+TEST(ConditionedObserver, StepIsBitIdenticalToTheVectorFormItReplaced) {
+  struct Case {
+    const char* name;
+    bool learned;  // reference from initialize() (table 8.1 gains) or the true field (fast gains)
+    quad::est::Innovation innovation;
+    quad::est::Propagator propagator;
+  };
+  const Case cases[] = {
+      {"table 8.1, learned reference", true, quad::est::Innovation::Conditioned, quad::est::Propagator::SecondOrder},
+      {"fast gains, true field", false, quad::est::Innovation::Conditioned, quad::est::Propagator::SecondOrder},
+      {"unconditioned", false, quad::est::Innovation::Unconditioned, quad::est::Propagator::SecondOrder},
+      {"exact propagator", true, quad::est::Innovation::Conditioned, quad::est::Propagator::Exact},
+  };
+  for (const Case& c : cases) {
+    SensorNoise noise = mpu6000_noise();
+    noise.gyro_bias = Eigen::Vector3d(0.03, -0.02, 0.015);  // beyond Delta: the pull-back runs too
+    AttitudeSim sim(Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 1).normalized())), true, 31, noise);
+    ObserverParams p = c.learned ? ObserverParams{} : fast_params(sim.field());
+    p.innovation = c.innovation;
+    p.propagator = c.propagator;
+    p.delta = 0.02f;
+    ConditionedObserver obs(p);
+    const Sample s0 = sim.sample();
+    if (c.learned) {
+      ASSERT_TRUE(obs.initialize(s0.accel, s0.mag));
+      EXPECT_EQ(obs.params().mag_ref_ned.y, 0.0f);
+    } else {
+      obs.reset(from_eigen(Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(1, 1, 0).normalized()))),
+                Vec3{0.01f, 0.0f, -0.01f});
+    }
+    LegacyFloatObserver ref(obs);
+    int rejected = 0, skipped = 0;
+    for (int k = 0; k < 6000; ++k) {
+      Sample s = sim.sample();
+      if (k % 37 == 5) {  // a manoeuvre: the accelerometer is not gravity (gate) and the mag stands alone
+        s.accel = s.accel * 1.6f;
+        ++rejected;
+      }
+      if (k % 501 == 7) {  // a bad gyro sample skips the step
+        s.gyro.x = std::numeric_limits<float>::quiet_NaN();
+        ++skipped;
+      }
+      const float dt = k % 250 < 3 ? 0.0025f : static_cast<float>(kDt);  // a changed step: the per-dt cache
+      const bool mag = k % 4 != 3;
+      obs.update(s.gyro, s.accel, s.mag, mag, dt);
+      ref.update(s.gyro, s.accel, s.mag, mag, dt);
+      sim.step(kDt);
+      const quad::Quat& a = obs.attitude();
+      ASSERT_EQ(float_bits(a.w), float_bits(ref.q.w)) << c.name << " step " << k;
+      ASSERT_EQ(float_bits(a.x), float_bits(ref.q.x)) << c.name << " step " << k;
+      ASSERT_EQ(float_bits(a.y), float_bits(ref.q.y)) << c.name << " step " << k;
+      ASSERT_EQ(float_bits(a.z), float_bits(ref.q.z)) << c.name << " step " << k;
+      for (int i = 0; i < 3; ++i) {
+        ASSERT_EQ(float_bits(obs.gyro_bias()[i]), float_bits(ref.bias[i])) << c.name << " step " << k;
+        ASSERT_EQ(float_bits(obs.rate()[i]), float_bits(ref.rate[i])) << c.name << " step " << k;
+        for (int j = 0; j < 3; ++j) ASSERT_EQ(float_bits(obs.dcm().m[i][j]), float_bits(ref.r.m[i][j]));
+      }
+    }
+    EXPECT_GT(rejected, 100);
+    EXPECT_GT(skipped, 10);
+    if (c.innovation == quad::est::Innovation::Conditioned) {
+      EXPECT_GT(quad::norm(obs.gyro_bias()), 0.9f * p.delta) << c.name;  // the pull-back branch was reached
+    }
+  }
+}
+
+TEST(ConditionedObserver, TableGainsWithALearnedReferenceAgreeWithTheEquationsInDouble) {
+  // The firmware's configuration (table 8.1, k1 = 1, the reference learned by initialize(), so v_I = e1
+  // exactly) against the equations in double, as OptimisedStepAgreesWithTheEquationsInDouble does for
+  // fast gains and the true field.
+  SensorNoise noise = mpu6000_noise();
+  noise.gyro_bias = Eigen::Vector3d(0.02, -0.015, 0.01);
+  AttitudeSim sim(Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized())), true, 23, noise);
+  ConditionedObserver obs;
+  const Sample s0 = sim.sample();
+  ASSERT_TRUE(obs.initialize(s0.accel, s0.mag));
+  ReferenceObserver ref{to_eigen(obs.attitude()), Eigen::Vector3d::Zero(), obs.params()};
+  double worst_q = 0.0, worst_b = 0.0;
+  for (int k = 0; k < 6000; ++k) {
+    const Sample s = sim.sample();
+    const bool mag = k % 4 != 3;
+    obs.update(s.gyro, s.accel, s.mag, mag, static_cast<float>(kDt));
+    ref.update(s, mag, kDt);
+    sim.step(kDt);
+    worst_q = std::max(worst_q, rotation_distance(to_eigen(obs.attitude()), ref.q));
+    worst_b = std::max(worst_b, (to_eigen(obs.gyro_bias()) - ref.b).norm());
+  }
+  std::printf("[figure] table 8.1 observer, learned reference, vs double reference over 60 s: attitude %.2e rad, "
+              "bias %.2e rad/s\n", worst_q, worst_b);
+  EXPECT_LT(worst_q, 1e-5);
+  EXPECT_LT(worst_b, 1e-6);
+}
+
+TEST(ExactHalf, IsBitIdenticalToMultiplyingByOneHalf) {
+  // Every exponent and both signs, mantissas on a stride (zero, subnormals, the smallest normal exponent,
+  // infinity and NaN take the multiplication; the rest the exponent field).
+  uint64_t checked = 0;
+  for (uint32_t sign = 0; sign < 2; ++sign) {
+    for (uint32_t e = 0; e < 256; ++e) {
+      // every mantissa at exponent field 2 (the smallest the bit path takes), 1 in 61 next to it and at
+      // the fallback's exponents (0, 1, 254, 255), 1 in 4093 elsewhere
+      const uint32_t stride = e == 2 ? 1u : (e <= 3 || e >= 254 ? 61u : 4093u);
+      for (uint32_t m = 0; m < (1u << 23); m += stride) {
+        const uint32_t b = (sign << 31) | (e << 23) | m;
+        float x;
+        std::memcpy(&x, &b, sizeof x);
+        const float want = 0.5f * x;
+        const float got = quad::est::exact_half(x);
+        if (std::isnan(want)) {
+          ASSERT_TRUE(std::isnan(got)) << std::hex << b;
+        } else {
+          ASSERT_EQ(float_bits(got), float_bits(want)) << std::hex << b;
+        }
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 17000000u);
 }

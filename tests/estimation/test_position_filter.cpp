@@ -270,25 +270,19 @@ TEST(PositionFilter, SteadyStateGainMatchesDare) {
   }
 }
 
-TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
-  // The online filter (history buffer, closed-form covariance at capture time, accumulated correction
-  // and its folding) against the double-precision oracle that knows the fixes in advance. A biased
-  // input makes the corrections large, so the correction is folded into the history several times.
-  Scenario sc;
-  sc.seconds = 6.0;
-  sc.delay = 0.1;
-  sc.accel_bias = Eigen::Vector3d(0.8, -0.5, 0.6);
-  const SimRun run = make_run(sc);
-  PositionFilterParams p = tuned();
-  p.z_accel_bias = true;
-  p.xy_accel_bias = true;  // the bias algebra on every axis (the no-bias one: the DARE and NEES tests)
-  p.q_bias = 1e-3f;
-  p.q_bias_xy = 1e-3f;
-  p.gate_sigma = 1e3f;  // compare the algebra, not the gate
-
-  Filter kf(p);
+// The online filter (history buffer, closed-form covariance at capture time, accumulated correction
+// and its folding) against the double-precision oracle that knows the fixes in advance: the worst
+// position error and relative covariance error over the run, compared every 70 ms.
+struct OracleComparison {
   double worst_p = 0, worst_cov = 0;
   size_t arrived = 0;
+  uint32_t fused = 0;
+};
+
+OracleComparison compare_with_oracle(const PositionFilterParams& p, const SimRun& run) {
+  Filter kf(p);
+  OracleComparison out;
+  size_t& arrived = out.arrived;
   run_filter(kf, run, true, [&](size_t k) {
     // Fixes that have arrived by t_k.
     while (arrived < run.fixes.size() && static_cast<int32_t>(run.fixes[arrived].arrival_us - run.t_us[k]) <= 0) {
@@ -297,10 +291,11 @@ TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
     if (k % 7 != 0) return;  // every 70 ms: enough comparisons, quadratic oracle cost kept small
     OracleAxis o[3];
     for (int i = 0; i < 3; ++i) {
+      const bool bias = i == 2 ? p.z_accel_bias : p.xy_accel_bias;
       o[i].q = q_spectral(p, i);
       o[i].r = std::pow(i == 2 ? p.fix_sigma_z : p.fix_sigma_xy, 2);
       o[i].x << run.p_true[0](i), i == 0 ? 0.2 : 0.0, 0.0;
-      o[i].p.diagonal() << o[i].r, std::pow(p.vel_sigma0, 2), std::pow(p.bias_sigma0, 2);
+      o[i].p.diagonal() << o[i].r, std::pow(p.vel_sigma0, 2), bias ? std::pow(p.bias_sigma0, 2) : 0.0;
     }
     size_t f = 0;
     for (size_t j = 1; j <= k; ++j) {
@@ -318,18 +313,60 @@ TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
       for (int i = 0; i < 3; ++i) o[i].predict(run.u[j - 1](i), step - done);
     }
     for (int i = 0; i < 3; ++i) {
-      worst_p = std::max(worst_p, std::abs(kf.position()[i] - o[i].x(0)));
+      out.worst_p = std::max(out.worst_p, std::abs(kf.position()[i] - o[i].x(0)));
       const auto& c = kf.covariance(i);
-      worst_cov = std::max({worst_cov, std::abs(c.pp - o[i].p(0, 0)) / o[i].p(0, 0),
-                            std::abs(c.vv - o[i].p(1, 1)) / o[i].p(1, 1)});
+      out.worst_cov = std::max({out.worst_cov, std::abs(c.pp - o[i].p(0, 0)) / o[i].p(0, 0),
+                                std::abs(c.vv - o[i].p(1, 1)) / o[i].p(1, 1)});
     }
   });
+  out.fused = kf.health().fused;
+  return out;
+}
+
+TEST(PositionFilter, DelayedFusionEqualsFusingEveryFixAtItsCaptureTime) {
+  // A biased input makes the corrections large, so the correction is folded into the history several
+  // times.
+  Scenario sc;
+  sc.seconds = 6.0;
+  sc.delay = 0.1;
+  sc.accel_bias = Eigen::Vector3d(0.8, -0.5, 0.6);
+  const SimRun run = make_run(sc);
+  PositionFilterParams p = tuned();
+  p.z_accel_bias = true;
+  p.xy_accel_bias = true;  // the bias algebra on every axis (without: the next test)
+  p.q_bias = 1e-3f;
+  p.q_bias_xy = 1e-3f;
+  p.gate_sigma = 1e3f;  // compare the algebra, not the gate
+  const OracleComparison r = compare_with_oracle(p, run);
   std::cout << "[figure] delayed fusion vs capture-time oracle (100 ms delay, 6 s, biased input): worst position "
-            << worst_p * 1e3 << " mm, worst relative covariance " << worst_cov << "\n";
-  EXPECT_EQ(kf.health().fused, arrived);
-  EXPECT_GT(arrived, 150u);
-  EXPECT_LT(worst_p, 1e-3);
-  EXPECT_LT(worst_cov, 1e-3);
+            << r.worst_p * 1e3 << " mm, worst relative covariance " << r.worst_cov << "\n";
+  EXPECT_EQ(r.fused, r.arrived);
+  EXPECT_GT(r.arrived, 150u);
+  EXPECT_LT(r.worst_p, 1e-3);
+  EXPECT_LT(r.worst_cov, 1e-3);
+}
+
+TEST(PositionFilter, DelayedFusionWithoutBiasStatesEqualsTheOracle) {
+  // The default configuration (no bias state: the terms of the bias column are skipped, one covariance
+  // class for x, y and z) at the thesis' Q and at the white-acceleration Q, 40 and 100 ms late.
+  for (const bool white : {false, true}) {
+    for (const double delay : {0.04, 0.1}) {
+      Scenario sc;
+      sc.seconds = 6.0;
+      sc.delay = delay;
+      const SimRun run = make_run(sc);
+      PositionFilterParams p = white ? tuned() : PositionFilterParams{};
+      p.gate_sigma = 1e3f;
+      const OracleComparison r = compare_with_oracle(p, run);
+      std::cout << "[figure] delayed fusion without bias states vs oracle (" << (white ? "white acceleration" : "thesis")
+                << " Q, " << delay * 1e3 << " ms delay): worst position " << r.worst_p * 1e3
+                << " mm, worst relative covariance " << r.worst_cov << "\n";
+      EXPECT_EQ(r.fused, r.arrived);
+      EXPECT_GT(r.arrived, 150u);
+      EXPECT_LT(r.worst_p, 1e-4);
+      EXPECT_LT(r.worst_cov, 1e-3);  // (the white-acceleration Q is small: float cancellation in P - Q(tau))
+    }
+  }
 }
 
 // Wilson-Hilferty approximation of the chi-square quantile with n degrees of freedom.
@@ -657,6 +694,46 @@ TEST(PositionFilter, KinematicAccelerationFromTheDcmAgreesWithTheQuaternionForm)
     const Vec3 by_q = quad::est::kinematic_acceleration(q, a);
     const Vec3 by_r = quad::est::kinematic_acceleration(quad::to_dcm(q), a);
     ASSERT_LT(quad::norm(by_q - by_r), 1e-5f * (1.0f + quad::norm(a))) << "case " << i;
+  }
+}
+
+// The state step of eq. 8.9-8.11a is computed as p + (T/2)(v + v'), v' = v + T u (one multiplication
+// fewer than p + T v + (T^2/2) u): against eq. 8.9 in double, its rounding must stay that of the printed
+// form, computed alongside in float.
+TEST(PositionFilter, PredictMatchesEquation89InDouble) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (const uint32_t step_us : {2500u, 10000u}) {
+    Filter kf;
+    const uint32_t t0 = 4294000000u;  // the clock wraps during the run
+    kf.predict(Vec3{}, t0);
+    kf.reset(Vec3{0.5f, -0.3f, -1.5f}, Vec3{0.2f, -0.1f, 0.05f}, t0);
+    Eigen::Vector3d p(0.5f, -0.3f, -1.5f), v(0.2f, -0.1f, 0.05f);
+    float pf[3] = {0.5f, -0.3f, -1.5f}, vf[3] = {0.2f, -0.1f, 0.05f};  // eq. 8.9 as printed, in float
+    const float tf = static_cast<float>(step_us) * 1e-6f;
+    const double t = tf;
+    double worst_p = 0.0, worst_p_printed = 0.0, worst_v = 0.0;
+    for (uint32_t k = 1; k <= 4000; ++k) {
+      const Eigen::Vector3d u(n(rng), n(rng), n(rng));
+      const Vec3 uf = fvec(u);
+      kf.predict(uf, t0 + k * step_us);
+      for (int i = 0; i < 3; ++i) {
+        const double ui = uf[i];
+        p(i) += t * v(i) + 0.5 * t * t * ui;
+        v(i) += t * ui;
+        pf[i] += tf * vf[i] + (0.5f * tf * tf) * uf[i];
+        vf[i] += tf * uf[i];
+        worst_p = std::max(worst_p, std::abs(kf.position()[i] - p(i)));
+        worst_p_printed = std::max(worst_p_printed, std::abs(pf[i] - p(i)));
+        worst_v = std::max(worst_v, std::abs(kf.velocity()[i] - v(i)));
+        ASSERT_EQ(kf.velocity()[i], vf[i]);  // v' = v + T u is the same float expression in both
+      }
+    }
+    std::cout << "[figure] 4000 predict steps of " << step_us << " us against eq. 8.9 in double: worst position error "
+              << worst_p * 1e6 << " um (eq. 8.9 as printed, in float: " << worst_p_printed * 1e6
+              << " um), velocity " << worst_v * 1e6 << " um/s, final |p| " << p.norm() << " m\n";
+    EXPECT_LT(worst_p, 1.5 * worst_p_printed + 1e-6);
+    EXPECT_LT(worst_p, 1e-4);  // (a wrong term would be off by T^2 u / 2 = 50 um on the first 10 ms step)
   }
 }
 

@@ -37,6 +37,12 @@ enum class Innovation : uint8_t {
   Unconditioned,  // eq. 4.3-4.4 (Mahony's explicit filter): the magnetometer also tilts the estimate
 };
 
+// x / 2 computed on the bits: for a normal x whose half is normal, one less in the exponent field; zero,
+// subnormal, infinite and NaN operands go through 0.5f * x. The result is bit-identical to 0.5f * x. The
+// AVR's estimation kernels halve this way (an integer subtraction against a ~150-cycle software
+// multiplication); on targets with an FPU they multiply. Declared here for the test that checks it.
+float exact_half(float x);
+
 struct ObserverParams {
   // Thesis table 8.1.
   float k1 = 1.0f;        // gravity direction gain
@@ -101,13 +107,17 @@ class ConditionedObserver {
 
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
-  float inv_mag_h_ = 1.0f;  // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
-  float k2_mag_ = 0.0f;      // k2 / ||pi_{u_I} m_I|| (eq. 4.8/4.9)
-  float inner_delta_ = 0.0f;  // Delta / sqrt(3): a bias inside this cube is inside the Delta ball
-  // Cached for the step dt_: (dt/2)^2, and the bias gains times dt (eq. 4.17 takes T sigma_b).
-  float step_dt_ = -1.0f, half_dt_sq_ = 0.0f;
+  // These caches are set by cache_reference(), which every constructor calls, so they carry no
+  // initialisers of their own (each one is AVR flash in the constructor).
+  float inv_mag_h_;     // 1 / ||pi_{u_I} m_I|| (eq. 4.8 denominator) or 1 / ||m_I|| (eq. 4.3b)
+  float k2_mag_;        // k2 / ||pi_{u_I} m_I|| (eq. 4.8/4.9)
+  float inner_delta_;   // Delta / sqrt(3): a bias inside this cube is inside the Delta ball
+  float accel_lo2_, accel_hi2_;  // accelerometer gate on |a|^2
+  float step_dt_;                // step of the cache below; cache_reference() sets -1 (matches no dt)
+  // Cached for the step dt_: (dt/2)^2, and the bias gains times dt (eq. 4.17 takes T sigma_b); set by
+  // cache_step() before the first step uses them, zero until then (a copy never reads an indeterminate value).
+  float half_dt_sq_ = 0.0f;
   float k3_dt_ = 0.0f, k4_mag_dt_ = 0.0f, k_i_dt_ = 0.0f, kb_dt_ = 0.0f;
-  float accel_lo2_ = 0.0f, accel_hi2_ = 0.0f;  // accelerometer gate on |a|^2
   Quat q_;
   Mat3 r_ = Mat3::identity();  // R(q_)
   Vec3 bias_;

@@ -177,11 +177,13 @@ class PositionFilterCore {
   void propagate(const Vec3& u, float dt);
 
   PositionFilterParams params_;
-  float qp_ = 0.0f, qv_ = 0.0f;              // spectral densities of position, velocity
-  float qb_[2] = {0.0f, 0.0f};               // of the bias, per covariance class (0 if it has none)
-  float q_dt_ = -1.0f;                       // step of the cached process noise (the loop period)
+  // qp_ .. q_dt_ are set by set_params() (from the constructor), half_dt_ with Q(q_dt_): no initialisers
+  // (each is AVR flash in the constructor).
+  float qp_, qv_;                            // spectral densities of position, velocity
+  float qb_[2];                              // of the bias, per covariance class (0 if it has none)
+  float q_dt_;                               // step of the cached process noise (the loop period)
   AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
-  float half_dt_sq_ = 0.0f;                  // q_dt_^2 / 2
+  float half_dt_;                            // q_dt_ / 2
   AxisState x_[3];
   AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
   bool one_class_ = false;                   // z's covariance is identical to x's and y's
