@@ -27,9 +27,10 @@ ParamError check(const CascadeParams& p) {
 
 }  // namespace
 
-Cascade::Cascade() { configure(CascadeParams{}); }
+// The pieces are left unset and configured once here (configure() with the defaults always succeeds).
+Cascade::Cascade() : thrust_attitude_(ThrustAttitude::Unset{}), mixer_(Mixer::Unset{}) { configure(CascadeParams{}); }
 
-Cascade::Cascade(const CascadeParams& p) {
+Cascade::Cascade(const CascadeParams& p) : thrust_attitude_(ThrustAttitude::Unset{}), mixer_(Mixer::Unset{}) {
   if (!configure(p).ok()) configure(CascadeParams{});
 }
 
@@ -46,9 +47,9 @@ ParamError Cascade::configure(const CascadeParams& p) {
 
 const CascadeOutput& Cascade::step(const VehicleState& s, const PositionSetpoint& sp) {
   out_.mu_d = position_.update(sp, s.p, s.v);                   // thesis eq. 8.20
-  out_.attitude = thrust_attitude_.update(out_.mu_d, sp.yaw_d);  // thesis eq. 8.30, 8.37
+  thrust_attitude_.update(out_.mu_d, sp.yaw_d, out_.attitude);  // thesis eq. 8.30, 8.37
   out_.torque = attitude_.update(s.q, s.omega, out_.attitude.q_d);  // thesis eq. 8.38/8.39
-  out_.motors = mixer_.mix(out_.attitude.thrust, out_.torque);   // thesis eq. 5.8
+  mixer_.mix(out_.attitude.thrust, out_.torque, out_.motors);   // thesis eq. 5.8
   return out_;
 }
 
@@ -56,7 +57,7 @@ const CascadeOutput& Cascade::step_attitude(const VehicleState& s, const Attitud
   out_.mu_d = Vec3{};
   out_.attitude = cmd;
   out_.torque = attitude_.update(s.q, s.omega, cmd.q_d);
-  out_.motors = mixer_.mix(cmd.thrust, out_.torque);
+  mixer_.mix(cmd.thrust, out_.torque, out_.motors);
   return out_;
 }
 

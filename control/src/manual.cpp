@@ -88,9 +88,9 @@ bool ManualControl::update(const RcSticks& rc, float dt) {
 }
 
 const char* validate(const ManualParams& p) {
-  if (!(is_finite(p.max_angle) && p.max_angle > 0.0f && p.max_angle <= 45.0f * kDegToRad)) return "max_angle";
-  if (!(is_finite(p.max_yaw_rate) && p.max_yaw_rate > 0.0f && p.max_yaw_rate <= kTwoPi)) return "max_yaw_rate";
-  if (!(is_finite(p.max_thrust) && p.max_thrust > 0.0f)) return "max_thrust";
+  if (!(positive_finite(p.max_angle) && p.max_angle <= 45.0f * kDegToRad)) return "max_angle";
+  if (!(positive_finite(p.max_yaw_rate) && p.max_yaw_rate <= kTwoPi)) return "max_yaw_rate";
+  if (!positive_finite(p.max_thrust)) return "max_thrust";
   if (p.dead_band >= 200) return "dead_band";
   if (p.min_pulse > 1000) return "min_pulse";
   if (p.max_pulse < 2000) return "max_pulse";

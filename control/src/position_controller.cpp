@@ -22,8 +22,8 @@ Vec3 PositionController::update(const PositionSetpoint& sp, const Vec3& p, const
 }
 
 const char* validate(const PositionGains& g) {
-  if (!(is_finite(g.kp) && g.kp.x > 0.0f && g.kp.y > 0.0f && g.kp.z > 0.0f)) return "kp";
-  if (!(is_finite(g.kv) && g.kv.x > 0.0f && g.kv.y > 0.0f && g.kv.z > 0.0f)) return "kv";
+  if (!positive_finite(g.kp)) return "kp";
+  if (!positive_finite(g.kv)) return "kv";
   return nullptr;
 }
 

@@ -1,9 +1,20 @@
 #include "quad/control/setpoint_shaper.h"
 
+#include "quad/control/approx.h"
+
 namespace quad {
 namespace ctrl {
 
 namespace {
+
+// v exactly +0 in every component (bit pattern zero; -0 does not count, a step would turn it into +0).
+__attribute__((noinline)) bool is_exactly_zero(const Vec3& v) {
+  uint32_t x, y, z;
+  memcpy(&x, &v.x, sizeof x);
+  memcpy(&y, &v.y, sizeof y);
+  memcpy(&z, &v.z, sizeof z);
+  return (x | y | z) == 0u;
+}
 
 // Speed towards a target `dist` metres away that can still brake to rest at `accel` (the square-root
 // law v = sqrt(2 a d)), blended into a linear law v = k d near the target where the two have the same
@@ -18,23 +29,37 @@ float approach_speed(float dist, float accel, float k, float linear_dist) {
 void SetpointShaper::set_params(const ShaperParams& p) {
   params_ = p;
   linear_dist_ = p.max_accel / (p.final_gain * p.final_gain);
+  // Beyond this distance approach_speed() >= max_speed, so the commanded speed is max_speed without its
+  // square root: sqrt(2 a (d - d_l/2)) >= v_max for d >= v_max^2 / (2 a) + d_l / 2, and in the linear
+  // range k d >= v_max there too (v_max^2/(2a) + a/(2k^2) >= v_max/k). The factor 1 + 1e-5 is far above
+  // the round-off of the square-root law (a few 1e-7), so the result is exactly what min() would give.
+  cruise_dist_ = (p.max_speed * p.max_speed / (2.0f * p.max_accel) + 0.5f * linear_dist_) * 1.00001f;
+  holding_ = false;
 }
 
 void SetpointShaper::reset(const Vec3& p) {
   p_ = p;
   v_ = Vec3{};
   target_ = p;
+  holding_ = false;  // (the first update() confirms the hold)
 }
 
 void SetpointShaper::update(float dt, PositionSetpoint& sp) {
   Vec3 a;
-  if (dt > 0.0f && is_finite(dt) && is_finite(target_)) {
+  // Holding (v = 0 and the target within a micrometre): the step below would give v_cmd = 0, a = 0 and
+  // leave v and p as they are (p + 0 = p), and so does an unusable dt. Nothing to do.
+  if (!holding_ && dt > 0.0f && is_finite(dt) && is_finite(target_)) {
     const Vec3 to_target = target_ - p_;
     const float dist_sq = norm_sq(to_target);
     Vec3 v_cmd;
+    bool within_um = true;
     if (dist_sq > 1e-12f) {  // beyond a micrometre (no square root spent while holding the target)
+      within_um = false;
       const float dist = sqrtf(dist_sq);
-      const float speed = minf(params_.max_speed, approach_speed(dist, params_.max_accel, params_.final_gain, linear_dist_));
+      const float speed =
+          dist >= cruise_dist_
+              ? params_.max_speed
+              : minf(params_.max_speed, approach_speed(dist, params_.max_accel, params_.final_gain, linear_dist_));
       v_cmd = to_target * (speed / dist);
     }
     // The acceleration that reaches v_cmd in this step, no larger than max_accel.
@@ -43,9 +68,12 @@ void SetpointShaper::update(float dt, PositionSetpoint& sp) {
       inv_dt_ = 1.0f / dt;
     }
     a = sat_delta((v_cmd - v_) * inv_dt_, params_.max_accel);
+    const bool was_at_rest = is_exactly_zero(v_);
     const Vec3 v_next = v_ + a * dt;
     p_ += (v_ + v_next) * (0.5f * dt);  // exact for constant acceleration over the step
     v_ = v_next;
+    // At rest before and after within a micrometre: p did not move, so the next step is this one again.
+    holding_ = within_um && was_at_rest && is_exactly_zero(v_);
   }
   sp.p_d = p_;
   sp.v_d = v_;
@@ -58,9 +86,9 @@ bool SetpointShaper::arrived(float tolerance) const {
 }
 
 const char* validate(const ShaperParams& p) {
-  if (!(is_finite(p.max_speed) && p.max_speed > 0.0f)) return "max_speed";
-  if (!(is_finite(p.max_accel) && p.max_accel > 0.0f)) return "max_accel";
-  if (!(is_finite(p.final_gain) && p.final_gain > 0.0f)) return "final_gain";
+  if (!positive_finite(p.max_speed)) return "max_speed";
+  if (!positive_finite(p.max_accel)) return "max_accel";
+  if (!positive_finite(p.final_gain)) return "final_gain";
   return nullptr;
 }
 

@@ -1,5 +1,7 @@
 #include "quad/control/vehicle.h"
 
+#include "quad/control/approx.h"
+
 namespace quad {
 namespace ctrl {
 
@@ -26,12 +28,12 @@ MotorLayout motor_layout(Frame frame, float arm, int index) {
 }
 
 const char* validate(const VehicleParams& v) {
-  if (!(is_finite(v.mass) && v.mass > 0.0f)) return "mass";
-  if (!(is_finite(v.inertia) && v.inertia.x > 0.0f && v.inertia.y > 0.0f && v.inertia.z > 0.0f)) return "inertia";
-  if (!(is_finite(v.arm_length) && v.arm_length > 0.0f)) return "arm_length";
-  if (!(is_finite(v.max_motor_thrust) && v.max_motor_thrust > 0.0f)) return "max_motor_thrust";
-  if (!(is_finite(v.thrust_coeff) && v.thrust_coeff > 0.0f)) return "thrust_coeff";
-  if (!(is_finite(v.yaw_coeff) && v.yaw_coeff > 0.0f)) return "yaw_coeff";
+  if (!positive_finite(v.mass)) return "mass";
+  if (!positive_finite(v.inertia)) return "inertia";
+  if (!positive_finite(v.arm_length)) return "arm_length";
+  if (!positive_finite(v.max_motor_thrust)) return "max_motor_thrust";
+  if (!positive_finite(v.thrust_coeff)) return "thrust_coeff";
+  if (!positive_finite(v.yaw_coeff)) return "yaw_coeff";
   if (v.frame != Frame::kPlus && v.frame != Frame::kX) return "frame";
   return nullptr;
 }

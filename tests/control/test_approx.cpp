@@ -3,6 +3,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
 
 #include "quad/control/approx.h"
 
@@ -25,6 +28,9 @@ TEST(TanhApprox, StatedAccuracyOverTheWholeLine) {
   EXPECT_LT(worst_all, 1.4e-3);
   EXPECT_EQ(quad::ctrl::tanh_approx(1e30f), 1.0f);
   EXPECT_EQ(quad::ctrl::tanh_approx(-1e30f), -1.0f);
+  EXPECT_TRUE(std::isnan(quad::ctrl::tanh_approx(NAN)));
+  EXPECT_EQ(quad::ctrl::tanh_approx(INFINITY), 1.0f);
+  EXPECT_EQ(quad::ctrl::tanh_approx(-INFINITY), -1.0f);
 }
 
 TEST(TanhApprox, OddBoundedAndMonotonicUpToRounding) {
@@ -36,6 +42,50 @@ TEST(TanhApprox, OddBoundedAndMonotonicUpToRounding) {
     ASSERT_LE(std::abs(y), 1.0f) << x;
     ASSERT_GE(y, prev - 4e-7f) << x;  // monotonic up to a few float rounding steps (ulp 6e-8 near 1)
     prev = y;
+  }
+}
+
+// The bit-pattern forms of approx.h against the float operations they replace, over special values and
+// a million random bit patterns (NaNs, infinities, denormals, both zeros included).
+TEST(FloatBits, PositiveFiniteAndOrderMatchTheFloatOperations) {
+  std::vector<float> xs = {0.0f, -0.0f, 1.0f, -1.0f, 1e-45f, -1e-45f, 3.4e38f, -3.4e38f, INFINITY, -INFINITY, NAN, -NAN};
+  std::mt19937 rng(7);
+  for (int i = 0; i < 1000000; ++i) {
+    const uint32_t b = rng();
+    float x;
+    std::memcpy(&x, &b, sizeof x);
+    xs.push_back(x);
+  }
+  const float positive[] = {1e-38f, 0.0036f, 0.025f, 1.0f, 9.80665f, 13.3f, 3.4e38f};
+  for (float x : xs) {
+    ASSERT_EQ(quad::ctrl::positive_finite(x), std::isfinite(x) && x > 0.0f) << x;
+    if (std::isnan(x)) continue;
+    for (float b : positive) {
+      ASSERT_EQ(quad::ctrl::float_order(x) < quad::ctrl::float_order(b), x < b) << x << " " << b;
+      ASSERT_EQ(quad::ctrl::float_order(x) > quad::ctrl::float_order(b), x > b) << x << " " << b;
+    }
+  }
+}
+
+// Around the switch from x^3 to x^5 (|x| = 0.06) and from x^5 to the Pade form (|x| = 0.158), every
+// float in between, within the stated error. The x^3 -> x^5 switch is a step up (x - x^3/3 lies below
+// tanh), so there the function is monotonic to one float rounding (ulp 7.5e-9); the x^5 -> Pade switch
+// steps down by the x^5 series' truncation error, 17 x^7 / 315 = 1.3e-7.
+TEST(TanhApprox, MonotonicAcrossTheBranchSwitchesFloatByFloat) {
+  const struct {
+    float centre, dip;
+  } switches[] = {{0.06f, 1.5e-8f}, {0.158114f, 1.4e-7f}};
+  for (const auto& sw : switches) {
+    float x = sw.centre * 0.999f, prev = quad::ctrl::tanh_approx(x);
+    double worst = 0.0;
+    while (x < sw.centre * 1.001f) {
+      x = std::nextafter(x, 1.0f);
+      const float y = quad::ctrl::tanh_approx(x);
+      ASSERT_GE(y, prev - sw.dip) << x;
+      worst = std::max(worst, std::abs(double(y) - std::tanh(double(x))));
+      prev = y;
+    }
+    EXPECT_LT(worst, 2e-7) << sw.centre;
   }
 }
 

@@ -159,6 +159,107 @@ TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
 INSTANTIATE_TEST_SUITE_P(Frames, MixerFrames, ::testing::Values(Frame::kPlus, Frame::kX),
                          [](const ::testing::TestParamInfo<Frame>& i) { return i.param == Frame::kX ? "X" : "Plus"; });
 
+// The reference allocation: the saturation priority of mixer.h written out in double precision on the
+// oracle matrix M (eq. 5.5/5.8), with the textbook form of each step (a division per motor bound, the
+// yaw fraction lambda in [0, 1], the roll/pitch scale f_max / spread). The library computes the same
+// allocation without divisions, in thrust normalised by f_max and with bit-pattern range checks; this
+// catches any desaturation that differs from it.
+struct ReferenceAllocation {
+  double command[4];
+  bool yaw_limited, thrust_limited, roll_pitch_limited;
+};
+
+// Largest lambda in [0, 1] with 0 <= base + lambda y <= f_max on every motor; false if none.
+bool reference_lambda(const Eigen::Vector4d& base, const Eigen::Vector4d& y, double f_max, double& lambda) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 4; ++i) {
+    if (y(i) > 0.0) {
+      hi = std::min(hi, (f_max - base(i)) / y(i));
+      lo = std::max(lo, -base(i) / y(i));
+    } else if (y(i) < 0.0) {
+      hi = std::min(hi, -base(i) / y(i));
+      lo = std::max(lo, (f_max - base(i)) / y(i));
+    } else if (base(i) < 0.0 || base(i) > f_max) {
+      return false;
+    }
+  }
+  lambda = hi;
+  return hi >= lo;
+}
+
+ReferenceAllocation reference_mix(const VehicleParams& v, const Eigen::Vector4d& demand) {
+  const Eigen::Matrix4d m_inv = oracle_m(v).inverse();
+  const double f_max = v.max_motor_thrust, b = v.thrust_coeff;
+  const Eigen::Vector4d c = Eigen::Vector4d::Constant(0.25 * demand(0));
+  Eigen::Vector4d rp = b * (m_inv * Eigen::Vector4d(0.0, demand(1), demand(2), 0.0));
+  const Eigen::Vector4d y = b * (m_inv * Eigen::Vector4d(0.0, 0.0, 0.0, demand(3)));
+  ReferenceAllocation r{{0, 0, 0, 0}, false, false, false};
+  Eigen::Vector4d f = c + rp + y;
+  if (f.minCoeff() < 0.0 || f.maxCoeff() > f_max) {
+    double lambda = 1.0;
+    if (!reference_lambda(c + rp, y, f_max, lambda)) {
+      const double spread = rp.maxCoeff() - rp.minCoeff();
+      if (spread > f_max) {
+        rp *= f_max / spread;
+        r.roll_pitch_limited = true;
+      }
+      const double collective = std::min(std::max(c(0), -rp.minCoeff()), f_max - rp.maxCoeff());
+      r.thrust_limited = collective != c(0);
+      if (!reference_lambda(Eigen::Vector4d::Constant(collective) + rp, y, f_max, lambda)) lambda = 0.0;
+      f = Eigen::Vector4d::Constant(collective) + rp;
+    } else {
+      f = c + rp;
+    }
+    f += lambda * y;
+    r.yaw_limited = lambda < 1.0;
+  }
+  for (int i = 0; i < 4; ++i) r.command[i] = std::sqrt(std::min(std::max(f(i) / f_max, 0.0), 1.0));
+  return r;
+}
+
+// 40 000 demands per frame, most of them saturating (thrust up to 4 f_max, roll/pitch up to 1.5 times
+// full scale, yaw up to 3 times): motor thrusts agree with the reference to float round-off, and the limit
+// flags agree except where the demand sits on a decision boundary within round-off (counted; then the
+// motor thrusts still agree, the allocation being continuous there).
+TEST_P(MixerFrames, DesaturationMatchesTheReferenceAllocation) {
+  const VehicleParams v = vehicle(GetParam());
+  const Mixer mixer(v);
+  const Eigen::Vector4d fs = full_scale(v);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst = 0.0;
+  int flag_mismatch = 0, yaw_cut = 0, thrust_cut = 0, rp_cut = 0;
+  for (int k = 0; k < 40000; ++k) {
+    Eigen::Vector4d demand(fs(0) * 0.5 * (1.0 + u(rng)), 1.5 * fs(1) * u(rng), 1.5 * fs(2) * u(rng), 3.0 * fs(3) * u(rng));
+    if (k % 4 == 0) demand(1) = demand(2) = 0.0;  // pure thrust and yaw
+    if (k % 4 == 1) demand.tail<3>() *= 0.3;      // mostly feasible
+    for (int j = 0; j < 4; ++j) demand(j) = static_cast<float>(demand(j));  // what the library sees
+    const MixerOutput out = mixer.mix(static_cast<float>(demand(0)),
+                                      Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
+    const ReferenceAllocation ref = reference_mix(v, demand);
+    // In motor thrust (u^2 f_max, relative to f_max): the square root of the command would magnify the
+    // round-off of a motor at idle (sqrt(6e-8) = 2.4e-4).
+    for (int i = 0; i < 4; ++i) {
+      worst = std::max(worst, std::abs(double(out.command[i]) * out.command[i] - ref.command[i] * ref.command[i]));
+    }
+    if (out.yaw_limited != ref.yaw_limited || out.thrust_limited != ref.thrust_limited ||
+        out.roll_pitch_limited != ref.roll_pitch_limited) {
+      ++flag_mismatch;
+    }
+    yaw_cut += ref.yaw_limited;
+    thrust_cut += ref.thrust_limited;
+    rp_cut += ref.roll_pitch_limited;
+  }
+  std::printf("[figure] mixer vs reference allocation (%s, 40000 demands: %d yaw, %d thrust, %d roll/pitch "
+              "limited): max motor thrust difference %.2e of f_max, %d flag mismatches\n",
+              GetParam() == Frame::kX ? "X" : "plus", yaw_cut, thrust_cut, rp_cut, worst, flag_mismatch);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_LE(flag_mismatch, 4);
+  EXPECT_GT(yaw_cut, 10000);
+  EXPECT_GT(thrust_cut, 2000);
+  EXPECT_GT(rp_cut, 2000);
+}
+
 // Roll/pitch beyond the motors near idle: thrust is raised (priority 2) rather than the torque cut.
 TEST(Mixer, ThrustShiftsBeforeRollPitchIsCut) {
   const VehicleParams v;
@@ -169,6 +270,35 @@ TEST(Mixer, ThrustShiftsBeforeRollPitchIsCut) {
   EXPECT_FALSE(out.roll_pitch_limited);
   EXPECT_NEAR(out.achieved.torque.x, tau, 1e-5f);
   EXPECT_GT(out.achieved.thrust, 0.0f);
+}
+
+// The in-place form (what Cascade uses) writes every field: a result struct full of stale values (NaN,
+// every flag set) comes out identical to the by-value result, saturated or not.
+TEST(Mixer, InPlaceMixWritesEveryField) {
+  const Mixer mixer;
+  const float thrusts[] = {14.0f, 30.0f, 0.5f, 14.0f, NAN};
+  const Vec3 torques[] = {{0.1f, -0.05f, 0.02f}, {0.3f, -0.2f, 0.6f}, {4.0f, -3.0f, 0.6f}, {0.0f, 0.0f, -0.9f}, {}};
+  for (int k = 0; k < 5; ++k) {
+    MixerOutput dirty;
+    for (int i = 0; i < 4; ++i) dirty.rotor_speed_sq[i] = dirty.command[i] = NAN;
+    dirty.achieved.thrust = NAN;
+    dirty.achieved.torque = Vec3{NAN, NAN, NAN};
+    dirty.yaw_limited = dirty.thrust_limited = dirty.roll_pitch_limited = (k != 4);
+    if (k == 4) dirty.yaw_limited = dirty.thrust_limited = dirty.roll_pitch_limited = false;
+    mixer.mix(thrusts[k], torques[k], dirty);
+    const MixerOutput want = mixer.mix(thrusts[k], torques[k]);
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(dirty.rotor_speed_sq[i], want.rotor_speed_sq[i]) << k;
+      EXPECT_EQ(dirty.command[i], want.command[i]) << k;
+    }
+    EXPECT_EQ(dirty.achieved.thrust, want.achieved.thrust) << k;
+    EXPECT_EQ(dirty.achieved.torque.x, want.achieved.torque.x) << k;
+    EXPECT_EQ(dirty.achieved.torque.y, want.achieved.torque.y) << k;
+    EXPECT_EQ(dirty.achieved.torque.z, want.achieved.torque.z) << k;
+    EXPECT_EQ(dirty.yaw_limited, want.yaw_limited) << k;
+    EXPECT_EQ(dirty.thrust_limited, want.thrust_limited) << k;
+    EXPECT_EQ(dirty.roll_pitch_limited, want.roll_pitch_limited) << k;
+  }
 }
 
 TEST(Mixer, NonFiniteDemandStopsTheMotors) {

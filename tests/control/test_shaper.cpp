@@ -2,8 +2,11 @@
 // continuity when the target changes mid-move.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <random>
 
 #include "quad/control/setpoint_shaper.h"
 
@@ -89,6 +92,115 @@ TEST(SetpointShaper, AtRestOnTargetItHolds) {
   shaper.update(0.0f, sp);  // a zero or bad step does not move it
   shaper.update(NAN, sp);
   EXPECT_EQ(sp.p_d.z, 3.0f);
+}
+
+// The hold shortcut (update() skips the step when at rest on the target) must change nothing: a shaper
+// whose target is moved away and back before every step (which clears the shortcut, so each step is
+// computed in full) gives bit-identical setpoints through a move, the arrival, a long hold, a new target and a
+// reset, with varying dt.
+static bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+TEST(SetpointShaper, HoldShortcutIsBitIdenticalToTheFullStep) {
+  SetpointShaper fast, full;
+  const Vec3 start{0.2f, -0.1f, -1.5f};
+  fast.reset(start);
+  full.reset(start);
+  PositionSetpoint a, b;
+  int steps = 0;
+  for (int k = 0; k < 3000; ++k) {
+    if (k == 200) {
+      fast.set_target(Vec3{0.7f, 0.3f, -1.2f});
+      full.set_target(Vec3{0.7f, 0.3f, -1.2f});
+    }
+    if (k == 2000) {
+      fast.reset(Vec3{-0.3f, 0.0f, -1.0f});
+      full.reset(Vec3{-0.3f, 0.0f, -1.0f});
+    }
+    const Vec3 target = full.target();
+    full.set_target(target + Vec3{1.0f, 0.0f, 0.0f});
+    full.set_target(target);
+    const float dt = (k % 7 == 3) ? 0.012f : kDt;
+    fast.update(dt, a);
+    full.update(dt, b);
+    const float* fa[] = {&a.p_d.x, &a.p_d.y, &a.p_d.z, &a.v_d.x, &a.v_d.y, &a.v_d.z, &a.a_d.x, &a.a_d.y, &a.a_d.z};
+    const float* fb[] = {&b.p_d.x, &b.p_d.y, &b.p_d.z, &b.v_d.x, &b.v_d.y, &b.v_d.z, &b.a_d.x, &b.a_d.y, &b.a_d.z};
+    for (int j = 0; j < 9; ++j) ASSERT_TRUE(same_bits(*fa[j], *fb[j])) << "step " << k << " component " << j;
+    ++steps;
+  }
+  EXPECT_EQ(steps, 3000);
+  EXPECT_TRUE(fast.arrived(1e-4f));
+}
+
+// The shaper as first written (no hold shortcut, the square-root law evaluated at every distance), for
+// the bit-for-bit check below.
+struct ReferenceShaper {
+  ShaperParams prm;
+  float linear_dist, dt_ = 0.0f, inv_dt_ = 0.0f;
+  Vec3 target, p, v;
+  ReferenceShaper(const ShaperParams& q, const Vec3& start)
+      : prm(q), linear_dist(q.max_accel / (q.final_gain * q.final_gain)), target(start), p(start) {}
+  void update(float dt, PositionSetpoint& sp) {
+    Vec3 a;
+    if (dt > 0.0f && quad::is_finite(dt) && quad::is_finite(target)) {
+      const Vec3 to_target = target - p;
+      const float dist_sq = quad::norm_sq(to_target);
+      Vec3 v_cmd;
+      if (dist_sq > 1e-12f) {
+        const float dist = sqrtf(dist_sq);
+        const float law = dist <= linear_dist ? prm.final_gain * dist
+                                              : sqrtf(2.0f * prm.max_accel * (dist - 0.5f * linear_dist));
+        const float speed = std::min(prm.max_speed, law);
+        v_cmd = to_target * (speed / dist);
+      }
+      if (dt != dt_) {
+        dt_ = dt;
+        inv_dt_ = 1.0f / dt;
+      }
+      a = quad::sat_delta((v_cmd - v) * inv_dt_, prm.max_accel);
+      const Vec3 v_next = v + a * dt;
+      p += (v + v_next) * (0.5f * dt);
+      v = v_next;
+    }
+    sp.p_d = p;
+    sp.v_d = v;
+    sp.a_d = a;
+  }
+};
+
+// The cruise shortcut (max_speed without the square root far from the target) and the hold shortcut
+// give bit-identical setpoints to the reference over random moves, retargets and parameter sets,
+// including speed/acceleration pairs whose cruise distance lies inside the linear range.
+TEST(SetpointShaper, CruiseAndHoldShortcutsAreBitIdenticalToTheReference) {
+  std::mt19937 rng(51);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::uniform_real_distribution<float> pos(0.1f, 3.0f);
+  int compared = 0;
+  for (int run = 0; run < 40; ++run) {
+    ShaperParams prm;
+    prm.max_speed = pos(rng);
+    prm.max_accel = pos(rng) * (run % 4 == 0 ? 5.0f : 1.0f);
+    prm.final_gain = (run % 3 == 0) ? 0.5f + pos(rng) : 4.0f;
+    SetpointShaper shaper(prm);
+    const Vec3 start{u(rng), u(rng), -1.5f + u(rng)};
+    shaper.reset(start);
+    ReferenceShaper ref(prm, start);
+    PositionSetpoint a, b;
+    for (int k = 0; k < 1500; ++k) {
+      if (k % 500 == 0) {
+        const Vec3 target{3.0f * u(rng), 3.0f * u(rng), -1.5f + u(rng)};
+        shaper.set_target(target);
+        ref.target = target;
+      }
+      const float dt = (k % 11 == 5) ? 0.004f : 0.01f;
+      shaper.update(dt, a);
+      ref.update(dt, b);
+      const float* fa[] = {&a.p_d.x, &a.p_d.y, &a.p_d.z, &a.v_d.x, &a.v_d.y, &a.v_d.z, &a.a_d.x, &a.a_d.y, &a.a_d.z};
+      const float* fb[] = {&b.p_d.x, &b.p_d.y, &b.p_d.z, &b.v_d.x, &b.v_d.y, &b.v_d.z, &b.a_d.x, &b.a_d.y, &b.a_d.z};
+      for (int j = 0; j < 9; ++j) ASSERT_TRUE(same_bits(*fa[j], *fb[j])) << "run " << run << " step " << k << " component " << j;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 60000);
 }
 
 TEST(SetpointShaper, ValidationNamesTheBadField) {

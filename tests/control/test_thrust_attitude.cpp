@@ -1,6 +1,7 @@
 // Thrust and desired attitude, thesis eq. 8.28-8.37 (corrected per the errata), composed with the yaw.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -181,6 +182,140 @@ TEST(ThrustAttitude, NonFiniteInputGivesLevelHover) {
   EXPECT_TRUE(cmd.limited);
   EXPECT_NEAR(cmd.thrust, 1.4f * quad::kGravity, 1e-4f);
   EXPECT_EQ(cmd.q_d.w, 1.0f);
+}
+
+// The limits as first written (eq. 8.28-8.37 with the three limits, float comparisons, no shortcut),
+// for the bit-for-bit check below.
+AttitudeCommand reference_update(const ThrustAttitudeParams& p, const Vec3& mu_d, float yaw_d, bool* tilt_capped = nullptr) {
+  const float tan_max_tilt = tanf(p.max_tilt), min_accel = p.min_thrust / p.mass, max_accel = p.max_thrust / p.mass;
+  const float max_accel_sq = max_accel * max_accel;
+  AttitudeCommand cmd;
+  float a_z = quad::kGravity - mu_d.z, h_x = -mu_d.x, h_y = -mu_d.y;
+  bool limited = false;
+  if (a_z < min_accel) {
+    a_z = min_accel;
+    limited = true;
+  } else if (a_z > max_accel) {
+    a_z = max_accel;
+    limited = true;
+  }
+  float h_sq = h_x * h_x + h_y * h_y;
+  const float a_z_sq = a_z * a_z;
+  const float tilt_cap = tan_max_tilt * a_z;
+  const float h_max_sq = std::min(tilt_cap * tilt_cap, std::max(max_accel_sq - a_z_sq, 0.0f));
+  if (tilt_capped) *tilt_capped = h_sq > h_max_sq && !(max_accel_sq - a_z_sq < tilt_cap * tilt_cap);
+  if (h_sq > h_max_sq) {
+    const float s = sqrtf(h_max_sq / h_sq);
+    h_x *= s;
+    h_y *= s;
+    h_sq = h_max_sq;
+    limited = true;
+  }
+  const float n = sqrtf(h_sq + a_z_sq);
+  cmd.thrust = p.mass * n;
+  const float k = 1.0f / sqrtf(2.0f * n * (n + a_z));
+  // Q_tilt (x) Q_yaw with k cos and k sin formed first, the library's evaluation order.
+  const float c = cosf(0.5f * yaw_d), sn = sinf(0.5f * yaw_d);
+  const float k_c = k * c, k_s = k * sn;
+  cmd.q_d = quad::Quat{(n + a_z) * k_c, h_x * k_s - h_y * k_c, h_x * k_c + h_y * k_s, (n + a_z) * k_s};
+  cmd.mu_applied = Vec3{-h_x, -h_y, quad::kGravity - a_z};
+  cmd.limited = limited;
+  return cmd;
+}
+
+// The shortcut for limits 2 and 3 and the comparisons by bit pattern must not change a single bit:
+// 200 000 demands per parameter set (tilt limits 10-80 deg, thrust ranges down to barely above the
+// weight) spread over every region, many of them right at the shortcut's bounds and at the limits.
+// At the tilt limit the closed form (max_tilt's own cosine and sine) replaces the general one: there the
+// command agrees to float round-off (asserted below 4e-7, relative for the thrust).
+TEST(ThrustAttitude, ShortcutsAreBitIdenticalToTheFullLimits) {
+  std::mt19937 rng(830);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const float tilts[] = {10.0f, 35.0f, 60.0f, 80.0f};
+  const float max_thrusts[] = {4.0f * 0.88f * quad::kGravity, 1.05f * 1.4f * quad::kGravity, 100.0f};
+  int limited = 0, free = 0, tilt_capped_count = 0;
+  double worst_q = 0.0, worst_thrust = 0.0, worst_mu = 0.0;
+  for (float tilt : tilts) {
+    for (float max_thrust : max_thrusts) {
+      ThrustAttitudeParams p;
+      p.max_tilt = tilt * quad::kDegToRad;
+      p.max_thrust = max_thrust;
+      ThrustAttitude ta(p);
+      const float max_accel = p.max_thrust / p.mass, tan_tilt = tanf(p.max_tilt);
+      for (int k = 0; k < 200000; ++k) {
+        // Vertical: anywhere, or near 0.5 g (the shortcut's a_z bound) and near the thrust bounds.
+        float a_z;
+        switch (k % 4) {
+          case 0: a_z = 1.5f * max_accel * u(rng); break;
+          case 1: a_z = 0.5f * quad::kGravity * (1.0f + 1e-3f * u(rng)); break;
+          case 2: a_z = max_accel * (1.0f + 1e-2f * u(rng)); break;
+          default: a_z = quad::kGravity * (1.0f + 0.3f * u(rng)); break;
+        }
+        // Horizontal: around the tilt cap of this a_z, of 0.5 g, or of the thrust cap.
+        const float cap = (k % 3 == 0) ? tan_tilt * std::abs(a_z)
+                          : (k % 3 == 1) ? tan_tilt * 0.5f * quad::kGravity
+                                         : std::sqrt(std::max(max_accel * max_accel - a_z * a_z, 0.0f));
+        const float r = cap * (1.0f + ((k / 4) % 2 == 0 ? 1e-5f : 0.3f) * u(rng)), phi = 3.14159f * u(rng);
+        const Vec3 mu{r * std::cos(phi), r * std::sin(phi), quad::kGravity - a_z};
+        const float yaw = (k % 5 == 0) ? 0.0f : 0.7f;
+        bool tilt_capped = false;
+        const AttitudeCommand got = ta.update(mu, yaw), want = reference_update(p, mu, yaw, &tilt_capped);
+        ASSERT_EQ(got.limited, want.limited) << k;
+        if (tilt_capped) {
+          ++tilt_capped_count;
+          worst_q = std::max({worst_q, double(std::abs(got.q_d.w - want.q_d.w)), double(std::abs(got.q_d.x - want.q_d.x)),
+                              double(std::abs(got.q_d.y - want.q_d.y)), double(std::abs(got.q_d.z - want.q_d.z))});
+          worst_thrust = std::max(worst_thrust, double(std::abs(got.thrust - want.thrust) / want.thrust));
+          worst_mu = std::max(worst_mu, double(quad::norm(got.mu_applied - want.mu_applied)) /
+                                            std::max(1.0, double(quad::norm(want.mu_applied))));
+          continue;
+        }
+        ASSERT_EQ(got.thrust, want.thrust) << k;
+        ASSERT_EQ(got.q_d.w, want.q_d.w) << k;
+        ASSERT_EQ(got.q_d.x, want.q_d.x) << k;
+        ASSERT_EQ(got.q_d.y, want.q_d.y) << k;
+        ASSERT_EQ(got.q_d.z, want.q_d.z) << k;
+        ASSERT_EQ(got.mu_applied.x, want.mu_applied.x) << k;
+        ASSERT_EQ(got.mu_applied.y, want.mu_applied.y) << k;
+        ASSERT_EQ(got.mu_applied.z, want.mu_applied.z) << k;
+        limited += want.limited;
+        free += !want.limited;
+      }
+    }
+  }
+  std::printf("[figure] thrust/attitude closed form at the tilt limit (%d demands): q_d within %.1e, thrust %.1e "
+              "relative, mu_applied %.1e of the general form; all other demands bit-identical\n",
+              tilt_capped_count, worst_q, worst_thrust, worst_mu);
+  EXPECT_LT(worst_q, 4e-7);
+  EXPECT_LT(worst_thrust, 4e-7);
+  EXPECT_LT(worst_mu, 4e-7);
+  EXPECT_GT(tilt_capped_count, 100000);
+  EXPECT_GT(limited, 500000);
+  EXPECT_GT(free, 500000);
+}
+
+// The in-place form (what Cascade uses) writes every field, whatever the struct held before.
+TEST(ThrustAttitude, InPlaceUpdateWritesEveryField) {
+  ThrustAttitude ta;
+  const Vec3 mus[] = {{0.1f, -0.2f, 0.3f}, {30.0f, -20.0f, 0.0f}, {0.0f, 0.0f, 25.0f}, {NAN, 0.0f, 0.0f}};
+  for (int k = 0; k < 4; ++k) {
+    AttitudeCommand dirty;
+    dirty.thrust = NAN;
+    dirty.q_d = quad::Quat{NAN, NAN, NAN, NAN};
+    dirty.mu_applied = Vec3{NAN, NAN, NAN};
+    dirty.limited = (k % 2 == 0);
+    ta.update(mus[k], 0.4f, dirty);
+    const AttitudeCommand want = ta.update(mus[k], 0.4f);
+    EXPECT_EQ(dirty.thrust, want.thrust) << k;
+    EXPECT_EQ(dirty.q_d.w, want.q_d.w) << k;
+    EXPECT_EQ(dirty.q_d.x, want.q_d.x) << k;
+    EXPECT_EQ(dirty.q_d.y, want.q_d.y) << k;
+    EXPECT_EQ(dirty.q_d.z, want.q_d.z) << k;
+    EXPECT_EQ(dirty.mu_applied.x, want.mu_applied.x) << k;
+    EXPECT_EQ(dirty.mu_applied.y, want.mu_applied.y) << k;
+    EXPECT_EQ(dirty.mu_applied.z, want.mu_applied.z) << k;
+    EXPECT_EQ(dirty.limited, want.limited) << k;
+  }
 }
 
 TEST(ThrustAttitude, ValidationNamesTheBadField) {

@@ -8,9 +8,33 @@
 #pragma once
 
 #include "quad/math/scalar.h"
+#include "quad/math/vec3.h"
 
 namespace quad {
 namespace ctrl {
+
+// Comparisons by bit pattern. A float comparison is a library call on the AVR (operands moved into
+// place, then the soft-float compare); these are four byte compares. The sign-magnitude bit pattern of
+// a float read as a signed 32-bit integer orders like the float itself whenever at least one operand
+// is positive (> +0), NaN aside: every negative float, -0 included, reads as a negative integer.
+// So for b > 0: a < b  <=>  float_order(a) < float_order(b), for every non-NaN a.
+inline int32_t float_order(float x) {
+  int32_t i;
+  memcpy(&i, &x, sizeof i);
+  return i;
+}
+
+// x > 0 and finite, for the parameter checks (validate()): a positive finite float is exactly one whose
+// bit pattern, read as a signed integer, lies strictly between 0 (+0) and 0x7F800000 (+inf); NaN, -0
+// and every negative value fall outside. Out of line on the AVR (one call instead of a finiteness test
+// and a soft-float comparison at each of the ~30 checks).
+QUAD_MATH_FN bool positive_finite(float x) {
+  const int32_t i = float_order(x);
+  return i > 0 && i < 0x7F800000L;
+}
+QUAD_MATH_FN bool positive_finite(const Vec3& v) {
+  return positive_finite(v.x) && positive_finite(v.y) && positive_finite(v.z);
+}
 
 // tanh by the [5/4] Pade approximant from Lambert's continued fraction,
 //   tanh x ~ x (945 + 105 x^2 + x^4) / (945 + 420 x^2 + 15 x^4),
@@ -19,20 +43,35 @@ namespace ctrl {
 // Below |x| = 0.158 (x^2 < 0.025), where a hovering vehicle's errors usually are, the Taylor series to
 // x^5 replaces it and saves the division; its truncation error 17 x^7 / 315 stays below 1.3e-7 there,
 // small enough that the switch to the Pade form keeps the function monotonic up to float rounding.
+// Below |x| = 0.06 (x^2 < 0.0036), the centimetre-level errors of a steady hover, the series stops at
+// x^3 (two multiplications, one addition): its truncation error 2 |x|^5 / 15 stays below 1.1e-7, and
+// since x - x^3/3 lies below tanh and the x^5 series above it, the switch between them is a step up, so
+// the function stays monotonic.
 // Absolute error (tested against std::tanh, float round-off included): below 1e-6 for |x| <= 1.2,
-// below 1.4e-3 everywhere (largest near the clamp). AVR: 960 cycles in the Taylor branch, 2 100 in the
-// Pade branch, against 3 400 for avr-libc's tanh (docs/performance.md). In the position controller the
-// error is at most 1.4e-3 (k_p + k_v) of commanded acceleration, 0.02 m/s^2 (0.1 deg of tilt) at the
-// thesis gains.
+// below 1.4e-3 everywhere (largest near the clamp). AVR (cycle bench): 920 cycles in the x^5 branch
+// (the x^3 one saves two multiplications and an addition of it, about 440), 1 860 in the Pade branch,
+// against 3 400 for avr-libc's tanh (docs/performance.md).
+// In the position controller the error is at most 1.4e-3 (k_p + k_v) of commanded acceleration,
+// 0.02 m/s^2 (0.1 deg of tilt) at the thesis gains.
 inline float tanh_approx(float x) {
   constexpr float kClamp = 3.647f;
-  const float x2 = x * x;  // the common small case first: no clamp comparisons (software on the AVR)
-  if (x2 < 0.025f) return x + x * x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f));
-  if (x >= kClamp) return 1.0f;
-  if (x <= -kClamp) return -1.0f;
+  const float x2 = x * x;  // the common small cases first: no clamp comparisons (software on the AVR)
+  // x2 >= +0 (or NaN), so its comparisons are by bit pattern (float_order); a NaN passes the two small
+  // branches like a float comparison would and comes back as NaN.
+  const int32_t x2_bits = float_order(x2);
+  if (x2_bits < float_order(0.0036f)) return x - x * x2 * (1.0f / 3.0f);
+  if (x2_bits < float_order(0.025f)) return x + x * x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f));
+  if (x2_bits >= float_order(kClamp * kClamp)) {  // |x| >= 3.647: one comparison for both signs
+    if (x2_bits > 0x7F800000L) return x;  // NaN
+    return float_order(x) < 0 ? -1.0f : 1.0f;
+  }
   const float num = x * (945.0f + x2 * (105.0f + x2));
   const float den = 945.0f + x2 * (420.0f + x2 * 15.0f);
-  return clampf(num / den, -1.0f, 1.0f);
+  const float r = num / den;
+  // |r| <= 1 (round-off near the clamp could exceed it by an ulp): by the bit pattern, sign kept.
+  const int32_t r_bits = float_order(r);
+  if ((r_bits & 0x7FFFFFFFL) > float_order(1.0f)) return r_bits < 0 ? -1.0f : 1.0f;
+  return r;
 }
 
 struct SinCos {

@@ -52,6 +52,10 @@ class Mixer {
  public:
   Mixer();
   explicit Mixer(const VehicleParams& v);
+  // Leaves the coefficients unset, for an owner that calls set_vehicle() before any use (Cascade, whose
+  // configure() always ends with a valid vehicle): saves computing the defaults twice, and their code.
+  struct Unset {};
+  explicit Mixer(Unset) {}
 
   // Precomputes the inverse mixing coefficients; call when the vehicle parameters change.
   void set_vehicle(const VehicleParams& v);
@@ -60,29 +64,32 @@ class Mixer {
   // limited flag set).
   MixerOutput mix(float thrust, const Vec3& torque) const;
   MixerOutput mix(const Wrench& w) const { return mix(w.thrust, w.torque); }
+  // The same into `out` (every field written): no copy of the result (Cascade).
+  void mix(float thrust, const Vec3& torque, MixerOutput& out) const;
 
   // The forward model eq. 5.5: thrust and torques from squared rotor speeds.
   Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
 
  private:
-  bool max_yaw_scale(const float base[kMotorCount], float yaw_share, float& scale, float f[kMotorCount]) const;
+  bool spread(float c, const float rp[kMotorCount], float yaw, float f[kMotorCount]) const;
+  bool fit_yaw(float c, const float rp[kMotorCount], float yaw, float f[kMotorCount], float& step) const;
 
-  float b_ = 0.0f;
-  float f_max_ = 0.0f;
-  float inv_f_max_ = 0.0f;
-  float inv_b_ = 0.0f;
-  // Forward factors per motor (eq. 5.5): roll -y_i, pitch x_i, yaw s_i kappa/b (metres).
-  float roll_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
-  float pitch_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
-  float yaw_arm_[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  // (No member initialisers: set_vehicle() sets them all, and every constructor but the Unset one calls it.)
+  // Everything below is in normalised motor thrust n_i = f_i / f_max, so the range check is [0, 1]
+  // (done on the bit patterns, no float comparison) and the command is sqrt(n_i) with no scaling.
+  float collective_gain_;  // 1 / (4 f_max): n_i share of the collective thrust per newton
+  float thrust_full_;      // 4 f_max: collective share back to newtons (thrust shifted)
+  float w_sq_max_;         // f_max / b: n_i to w_bar_i (eq. 5.7)
+  float yaw_torque_;       // N m per unit of the yaw share (the inverse of yaw_gain_ times f_max)
   // Inverse (eq. 5.8): every nonzero entry of a column of M^-1 has the same magnitude, so a column is a
-  // gain and a sign per motor (-1, 0, +1), and mixing needs three multiplications, not twelve.
-  float roll_gain_ = 0.0f;
-  float pitch_gain_ = 0.0f;
-  float yaw_gain_ = 0.0f;
-  int8_t roll_sign_[kMotorCount] = {0, 0, 0, 0};
-  int8_t pitch_sign_[kMotorCount] = {0, 0, 0, 0};
-  int8_t yaw_sign_[kMotorCount] = {0, 0, 0, 0};
+  // gain and a sign per motor (-1, 0, +1), and mixing needs three multiplications, not twelve. The
+  // gains are per f_max (normalised thrust per N m).
+  float roll_gain_;
+  float pitch_gain_;
+  float yaw_gain_;
+  int8_t roll_sign_[kMotorCount];
+  int8_t pitch_sign_[kMotorCount];
+  int8_t yaw_sign_[kMotorCount];
 };
 
 }  // namespace ctrl

@@ -38,7 +38,11 @@ class SetpointShaper {
 
   // Puts the reference at p, at rest, with the target there too.
   void reset(const Vec3& p);
-  void set_target(const Vec3& target) { target_ = target; }
+  void set_target(const Vec3& target) {
+    if (memcmp(&target, &target_, sizeof target) == 0) return;  // the same target again: keep holding
+    target_ = target;
+    holding_ = false;
+  }
   const Vec3& target() const { return target_; }
 
   // Advances the reference by dt seconds and writes it into sp.p_d, sp.v_d, sp.a_d.
@@ -51,11 +55,15 @@ class SetpointShaper {
  private:
   ShaperParams params_;
   float linear_dist_ = 0.0f;  // max_accel / k^2: below it the approach speed is linear in the distance
+  float cruise_dist_ = 0.0f;  // beyond it the approach speed is max_speed (no square root needed)
   float dt_ = 0.0f;           // the last step and its inverse, so a constant rate costs no division
   float inv_dt_ = 0.0f;
   Vec3 target_;
   Vec3 p_;
   Vec3 v_;
+  // At rest (v exactly zero) within a micrometre of the target: a step would give a = 0 and change
+  // nothing, so update() skips it until the target or the state is set again.
+  bool holding_ = false;
 };
 
 // Returns nullptr when usable, else the name of the first bad field.

@@ -48,6 +48,10 @@ class ThrustAttitude {
  public:
   ThrustAttitude();
   explicit ThrustAttitude(const ThrustAttitudeParams& p);
+  // Leaves the precomputed values unset, for an owner that calls set_params() before any use (Cascade,
+  // whose configure() always ends with valid parameters).
+  struct Unset {};
+  explicit ThrustAttitude(Unset) {}
 
   // Precomputes tan(max_tilt) and the thrust bounds in m/s^2; call when parameters change.
   void set_params(const ThrustAttitudeParams& p);
@@ -56,16 +60,31 @@ class ThrustAttitude {
   // T and Q_d for the desired virtual acceleration mu_d (NED, m/s^2) and heading yaw_d (rad).
   // Non-finite input yields a level, hover-thrust command with limited = true.
   AttitudeCommand update(const Vec3& mu_d, float yaw_d);
+  // The same into `cmd` (every field written): no copy of the result (Cascade).
+  void update(const Vec3& mu_d, float yaw_d, AttitudeCommand& cmd);
 
  private:
   Quat yaw_quat(float yaw_d);  // cached: the trigonometry runs only when yaw_d changes
 
+  // (No member initialisers: set_params() sets them all, and every constructor but the Unset one calls it.)
   ThrustAttitudeParams params_;
-  float tan_max_tilt_ = 0.0f;
-  float min_accel_ = 0.0f;  // min_thrust / m
-  float max_accel_ = 0.0f;  // max_thrust / m
-  float max_accel_sq_ = 0.0f;
-  float cached_yaw_ = 0.0f;
+  float tan_max_tilt_;
+  float min_accel_;  // min_thrust / m
+  float max_accel_;  // max_thrust / m
+  float max_accel_sq_;
+  // A sufficient condition for limits 2 and 3 not to act, tested first (three integer comparisons
+  // instead of three multiplications, one addition and three comparisons): a_z >= g/2,
+  // a_z^2 <= free_az_sq_ and |h|^2 <= free_h_sq_. free_h_sq_ is the tilt cap at a_z = g/2,
+  // (tan(max_tilt) g/2)^2, and free_az_sq_ an a_z^2 whose thrust cap max_accel^2 - a_z^2 still covers
+  // it, both as the float operations of update() round them, so the shortcut never skips a limit that
+  // would act: it decides exactly as the full test.
+  float free_h_sq_;
+  float free_az_sq_;
+  // At the tilt limit: cos and sin of max_tilt / 2, and 1 / cos(max_tilt).
+  float tilt_cos_half_;
+  float tilt_sin_half_;
+  float inv_cos_tilt_;
+  float cached_yaw_;
   Quat cached_yaw_quat_;
 };
 
