@@ -7,6 +7,8 @@ namespace ctrl {
 
 namespace {
 
+constexpr float kArrivalDistSq = 1e-8f;  // (0.1 mm)^2
+
 // v exactly +0 in every component (bit pattern zero; -0 does not count, a step would turn it into +0).
 __attribute__((noinline)) bool is_exactly_zero(const Vec3& v) {
   uint32_t x, y, z;
@@ -69,9 +71,19 @@ void SetpointShaper::update(float dt, PositionSetpoint& sp) {
     }
     a = sat_delta((v_cmd - v_) * inv_dt_, params_.max_accel);
     const bool was_at_rest = is_exactly_zero(v_);
-    const Vec3 v_next = v_ + a * dt;
-    p_ += (v_ + v_next) * (0.5f * dt);  // exact for constant acceleration over the step
-    v_ = v_next;
+    if (dist_sq <= kArrivalDistSq && norm_sq(v_) * (inv_dt_ * inv_dt_) <= params_.max_accel * params_.max_accel) {
+      // Arrival: within 0.1 mm and able to stop in this step, the reference lands on the target at rest.
+      // Closer in, the linear law's steps k d dt fall below the float resolution of p at metre scale
+      // (1.2e-7 m at 1.5 m): the approach stalled micrometres short, with a velocity of about 1e-5 m/s
+      // that no longer moved p, and never held (the firmware computed every later step in full).
+      a = (Vec3{} - v_) * inv_dt_;  // the stop (+0 at rest, as the hold gives)
+      p_ = target_;
+      v_ = Vec3{};
+    } else {
+      const Vec3 v_next = v_ + a * dt;
+      p_ += (v_ + v_next) * (0.5f * dt);  // exact for constant acceleration over the step
+      v_ = v_next;
+    }
     // At rest before and after within a micrometre: p did not move, so the next step is this one again.
     holding_ = within_um && was_at_rest && is_exactly_zero(v_);
   }

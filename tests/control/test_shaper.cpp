@@ -157,9 +157,16 @@ struct ReferenceShaper {
         inv_dt_ = 1.0f / dt;
       }
       a = quad::sat_delta((v_cmd - v) * inv_dt_, prm.max_accel);
-      const Vec3 v_next = v + a * dt;
-      p += (v + v_next) * (0.5f * dt);
-      v = v_next;
+      // Arrival within 0.1 mm when the stop fits in the step (setpoint_shaper.cpp).
+      if (dist_sq <= 1e-8f && quad::norm_sq(v) * (inv_dt_ * inv_dt_) <= prm.max_accel * prm.max_accel) {
+        a = (Vec3{} - v) * inv_dt_;
+        p = target;
+        v = Vec3{};
+      } else {
+        const Vec3 v_next = v + a * dt;
+        p += (v + v_next) * (0.5f * dt);
+        v = v_next;
+      }
     }
     sp.p_d = p;
     sp.v_d = v;
@@ -201,6 +208,30 @@ TEST(SetpointShaper, CruiseAndHoldShortcutsAreBitIdenticalToTheReference) {
     }
   }
   EXPECT_EQ(compared, 60000);
+}
+
+// After a move the approach ends at rest exactly on the target, and from then on the shaper holds
+// (the shortcut that skips the step): without the exact stop the velocity stayed a few 1e-12 m/s and
+// every later step was computed in full.
+TEST(SetpointShaper, AMoveEndsExactlyAtRestAndHolds) {
+  SetpointShaper shaper;
+  shaper.reset({0.0f, 0.0f, 0.0f});
+  shaper.set_target({0.0f, 0.0f, -1.5f});
+  PositionSetpoint sp;
+  int first_rest = -1;
+  for (int k = 0; k < 6000 && first_rest < 0; ++k) {
+    shaper.update(kDt, sp);
+    if (sp.v_d.x == 0.0f && sp.v_d.y == 0.0f && sp.v_d.z == 0.0f && k > 10) first_rest = k;
+  }
+  ASSERT_GE(first_rest, 0) << "never exactly at rest within 60 s";
+  EXPECT_LT(first_rest * kDt, 30.0f);
+  EXPECT_NEAR(sp.p_d.z, -1.5f, 1e-6f);
+  for (int k = 0; k < 100; ++k) {
+    shaper.update(kDt, sp);
+    ASSERT_EQ(sp.v_d.z, 0.0f);
+    ASSERT_EQ(sp.a_d.z, 0.0f);
+  }
+  EXPECT_TRUE(shaper.holding());
 }
 
 TEST(SetpointShaper, ValidationNamesTheBadField) {

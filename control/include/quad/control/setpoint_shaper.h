@@ -51,6 +51,7 @@ class SetpointShaper {
   const Vec3& position() const { return p_; }
   const Vec3& velocity() const { return v_; }
   bool arrived(float tolerance) const;  // within tolerance (m) of the target and nearly at rest
+  bool holding() const { return holding_; }  // at rest on the target: update() has nothing to compute
 
  private:
   ShaperParams params_;
