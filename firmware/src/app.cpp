@@ -821,11 +821,18 @@ void FlightApp::detect_landing(float dt) {
 // ---------------------------------------------------------------------------------------------------
 // Sending
 
+// Only the payload depends on the message type; the frame is finished, signed and written by transmit()
+// (one copy of that code, not one per message type: AVR flash).
 template <class Msg>
 void FlightApp::send(uint8_t port, const Msg& msg) {
   uint8_t buffer[mav::max_frame_length<Msg>(true)];
-  const size_t n = port == hal::kUart2 ? radio_.encode(senders_[port], msg, buffer, sizeof buffer)
-                                       : senders_[port].encode(msg, buffer, sizeof buffer);
+  mav::write_payload(msg, buffer);
+  transmit(port, Msg::kId, Msg::kCrcExtra, Msg::kLength, buffer);
+}
+
+void FlightApp::transmit(uint8_t port, uint32_t message_id, uint8_t crc_extra, uint8_t full_length, uint8_t* buffer) {
+  const size_t n = port == hal::kUart2 ? radio_.finish(senders_[port], message_id, crc_extra, full_length, buffer)
+                                       : senders_[port].finish(message_id, crc_extra, full_length, buffer);
   if (n == 0) return;
   const uint16_t written = io_.write(port, buffer, static_cast<uint16_t>(n));
   counters_.tx_dropped_bytes += static_cast<uint32_t>(n - written);

@@ -76,5 +76,18 @@ size_t finish_frame(const FrameHeader& header, uint32_t message_id, uint8_t crc_
   return size;
 }
 
+size_t Sender::finish(uint32_t message_id, uint8_t crc_extra, size_t full_length, uint8_t* out,
+                      uint8_t incompat_flags) {
+  if ((incompat_flags & static_cast<uint8_t>(~kSupportedIncompatFlags)) != 0) return 0;
+  FrameHeader header;
+  header.system_id = system_id_;
+  header.component_id = component_id_;
+  header.sequence = sequence_;
+  header.incompat_flags = incompat_flags;
+  const size_t length = finish_frame(header, message_id, crc_extra, full_length, out);
+  ++sequence_;
+  return length;
+}
+
 }  // namespace mavlink
 }  // namespace quad

@@ -112,5 +112,11 @@ SignatureCheck SignatureVerifier::count(SignatureCheck outcome) {
   return outcome;
 }
 
+size_t finish_signed(Sender& sender, Signer& signer, uint32_t message_id, uint8_t crc_extra, size_t full_length,
+                     uint8_t* out) {
+  const size_t size = sender.finish(message_id, crc_extra, full_length, out, kIncompatFlagSigned);
+  return size > 0 && signer.sign(out, size) ? size : 0;
+}
+
 }  // namespace mavlink
 }  // namespace quad

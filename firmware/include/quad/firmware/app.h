@@ -170,6 +170,8 @@ class FlightApp {
   uint8_t base_mode() const;
   template <class Msg>
   void send(uint8_t port, const Msg& msg);
+  // Finishes (and on the radio signs) a frame whose payload send() wrote into `buffer`, and queues it.
+  void transmit(uint8_t port, uint32_t message_id, uint8_t crc_extra, uint8_t full_length, uint8_t* buffer);
   template <class Msg>
   void broadcast(const Msg& msg);
 

@@ -57,10 +57,11 @@ class RadioSigning {
   // A frame received on the radio: accepted or not (counted either way).
   mavlink::SignatureCheck check(const mavlink::Frame& frame);
 
-  // Encodes a frame for the radio: signed when active. The buffer must hold max_frame_length<Msg>(true).
-  template <class Msg>
-  size_t encode(mavlink::Sender& sender, const Msg& msg, uint8_t* out, size_t capacity) {
-    return active() ? mavlink::encode_signed(sender, signer_, msg, out, capacity) : sender.encode(msg, out, capacity);
+  // Completes a frame for the radio whose payload mavlink::write_payload() put in `out`: signed when
+  // active. The buffer must hold the untruncated signed frame (max_frame_length<Msg>(true)).
+  size_t finish(mavlink::Sender& sender, uint32_t message_id, uint8_t crc_extra, size_t full_length, uint8_t* out) {
+    return active() ? mavlink::finish_signed(sender, signer_, message_id, crc_extra, full_length, out)
+                    : sender.finish(message_id, crc_extra, full_length, out);
   }
 
   enum class Provisioned : uint8_t { kKeySet, kSigningOff, kStorageFailed };

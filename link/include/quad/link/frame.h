@@ -92,6 +92,17 @@ constexpr size_t max_frame_length(bool is_signed = false) {
 size_t finish_frame(const FrameHeader& header, uint32_t message_id, uint8_t crc_extra, size_t full_length,
                     uint8_t* out);
 
+// Writes the full, untruncated payload of `msg` at out + kHeaderLength (out must hold
+// max_frame_length<Msg>()), for finish_frame() or Sender::finish() to complete. The only part of encoding
+// that depends on the message type: code that sends many types writes the payload in a small template
+// and finishes the frame in one shared function (on the AVR every inlined copy of the finishing costs
+// flash).
+template <class Msg>
+void write_payload(const Msg& msg, uint8_t* out) {
+  wire::Writer writer(out + kHeaderLength);
+  Msg::fields(msg, writer);
+}
+
 // Encodes `msg` as a MAVLink v2 frame into out[0 .. capacity). Returns the frame length, or 0 (nothing
 // usable written) when capacity < max_frame_length<Msg>(signed) or the header carries an incompat flag
 // this codec does not implement. With kIncompatFlagSigned set the frame ends in a zeroed 13-byte
@@ -101,8 +112,7 @@ size_t encode(const Msg& msg, const FrameHeader& header, uint8_t* out, size_t ca
   if ((header.incompat_flags & static_cast<uint8_t>(~kSupportedIncompatFlags)) != 0) return 0;
   const bool is_signed = (header.incompat_flags & kIncompatFlagSigned) != 0;
   if (out == nullptr || capacity < max_frame_length<Msg>(is_signed)) return 0;
-  wire::Writer writer(out + kHeaderLength);
-  Msg::fields(msg, writer);
+  write_payload(msg, out);
   return finish_frame(header, Msg::kId, Msg::kCrcExtra, Msg::kLength, out);
 }
 
@@ -127,15 +137,16 @@ class Sender {
   // kIncompatFlagSigned the frame ends in a zeroed signature block (see encode_signed() in signing.h).
   template <class Msg>
   size_t encode(const Msg& msg, uint8_t* out, size_t capacity, uint8_t incompat_flags = 0) {
-    FrameHeader header;
-    header.system_id = system_id_;
-    header.component_id = component_id_;
-    header.sequence = sequence_;
-    header.incompat_flags = incompat_flags;
-    const size_t length = ::quad::mavlink::encode(msg, header, out, capacity);
-    if (length > 0) ++sequence_;
-    return length;
+    if (out == nullptr || capacity < max_frame_length<Msg>((incompat_flags & kIncompatFlagSigned) != 0)) return 0;
+    write_payload(msg, out);
+    return finish(Msg::kId, Msg::kCrcExtra, Msg::kLength, out, incompat_flags);
   }
+
+  // Completes a frame whose full payload (`full_length` bytes) write_payload() put at out +
+  // kHeaderLength, with this sender's identity and next sequence number; the buffer must hold the
+  // untruncated frame (plus the signature block with kIncompatFlagSigned). Returns the frame length, or
+  // 0 for an incompat flag this codec does not implement (the sequence number then stays).
+  size_t finish(uint32_t message_id, uint8_t crc_extra, size_t full_length, uint8_t* out, uint8_t incompat_flags = 0);
 
   uint8_t system_id() const { return system_id_; }
   uint8_t component_id() const { return component_id_; }

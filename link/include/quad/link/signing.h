@@ -114,6 +114,10 @@ size_t encode_signed(Sender& sender, Signer& signer, const Msg& msg, uint8_t* ou
   return size > 0 && signer.sign(out, size) ? size : 0;
 }
 
+// As encode_signed() for a payload write_payload() already put in `out` (Sender::finish()).
+size_t finish_signed(Sender& sender, Signer& signer, uint32_t message_id, uint8_t crc_extra, size_t full_length,
+                     uint8_t* out);
+
 // The outcome of SignatureVerifier::check(), one rejection reason each.
 enum class SignatureCheck : uint8_t {
   kAcceptedSigned,
