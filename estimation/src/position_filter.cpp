@@ -8,7 +8,6 @@ namespace est {
 namespace {
 
 constexpr float kMaxStep = 0.5f;        // s: a longer predict step is a gap, not a sample period
-constexpr int32_t kRebaseAfterUs = 1000000;  // 1 s: re-express the accumulated correction at a newer origin
 constexpr float kFoldThreshold = 1.0f;  // m: fold the accumulated correction into the history beyond this
 constexpr float kMaxKeptSpeed = 10.0f;  // m/s: a faster velocity estimate is not kept through a reset
 
@@ -34,6 +33,16 @@ uint32_t bits(float x) {
   return b;
 }
 
+// x > 0 as an integer test, exactly (false for zeros and NaN): the patterns 1 .. 0x7F800000 are the
+// positive floats up to +infinity.
+bool positive(float x) { return bits(x) - 1u < 0x7F800000u; }
+// x <= limit for a limit that is +0 or positive, exactly (false when either is NaN): a negative x is
+// below it, a positive one compares by its pattern.
+bool at_most(float x, float limit) {
+  if (magnitude_bits(limit) > 0x7F800000u) return false;
+  return bits(x) >> 31 ? magnitude_bits(x) <= 0x7F800000u : bits(x) <= bits(limit);
+}
+
 // x / 2 in the hot paths: exact_half() on the AVR, the multiplication elsewhere (bit-identical).
 inline float half(float x) {
 #if defined(QUAD_TARGET_AVR)
@@ -42,6 +51,10 @@ inline float half(float x) {
   return 0.5f * x;
 #endif
 }
+
+// x / 4 and x / 8 the same way (exact: powers of two).
+inline float quarter(float x) { return half(half(x)); }
+inline float eighth(float x) { return half(half(half(x))); }
 
 // g x, on the AVR without the software multiplication when g is exactly 1 (exact: table 8.1's Q = I2 T
 // has q_p = q_v = 1).
@@ -52,40 +65,49 @@ inline float times(float g, float x) { return g * x; }
 #endif
 
 // Q(T) = int_0^T Phi(t) diag(qp, qv, qb) Phi(t)^T dt for Phi(t) = [[1, t, -t^2/2], [0, 1, -t], [0, 0, 1]]:
-// the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12.
-AxisCovariance process_noise(float t, float qp, float qv, float qb) {
-  const float t2 = t * t, t3 = t2 * t;
+// the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12. This is its
+// qp, qv part (the same for every covariance class), with t2 = t^2 and h = t^2/2 given; add_bias_noise()
+// adds the qb part.
+AxisCovariance process_noise(float t, float t2, float h, float qp, float qv) {
   AxisCovariance q;
-  q.pp = times(qp, t) + times(qv, t3) * (1.0f / 3.0f);
-  q.pv = half(times(qv, t2));
+  q.pp = times(qp, t) + times(qv, t2 * t) * (1.0f / 3.0f);
+  q.pv = times(qv, h);  // (= half(qv t^2) bit for bit: halving is exact)
   q.vv = times(qv, t);
-  if (qb > 0.0f) {
-    q.pp += qb * t3 * t2 * (1.0f / 20.0f);
-    q.pv += qb * t2 * t2 * 0.125f;
-    q.vv += qb * t3 * (1.0f / 3.0f);
-    q.pb = -qb * t3 * (1.0f / 6.0f);
-    q.vb = half(-qb * t2);
-    q.bb = qb * t;
-  }
   return q;
 }
 
-// P <- Phi(T) P Phi(T)^T + Q(T)   (thesis eq. 8.11a, F of eq. 8.10 extended by the bias column).
-void propagate_covariance(AxisCovariance& p, float t, bool bias, const AxisCovariance& q) {
+// The qb part of Q(T) (eq. 8.12 extended by the bias random walk), added to q. The powers qb t^n are
+// formed each from the last (seven multiplications instead of twelve; float rounding only).
+void add_bias_noise(AxisCovariance& q, float t, float qb) {
+  if (!positive(qb)) return;  // (qb > 0, as an integer test)
+  const float b1 = qb * t, b2 = b1 * t, b3 = b2 * t, b4 = b3 * t, b3_3 = b3 * (1.0f / 3.0f);
+  q.pp += b4 * t * (1.0f / 20.0f);  // qb t^5 / 20
+  q.pv += eighth(b4);               // qb t^4 / 8
+  q.vv += b3_3;                     // qb t^3 / 3
+  q.pb = -half(b3_3);               // -qb t^3 / 6
+  q.vb = -half(b2);                 // -qb t^2 / 2
+  q.bb = b1;                        // qb t
+}
+
+// P <- Phi(T) P Phi(T)^T + Q(T)   (thesis eq. 8.11a, F of eq. 8.10 extended by the bias column); h = T^2/2.
+void propagate_covariance(AxisCovariance& p, float t, float h, bool bias, const AxisCovariance& q) {
   if (!bias) {
-    p.pp += t * ((p.pv + p.pv) + t * p.vv) + q.pp;  // (2 pv as pv + pv: exact, an addition is cheaper)
-    p.pv += t * p.vv + q.pv;
+    // P'_pp = pp + 2 T pv + T^2 vv = pp + T (pv + n) with n = pv + T vv, the P'_pv before its Q term (one
+    // addition fewer than forming 2 pv; float rounding only).
+    const float n = p.pv + t * p.vv;
+    p.pp += t * (p.pv + n) + q.pp;
+    p.pv = n + q.pv;
     p.vv += q.vv;
     return;
   }
-  const float h = half(t) * t;
-  // A = Phi P, rows r0, r1 (r2 = P's last row), then P' = A Phi^T.
-  const float r00 = p.pp + t * p.pv - h * p.pb, r01 = p.pv + t * p.vv - h * p.vb, r02 = p.pb + t * p.vb - h * p.bb;
-  const float r11 = p.vv - t * p.vb, r12 = p.vb - t * p.bb;
-  p.pp = r00 + t * r01 - h * r02 + q.pp;
+  // A = Phi P has rows r0, r1 and P's last row; P' = A Phi^T. Of A only r01, r02 and r12 are formed:
+  // P'_00 = r00 + T r01 - h r02 = pp + T (pv + r01) - h (pb + r02) and P'_11 = r11 - T r12 = vv - T (vb + r12)
+  // fold r00 and r11 in (9 multiplications instead of 12; float rounding only).
+  const float r01 = p.pv + t * p.vv - h * p.vb, r02 = p.pb + t * p.vb - h * p.bb, r12 = p.vb - t * p.bb;
+  p.pp += t * (p.pv + r01) - h * (p.pb + r02) + q.pp;
   p.pv = r01 - t * r02 + q.pv;
   p.pb = r02 + q.pb;
-  p.vv = r11 - t * r12 + q.vv;
+  p.vv -= t * (p.vb + r12) - q.vv;
   p.vb = r12 + q.vb;
   p.bb += q.bb;
 }
@@ -111,12 +133,7 @@ PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity,
 
 void PositionFilterCore::set_params(const PositionFilterParams& params) {
   params_ = params;
-  const bool white = params.process_noise == ProcessNoise::WhiteAcceleration;
-  qp_ = white ? 0.0f : params.q_pos;
-  qv_ = white ? params.q_accel : params.q_vel;
-  qb_[0] = params.xy_accel_bias ? params.q_bias_xy : 0.0f;
-  qb_[1] = params.z_accel_bias ? params.q_bias : 0.0f;
-  q_dt_ = -1.0f;  // the cached Q(T) belongs to the old parameters
+  q_step_us_ = 0;  // the cached Q(T) belongs to the old parameters (no step is 0 us)
   if (one_class_) {  // z gets its own copy back before the sharing is re-decided
     p_[1] = p_[0];
     for (int j = 0; j < 3; ++j) gain_[1][j] = gain_[0][j];
@@ -143,7 +160,7 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
 void PositionFilterCore::update_class_sharing() {
   // The covariances compared as bits (one memcmp instead of six float comparisons: smaller code, and
   // exactly the "identical numbers" the sharing needs; AxisCovariance is six floats, no padding).
-  one_class_ = qb_[0] == qb_[1] && params_.z_accel_bias == params_.xy_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z &&
+  one_class_ = qb(0) == qb(1) && params_.z_accel_bias == params_.xy_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z &&
                memcmp(&p_[0], &p_[1], sizeof(AxisCovariance)) == 0;
 }
 
@@ -160,7 +177,6 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
   }
   update_class_sharing();
   t_us_ = t_us;
-  corr_origin_us_ = t_us;
   clock_started_ = true;
   initialized_ = true;
   have_fix_ = false;
@@ -190,15 +206,12 @@ float PositionFilterCore::correction_position(int axis, float dt) const {
   return c.p + dt * (c.v - half(dt) * c.b);
 }
 
-// History entries hold p - (accumulated correction carried to their time); see the header.
+// History entries hold p - (accumulated correction carried to their time); see the header. The
+// correction is kept at now, so that is its position.
 void PositionFilterCore::push_history() {
   HistoryEntry& e = history_[head_];
   e.t_us = t_us_;
-  const float dt = seconds_between(t_us_, corr_origin_us_);
-  for (int i = 0; i < 3; ++i) {
-    const Correction& c = corr_[i];  // correction_position(i, dt), written out for the axes without a bias
-    e.p[i] = x_[i].p - (has_bias(i) ? correction_position(i, dt) : c.p + dt * c.v);
-  }
+  for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - corr_[i].p;
   head_ = static_cast<uint16_t>(head_ + 1 == capacity_ ? 0 : head_ + 1);
   if (count_ < capacity_) ++count_;
   // Once the last fused fix is older than the whole history, no fix can be out of order with it; forget
@@ -211,60 +224,64 @@ void PositionFilterCore::push_history() {
   }
 }
 
-// Re-express the accumulated correction at origin t_us: c <- Phi(t_us - origin) c.
-void PositionFilterCore::rebase_correction(uint32_t t_us) {
-  const float d = seconds_between(t_us, corr_origin_us_);
-  for (int i = 0; i < 3; ++i) {
-    Correction& c = corr_[i];
-    if (!has_bias(i)) {
-      c.p += d * c.v;  // c.b is zero
-      continue;
-    }
-    c.p += d * (c.v - half(d) * c.b);
-    c.v -= d * c.b;
-  }
-  corr_origin_us_ = t_us;
-}
-
 // Adds the accumulated correction into every history entry and zeroes it, so that neither the
 // correction nor the stored values grow without bound (rare: O(capacity) once it exceeds a metre).
 void PositionFilterCore::fold_correction() {
   for (uint16_t k = 0; k < count_; ++k) {
     HistoryEntry& e = history_[k];
-    const float dt = seconds_between(e.t_us, corr_origin_us_);
+    const float dt = seconds_between(e.t_us, t_us_);
     for (int i = 0; i < 3; ++i) e.p[i] += correction_position(i, dt);
   }
   for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
 }
 
-// thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u - b with a bias).
-void PositionFilterCore::propagate(const Vec3& u, float dt) {
-  // Q(T) and T/2 depend only on T, which is the loop period on every step but the odd one: cache them.
-  if (bits(dt) != bits(q_dt_)) {  // (dt > 0: equal values have equal patterns)
-    q_[0] = process_noise(dt, qp_, qv_, qb_[0]);
-    q_[1] = qb_[1] == qb_[0] ? q_[0] : process_noise(dt, qp_, qv_, qb_[1]);
-    half_dt_ = half(dt);
-    q_dt_ = dt;
+// T, Q(T), T/2 and T^2/2 for a step of step_us (kept out of propagate(), whose usual path it is not).
+void PositionFilterCore::set_step(int32_t step_us) {
+  const float dt = static_cast<float>(step_us) * 1e-6f, t2 = dt * dt;
+  half_dt_ = half(dt);
+  h_dt_ = half(t2);  // T^2/2 (= half(dt) * dt bit for bit)
+  const AxisCovariance base = process_noise(dt, t2, h_dt_, qp(), qv());
+  for (int c = 0; c < 2; ++c) {
+    q_[c] = base;
+    add_bias_noise(q_[c], dt, qb(c));
   }
+  q_dt_ = dt;
+  q_step_us_ = step_us;
+}
+
+// thesis eq. 8.9-8.11a per axis: x <- F x + G u with F, G of eq. 8.10 (and v' = u - b with a bias).
+void PositionFilterCore::propagate(const Vec3& u, int32_t step_us) {
+  // T, Q(T), T/2 and T^2/2 depend only on the step, which is the loop period on every step but the odd
+  // one: cache them, keyed by the integer microseconds (so a repeated step needs no conversion either).
+  if (step_us != q_step_us_) set_step(step_us);
+  const float dt = q_dt_;
   // p + T v + (T^2/2) a = p + (T/2) (v + v'), v' = v + T a: the same step with one multiplication fewer
-  // per axis (float rounding only; PositionFilter.PredictMatchesEquation89InDouble bounds it).
+  // per axis (float rounding only; PositionFilter.PredictMatchesEquation89InDouble bounds it). The
+  // accumulated correction is carried along by the same Phi(T), without input: c <- Phi(T) c.
   const float h = half_dt_;
   const float ua[3] = {u.x, u.y, u.z};
   for (int i = 0; i < 3; ++i) {
     AxisState& x = x_[i];
-    const float a = has_bias(i) ? ua[i] - x.b : ua[i];
+    Correction& c = corr_[i];
     const float v0 = x.v;
-    x.v = v0 + dt * a;
+    if (has_bias(i)) {
+      x.v = v0 + dt * (ua[i] - x.b);
+      const float cv0 = c.v;
+      c.v = cv0 - dt * c.b;
+      c.p += h * (cv0 + c.v);
+    } else {
+      x.v = v0 + dt * ua[i];
+      c.p += dt * c.v;  // (c.b is zero)
+    }
     x.p += h * (v0 + x.v);
   }
-  propagate_covariance(p_[0], dt, class_has_bias(0), q_[0]);
-  if (!one_class_) propagate_covariance(p_[1], dt, class_has_bias(1), q_[1]);
+  propagate_covariance(p_[0], dt, h_dt_, class_has_bias(0), q_[0]);
+  if (!one_class_) propagate_covariance(p_[1], dt, h_dt_, class_has_bias(1), q_[1]);
 }
 
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   if (!clock_started_) {
     t_us_ = t_us;
-    corr_origin_us_ = t_us;
     clock_started_ = true;
     return;
   }
@@ -274,28 +291,23 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     return;
   }
   t_us_ = t_us;
-  if (!initialized_) {
-    corr_origin_us_ = t_us;
-    return;
-  }
-  const float dt = static_cast<float>(step_us) * 1e-6f;  // seconds_between(t_us, old t_us_)
-  propagate(u, dt);
-  if (bits(dt) > bits(kMaxStep)) {  // dt > kMaxStep (both positive)
+  if (!initialized_) return;
+  propagate(u, step_us);
+  if (bits(q_dt_) > bits(kMaxStep)) {  // dt > kMaxStep (both positive)
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
-    corr_origin_us_ = t_us;
     have_fix_ = false;
     clear_history();
-  } else if (micros_between(t_us, corr_origin_us_) > kRebaseAfterUs) {
-    rebase_correction(t_us);
   }
   push_history();
 }
 
 // Position on the current estimate's time line at t_us (not after now), from the history: linear
-// interpolation between the entries around t_us. False when t_us is older than the oldest entry. Ages
-// are compared as unsigned microseconds (all within the history, so the clock wrap does not matter).
-bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3]) const {
+// interpolation between the entries around t_us, plus the accumulated correction carried back there,
+// (1, h1, h2) . c with h1 = -tau, h2 = -tau^2/2 (Phi(-tau)'s first row; tau = now - t_us). False when
+// t_us is older than the oldest entry. Ages are compared as unsigned microseconds (all within the
+// history, so the clock wrap does not matter).
+bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3], float h1, float h2) {
   if (count_ == 0) return false;
   uint16_t oldest = static_cast<uint16_t>(head_ + capacity_ - count_);
   if (oldest >= capacity_) oldest = static_cast<uint16_t>(oldest - capacity_);
@@ -316,15 +328,31 @@ bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3]) cons
     }
   }
   const HistoryEntry& a = entry(lo);
-  float frac = 0.0f;
+  // A capture at an entry's own time (frac = 0) takes the entry as it is (a.p + 0 (b.p - a.p) = a.p
+  // exactly while the history is finite).
+  const uint32_t into = t_us - a.t_us;
+  const bool between = into != 0 && lo + 1 < count_;
   const HistoryEntry* b = &a;
-  if (lo + 1 < count_) {
+  float frac = 0.0f;
+  if (between) {
     b = &entry(static_cast<uint16_t>(lo + 1));
-    const uint32_t span = b->t_us - a.t_us;
-    if (span > 0) frac = static_cast<float>(t_us - a.t_us) / static_cast<float>(span);
+    const uint32_t span = b->t_us - a.t_us;  // (> into > 0)
+    // The entries are a loop period apart: its reciprocal is kept, and the fraction is a multiplication
+    // (rounding of the reciprocal only, < 1.2e-7 of the step's position change).
+    if (span != inv_span_us_) {
+      inv_span_ = 1.0f / static_cast<float>(span);
+      inv_span_us_ = span;
+    }
+    frac = static_cast<float>(into) * inv_span_;
   }
-  const float dt = seconds_between(t_us, corr_origin_us_);
-  for (int i = 0; i < 3; ++i) out[i] = a.p[i] + frac * (b->p[i] - a.p[i]) + correction_position(i, dt);
+  for (int i = 0; i < 3; ++i) {
+    const Correction& c = corr_[i];
+    float p = a.p[i];
+    if (between) p += frac * (b->p[i] - p);
+    float cp = c.p + h1 * c.v;
+    if (has_bias(i)) cp += h2 * c.b;  // (elsewhere c.b is zero)
+    out[i] = p + cp;
+  }
   return true;
 }
 
@@ -355,7 +383,7 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
     update_class_sharing();
   }
   if (capture_us != now) {
-    propagate(Vec3{}, seconds_between(now, capture_us));  // (the kept velocity carries the position)
+    propagate(Vec3{}, micros_between(now, capture_us));  // (the kept velocity carries the position)
     t_us_ = now;
     push_history();
   }
@@ -367,8 +395,8 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedInvalid;
   }
   const float lost = sqf(params_.reset_position_sigma);
-  // (also catches NaN; z's own entry only when it has one)
-  const bool diverged = !(p_[0].pp <= lost) || (!one_class_ && !(p_[1].pp <= lost));
+  // (also catches NaN; z's own entry only when it has one; lost >= 0: integer comparisons)
+  const bool diverged = !at_most(p_[0].pp, lost) || (!one_class_ && !at_most(p_[1].pp, lost));
   const bool rejected_too_often =
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
@@ -387,44 +415,48 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     ++health_.rejected_out_of_order;
     return FixResult::RejectedOutOfOrder;
   }
-  float p_s[3];
-  if (!predicted_position_at(capture_us, p_s)) {
-    ++health_.rejected_too_old;
-    return FixResult::RejectedTooOld;
-  }
-
   // Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
   // -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
   // correction carried to now is Phi(tau) K nu = D h nu / S. Computed once per covariance class.
+  // Only w = D h is needed, so D is not formed: w = P h - Q(tau) h, with Q(tau) h in closed form,
+  //   Q(tau) h = int_0^tau Phi(t) diag(qp, qv, qb) Phi(t - tau)^T e_0 dt
+  //            = (qp tau - qv tau^3/6 + qb tau^5/120, -qv tau^2/2 + qb tau^4/24, -qb tau^3/6)
+  // (Phi(t)^T h = Phi(t - tau)^T e_0; its qp, qv part is the same for every class; float rounding only).
+  const float h1 = -tau;
+  const float tau2 = tau * tau;
+  const float h2 = -half(tau2);  // -tau^2/2 (= -0.5f * tau * tau bit for bit)
+  const float m3 = h2 * tau * (1.0f / 3.0f);  // -tau^3/6
+  const float qv = this->qv();
+  const float qh0 = times(qp(), tau) + times(qv, m3), qh1 = times(qv, h2);
+  float p_s[3];
+  if (!predicted_position_at(capture_us, p_s, h1, h2)) {
+    ++health_.rejected_too_old;
+    return FixResult::RejectedTooOld;
+  }
   float w[2][3];
   float inv_s[2];
-  const float h1 = -tau;
-  float h2 = 0.0f;  // -tau^2/2, needed by the bias terms only
-  AxisCovariance q_tau[2];
   const int classes = class_count();
-  q_tau[0] = process_noise(tau, qp_, qv_, qb_[0]);
-  if (classes == 2) q_tau[1] = qb_[1] == qb_[0] ? q_tau[0] : process_noise(tau, qp_, qv_, qb_[1]);
   for (int c = 0; c < classes; ++c) {
-    const bool bias = class_has_bias(c);
-    const AxisCovariance& q = q_tau[c];
     const AxisCovariance& p = p_[c];
-    const float dpp = p.pp - q.pp, dpv = p.pv - q.pv, dvv = p.vv - q.vv;
-    w[c][0] = dpp + h1 * dpv;
-    w[c][1] = dpv + h1 * dvv;
-    w[c][2] = 0.0f;
-    if (bias) {
-      h2 = -half(tau) * tau;  // (= -0.5f * tau * tau bit for bit)
-      const float dpb = p.pb - q.pb, dvb = p.vb - q.vb, dbb = p.bb - q.bb;
-      w[c][0] += h2 * dpb;
-      w[c][1] += h2 * dvb;
-      w[c][2] = dpb + h1 * dvb + h2 * dbb;
+    float w0 = p.pp + h1 * p.pv - qh0;
+    float w1 = p.pv + h1 * p.vv - qh1;
+    float hdh;
+    if (class_has_bias(c)) {
+      const float qh2 = qb(c) * m3;                         // -qb tau^3/6
+      w0 += h2 * p.pb - (qh2 * tau2) * (-1.0f / 20.0f);     // qb tau^5/120
+      w1 += h2 * p.vb - quarter(qh2 * h1);                  // qb tau^4/24
+      const float w2 = p.pb + h1 * p.vb + h2 * p.bb - qh2;
+      w[c][2] = w2;
+      hdh = w0 + h1 * w1 + h2 * w2;  // h^T D h
+    } else {
+      w[c][2] = 0.0f;
+      hdh = w0 + h1 * w1;  // (w_2 = 0: adding h2 w_2 = -0 would change nothing)
     }
-    // h^T D h; without a bias state w_2 = 0, and adding h2 w_2 = -0 would change nothing (exact).
-    float hdh = w[c][0] + h1 * w[c][1];
-    if (bias) hdh += h2 * w[c][2];
+    w[c][0] = w0;
+    w[c][1] = w1;
     const float r = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
     // h^T D h is the variance of the predicted position at capture time: never below zero.
-    inv_s[c] = 1.0f / (maxf(hdh, 0.0f) + r);
+    inv_s[c] = 1.0f / ((positive(hdh) ? hdh : 0.0f) + r);  // (maxf(hdh, 0), without the float comparison)
   }
   // Mahalanobis gate per axis: nu^2 / S <= gate^2.
   float nu[3];
@@ -444,7 +476,6 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedGate;
   }
 
-  rebase_correction(t_us_);
   gain_tau_ = tau;
   for (int c = 0; c < classes; ++c) {
     float* k = gain_[c];

@@ -23,8 +23,9 @@
 // current one, P_s = Phi(-tau) (P_now - Q(tau)) Phi(-tau)^T, and the correction reaches now through
 // Phi(tau): only the predicted position at s must be remembered. The history buffer therefore holds one
 // 16-byte entry (time, position) per predict step; corrections fused after an entry was written are
-// kept as one accumulated correction per axis instead of rewriting the buffer. Fixes older than the
-// buffer, older than the last fused fix, or from before a reset are refused. The first fix initialises
+// kept as one accumulated correction per axis, carried along to now with the state (c <- Phi(T) c at
+// every predict), instead of rewriting the buffer. Fixes older than the buffer, older than the last
+// fused fix, or from before a reset are refused. The first fix initialises
 // the filter at its capture time; a fix after 20 consecutive gate rejections or while the position
 // sigma exceeds 5 m (dead reckoning through an outage) resets it the same way, keeping the velocity
 // and the acceleration biases (they come from the IMU, not from the fix).
@@ -155,7 +156,7 @@ class PositionFilterCore {
   struct AxisState {
     float p = 0.0f, v = 0.0f, b = 0.0f;
   };
-  struct Correction {  // accumulated correction, expressed at corr_origin_us_
+  struct Correction {  // accumulated correction, expressed at the current time t_us_
     float p = 0.0f, v = 0.0f, b = 0.0f;
   };
 
@@ -166,29 +167,37 @@ class PositionFilterCore {
   // corrections stay zero.
   bool has_bias(int axis) const { return axis == 2 ? params_.z_accel_bias : params_.xy_accel_bias; }
   bool class_has_bias(int c) const { return c == 0 ? params_.xy_accel_bias : params_.z_accel_bias; }
+  // Spectral densities of position, velocity and, per covariance class, the bias (0 if it has none).
+  bool white() const { return params_.process_noise == ProcessNoise::WhiteAcceleration; }
+  float qp() const { return white() ? 0.0f : params_.q_pos; }
+  float qv() const { return white() ? params_.q_accel : params_.q_vel; }
+  float qb(int c) const {
+    return !class_has_bias(c) ? 0.0f : c == 0 ? params_.q_bias_xy : params_.q_bias;
+  }
   void update_class_sharing();
   void push_history();
   void clear_history();
-  void rebase_correction(uint32_t t_us);
   void fold_correction();
-  bool predicted_position_at(uint32_t t_us, float out[3]) const;
+  bool predicted_position_at(uint32_t t_us, float out[3], float h1, float h2);
   float correction_position(int axis, float dt) const;
   void initialize_from_fix(const Vec3& p_ned, uint32_t capture_us);
-  void propagate(const Vec3& u, float dt);
+  void set_step(int32_t step_us);
+  void propagate(const Vec3& u, int32_t step_us);
 
   PositionFilterParams params_;
-  // qp_ .. q_dt_ are set by set_params() (from the constructor), half_dt_ with Q(q_dt_): no initialisers
-  // (each is AVR flash in the constructor).
-  float qp_, qv_;                            // spectral densities of position, velocity
-  float qb_[2];                              // of the bias, per covariance class (0 if it has none)
-  float q_dt_;                               // step of the cached process noise (the loop period)
+  // q_step_us_ is set by set_params() (from the constructor), q_dt_ .. h_dt_ with Q(q_dt_): no
+  // initialisers (each is AVR flash in the constructor).
+  int32_t q_step_us_;                        // step of the cached process noise (the loop period), us
+  float q_dt_;                               // the same in seconds
   AxisCovariance q_[2];                      // Q(q_dt_): horizontal, vertical
   float half_dt_;                            // q_dt_ / 2
+  float h_dt_;                               // q_dt_^2 / 2 (bias states only)
   AxisState x_[3];
   AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
   bool one_class_ = false;                   // z's covariance is identical to x's and y's
-  Correction corr_[3];
-  uint32_t corr_origin_us_ = 0;
+  Correction corr_[3];                       // accumulated correction, carried to now (t_us_)
+  uint32_t inv_span_us_ = 0;                 // history spacing whose reciprocal inv_span_ holds (0: none)
+  float inv_span_;
   float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // last correction gain, carried to now
   float gain_tau_ = 0.0f;                    // age of the last fused fix when it was fused
   float last_nis_ = 0.0f;
