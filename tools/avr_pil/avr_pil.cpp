@@ -15,7 +15,8 @@
 // It also times the firmware's own work to the cycle: the flight application marks the phases of each
 // iteration on GPIOR1 (hal::TracePoint), and at exit this prints the cycles of the control part
 // (estimation, modes, control, mixing: no I/O) of the iterations flown and of those on the ground, of
-// the whole iteration with telemetry, and of each vision fix fused (median, 99th percentile, maximum).
+// the whole iteration with telemetry (all, and flown only), and of each vision fix fused (median, 99th
+// percentile, maximum, and which iteration had the maximum).
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -132,7 +133,8 @@ struct PhaseProfile {
     uint32_t cycles;
     uint32_t iteration;  // which iteration (0 the first), the simulator's step at its rate
   };
-  std::vector<Sample> control_flown, control_idle, step, fix;
+  std::vector<Sample> control_flown, control_idle, step, step_flown, fix;
+  bool flown = false;  // the current iteration computed motor commands
   uint32_t iterations = 0;
   Sample sample(const avr_t* avr, uint64_t since) const {
     return {static_cast<uint32_t>(avr->cycle - since), iterations == 0 ? 0 : iterations - 1};
@@ -142,10 +144,19 @@ struct PhaseProfile {
     auto* p = static_cast<PhaseProfile*>(param);
     const uint64_t now = avr->cycle;
     switch (v) {
-      case 1: p->step_begin = now; p->in_step = true; ++p->iterations; break;
+      case 1: p->step_begin = now; p->in_step = true; p->flown = false; ++p->iterations; break;
       case 2: if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin)); break;
-      case 3: if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin)); break;
-      case 4: if (p->in_step) p->step.push_back(p->sample(avr, p->step_begin)); p->in_step = false; break;
+      case 3:
+        if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin));
+        p->flown = true;
+        break;
+      case 4:
+        if (p->in_step) {
+          p->step.push_back(p->sample(avr, p->step_begin));
+          if (p->flown) p->step_flown.push_back(p->step.back());
+        }
+        p->in_step = false;
+        break;
       case 5: p->fix_begin = now; p->in_fix = true; break;
       case 6: if (p->in_fix) p->fix.push_back(p->sample(avr, p->fix_begin)); p->in_fix = false; break;
       default: break;
@@ -163,6 +174,7 @@ struct PhaseProfile {
     report("control flown", control_flown);
     report("control on the ground", control_idle);
     report("whole iteration", step);
+    report("whole iteration flown", step_flown);
     report("vision fix", fix);
   }
 };
