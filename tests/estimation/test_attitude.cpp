@@ -512,6 +512,29 @@ struct ReferenceObserver {
   }
 };
 
+struct ReferenceRun {
+  double worst_q = 0.0, worst_b = 0.0, worst_dcm = 0.0;  // rad, rad/s, DCM entries
+};
+
+// 60 s of the float observer and the double reference on the same samples (magnetometer on three steps
+// of four, 75 Hz): the largest attitude, bias and rotation-matrix differences.
+ReferenceRun run_against_reference(ConditionedObserver& obs, ReferenceObserver& ref, AttitudeSim& sim) {
+  ReferenceRun w;
+  for (int k = 0; k < 6000; ++k) {
+    const Sample s = sim.sample();
+    const bool mag = k % 4 != 3;
+    obs.update(s.gyro, s.accel, s.mag, mag, static_cast<float>(kDt));
+    ref.update(s, mag, kDt);
+    sim.step(kDt);
+    w.worst_q = std::max(w.worst_q, rotation_distance(to_eigen(obs.attitude()), ref.q));
+    w.worst_b = std::max(w.worst_b, (to_eigen(obs.gyro_bias()) - ref.b).norm());
+    const Eigen::Matrix3d r = ref.q.normalized().toRotationMatrix();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) w.worst_dcm = std::max(w.worst_dcm, std::abs(obs.dcm().m[i][j] - r(i, j)));
+  }
+  return w;
+}
+
 }  // namespace
 
 TEST(ConditionedObserver, OptimisedStepAgreesWithTheEquationsInDouble) {
@@ -524,19 +547,8 @@ TEST(ConditionedObserver, OptimisedStepAgreesWithTheEquationsInDouble) {
   const Eigen::Quaterniond q0(Eigen::AngleAxisd(0.6, Eigen::Vector3d(-1, 1, 0.5).normalized()));  // 34 deg off
   obs.reset(from_eigen(q0), Vec3{});
   ReferenceObserver ref{q0, Eigen::Vector3d::Zero(), p};
-  double worst_q = 0.0, worst_b = 0.0, worst_dcm = 0.0;
-  for (int k = 0; k < 6000; ++k) {  // 60 s, magnetometer on three steps of four (75 Hz)
-    const Sample s = sim.sample();
-    const bool mag = k % 4 != 3;
-    obs.update(s.gyro, s.accel, s.mag, mag, static_cast<float>(kDt));
-    ref.update(s, mag, kDt);
-    sim.step(kDt);
-    worst_q = std::max(worst_q, rotation_distance(to_eigen(obs.attitude()), ref.q));
-    worst_b = std::max(worst_b, (to_eigen(obs.gyro_bias()) - ref.b).norm());
-    const Eigen::Matrix3d r = ref.q.normalized().toRotationMatrix();
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) worst_dcm = std::max(worst_dcm, std::abs(obs.dcm().m[i][j] - r(i, j)));
-  }
+  const ReferenceRun run = run_against_reference(obs, ref, sim);
+  const double worst_q = run.worst_q, worst_b = run.worst_b, worst_dcm = run.worst_dcm;
   std::printf("[figure] optimised observer vs double reference over 60 s: attitude %.2e rad, bias %.2e rad/s, "
               "dcm %.2e\n", worst_q, worst_b, worst_dcm);
   // Float round-off only (the observer contracts, so it does not accumulate).
@@ -765,16 +777,8 @@ TEST(ConditionedObserver, TableGainsWithALearnedReferenceAgreeWithTheEquationsIn
   const Sample s0 = sim.sample();
   ASSERT_TRUE(obs.initialize(s0.accel, s0.mag));
   ReferenceObserver ref{to_eigen(obs.attitude()), Eigen::Vector3d::Zero(), obs.params()};
-  double worst_q = 0.0, worst_b = 0.0;
-  for (int k = 0; k < 6000; ++k) {
-    const Sample s = sim.sample();
-    const bool mag = k % 4 != 3;
-    obs.update(s.gyro, s.accel, s.mag, mag, static_cast<float>(kDt));
-    ref.update(s, mag, kDt);
-    sim.step(kDt);
-    worst_q = std::max(worst_q, rotation_distance(to_eigen(obs.attitude()), ref.q));
-    worst_b = std::max(worst_b, (to_eigen(obs.gyro_bias()) - ref.b).norm());
-  }
+  const ReferenceRun run = run_against_reference(obs, ref, sim);
+  const double worst_q = run.worst_q, worst_b = run.worst_b;
   std::printf("[figure] table 8.1 observer, learned reference, vs double reference over 60 s: attitude %.2e rad, "
               "bias %.2e rad/s\n", worst_q, worst_b);
   EXPECT_LT(worst_q, 1e-5);
