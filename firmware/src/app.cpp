@@ -2,6 +2,8 @@
 
 #include <string.h>
 
+#include "quad/firmware/app_checks.h"
+#include "quad/firmware/float_bits.h"
 #include "quad/firmware/setup_signing.h"
 
 namespace quad {
@@ -25,27 +27,22 @@ constexpr uint32_t kHilMagFields = 0x1C0u;
 constexpr uint16_t kIgnorePosition = 0x7u;
 constexpr uint16_t kIgnoreYaw = 0x400u;
 
-constexpr float kMaxHealthySpeed = 20.0f;  // m/s: a faster estimate is a diverged filter
-// m/s: the position trim does not learn along an axis the shaped setpoint moves on faster than this.
-constexpr float kTrimMovingSpeed = 0.05f;
-// m/s: faster than this the rotors' drag is part of the horizontal specific force: no bias learning.
-constexpr float kHoverMaxSpeed = 0.3f;
 // Fixes refused in a row before the one taken that make the jump worth a STATUSTEXT (one lost outlier
 // is routine; 3 at 30 Hz is 0.1 s of a fix that disagrees with the estimate).
 constexpr uint8_t kJumpReportRejections = 3;
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
-// The shaped setpoint moves along axis i (its tracking lag is not an offset to learn, nor is the
-// vehicle hovering).
-bool setpoint_moving(const ctrl::PositionSetpoint& sp, int i) { return absf(sp.v_d[i]) >= kTrimMovingSpeed; }
+// A counter in a 16-bit SYS_STATUS field: saturated (one out-of-line copy, not five inline).
+__attribute__((noinline)) uint16_t saturate16(uint32_t n) { return static_cast<uint16_t>(n > UINT16_MAX ? UINT16_MAX : n); }
 
 // |det W| below this is not a calibration but a broken matrix (a fitted W is near a rotation-free scale).
 constexpr float kMinSoftIronDeterminant = 0.05f;
 
 // The Earth field with magnetic north along x, expressed in true NED: turned about down by the
 // declination (east positive).
-Vec3 decline(const Vec3& magnetic, float declination) {
+// (Out of line: two callers, and two inlined copies of sinf, cosf and six products cost AVR flash.)
+__attribute__((noinline)) Vec3 decline(const Vec3& magnetic, float declination) {
   const float c = cosf(declination), s = sinf(declination);
   return Vec3{c * magnetic.x - s * magnetic.y, s * magnetic.x + c * magnetic.y, magnetic.z};
 }
@@ -199,7 +196,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   if (mag_ref_learned_) op.mag_ref_ned = decline(mag_ref_magnetic_, p.get(kMagDecl));
   observer_.set_params(op);
   mag_cal_ = mag_cal;
-  mag_declination_ = p.get(kMagDecl);
+  mag_cal_identity_ = identity_calibration(p);
 
   est::PositionFilterParams fp;
   fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
@@ -215,11 +212,8 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
 
   star_ned_ = Vec3{p.get(kVisStarN), p.get(kVisStarE), p.get(kVisStarD)};
 
-  ModeConfig mc;
-  mc.vision_timeout_s = p.get(kFsVisTimeout);
-  mc.rc_timeout_s = p.get(kFsRcTimeout);
-  mc.rc_required = p.get(kFsRcEnable) >= 0.5f;
-  mc.arm_throttle_max = p.get(kArmThrMax);
+  // Every field given (no default-initialised ModeConfig to copy from RAM on the AVR).
+  const ModeConfig mc{p.get(kFsVisTimeout), p.get(kFsRcTimeout), p.get(kFsRcEnable) >= 0.5f, p.get(kArmThrMax)};
   modes_.configure(mc);
   rc_switches_enabled_ = p.get(kRcSwitches) >= 0.5f;
   radio_.set_enabled(p.get(kSignEnable) >= 0.5f);
@@ -247,10 +241,9 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
 
   trim_.configure(p.get(kPosKiXY), p.get(kPosIMaxXY), p.get(kPosKiZ), p.get(kPosIMaxZ));
   accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
-  land_speed_ = p.get(kLandSpeed);
-  land_vz_max_ = p.get(kLandVzMax);
+  // LAND_SPEED, LAND_VZ_MAX and LAND_TIME are read from params_ where used (they are the values
+  // applied here: params_ takes the candidate once this returns true).
   land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
-  land_time_s_ = p.get(kLandTime);
   return true;
 }
 
@@ -569,20 +562,21 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   mark(hal::TracePoint::kStepBegin);
   const uint32_t begin = io_.micros();
   loop_timer_.begin(begin);
-  const float nominal_dt = static_cast<float>(loop_timer_.period_us()) * 1e-6f;
-  float dt = clock_started_ ? static_cast<float>(static_cast<int32_t>(t_us - last_step_us_)) * 1e-6f : nominal_dt;
-  // A gap or a clock step: integrate one nominal period rather than a jump.
-  if (!(dt > 0.0f) || dt > 5.0f * nominal_dt) dt = nominal_dt;
+  const float dt = step_dt(clock_started_, t_us - last_step_us_, loop_timer_.period_us(), loop_timer_.period_s());
   clock_started_ = true;
   last_step_us_ = t_us;
   now_us_ = t_us;
   ++counters_.iterations;
 
-  sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && norm_sq(imu.accel) > sqf(0.3f * kGravity);
-  // Hard and soft iron (thesis eq. 7.5) out before anything reads the field.
+  sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
+  // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
+  // calibration is the field itself).
   hal::MagSample mag_calibrated;
-  if (mag != nullptr) mag_calibrated.field = mag_cal_.apply(mag->field);
-  const hal::MagSample* m = mag != nullptr ? &mag_calibrated : nullptr;
+  const hal::MagSample* m = mag;
+  if (mag != nullptr && !mag_cal_identity_) {
+    mag_calibrated.field = mag_cal_.apply(mag->field);
+    m = &mag_calibrated;
+  }
   if (!calibration_.done()) {
     calibrate(imu, m);
   } else {
@@ -592,10 +586,12 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     const Vec3 accel = imu.accel - bias_.bias.accel;
     const bool accel_valid = !imu_clip_.accel_clipped();
     accel_bias_.update(accel, accel_valid && hovering(), dt);
-    estimate(gyro - bias_.bias.gyro, accel - accel_bias_.bias(), accel_valid, m, dt);
+    // The learned bias has z = +0: accel.z - 0.0f is accel.z itself (IEEE: x - (+0) = x, -0 included).
+    const Vec3 b = accel_bias_.bias();
+    estimate(gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt);
   }
 
-  handle_transition(modes_.update(mode_inputs()));
+  handle_transition(modes_.update(mode_inputs(false)));
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground.
   if (!modes_.armed()) radio_.persist_clock(io_.storage, now_us_, false);
   control(dt);
@@ -616,10 +612,8 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
 // iteration's setpoint and estimate.
 bool FlightApp::hovering() const {
   if (modes_.mode() != FlightMode::kAuto || landed_) return false;
-  for (int i = 0; i < 3; ++i) {
-    if (setpoint_moving(setpoint_, i)) return false;
-  }
-  return norm_sq(filter_.velocity()) < sqf(kHoverMaxSpeed);
+  if (moving_axes(setpoint_.v_d) != 0u) return false;
+  return slow_for_hover(filter_.velocity());
 }
 
 void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) {
@@ -645,7 +639,7 @@ void FlightApp::calibrate(const hal::ImuSample& imu, const hal::MagSample* mag) 
     mag_ref_learned_ = true;
     est::ObserverParams op = observer_.params();
     op.mag_ref_from_init = false;
-    op.mag_ref_ned = decline(mag_ref_magnetic_, mag_declination_);
+    op.mag_ref_ned = decline(mag_ref_magnetic_, params_.get(kMagDecl));
     observer_.set_params(op);
     observer_.initialize(down_force, bias_.mag_mean);
     observer_.reset(observer_.attitude(), Vec3{});
@@ -676,29 +670,34 @@ void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, 
   // A clipped accelerometer's stand-in: the last good kinematic acceleration while the clip guard is
   // healthy, then none (the filter coasts on its velocity; the estimator failsafe is already landing).
   if (accel_valid) last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), accel);
-  accel_sum_ += accel_valid || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{};
+  const Vec3 u = accel_valid || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{};
+  if (accel_count_ == 0) {
+    // The first term after a prediction: 0 + u_i is u_i (a -0 becomes +0), without three additions.
+    accel_sum_ = Vec3{plus_zero(u.x), plus_zero(u.y), plus_zero(u.z)};
+  } else {
+    accel_sum_ += u;
+  }
   ++accel_count_;
   if (position_rate_.tick()) {
     // The mean over the iterations since the last prediction; one iteration (a 100 Hz loop) is the sum
     // itself, exactly, without the division and three multiplications (1 100 cycles on the AVR).
     filter_.predict(accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_)), now_us_);
-    accel_sum_ = Vec3{};
-    accel_count_ = 0;
+    accel_count_ = 0;  // the next term replaces accel_sum_
   }
 }
 
-ModeInputs FlightApp::mode_inputs() const {
+ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   ModeInputs in;
   in.now_us = now_us_;
   in.estimator_converged = calibration_.done() && observer_.initialized();
   const Vec3 v = filter_.velocity();
   // An IMU clipping for longer than IMU_CLIP_HOLD leaves the attitude on guessed rates: unhealthy.
   in.estimator_healthy = in.estimator_converged && imu_clip_.healthy() && is_finite(observer_.attitude()) &&
-                         is_finite(filter_.position()) && is_finite(v) && norm_sq(v) < sqf(kMaxHealthySpeed);
+                         is_finite(filter_.position()) && healthy_speed(v);
   in.sensors_healthy = sensors_ok_;
   in.rc_seen = rc_seen_;
   in.rc_time_us = rc_time_us_;
-  in.rc_throttle = ctrl::throttle_to_unit(sticks_.throttle);
+  if (with_throttle) in.rc_throttle = ctrl::throttle_to_unit(sticks_.throttle);
   in.vision_seen = vision_seen_;
   in.vision_time_us = vision_time_us_;
   in.landed = landed_;
@@ -767,7 +766,8 @@ void FlightApp::control(float dt) {
       // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
       // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
       if (!landed_) {
-        const bool learn[3] = {!setpoint_moving(setpoint_, 0), !setpoint_moving(setpoint_, 1), !setpoint_moving(setpoint_, 2)};
+        const uint8_t moving = moving_axes(setpoint_.v_d);
+        const bool learn[3] = {(moving & 1u) == 0u, (moving & 2u) == 0u, (moving & 4u) == 0u};
         trim_.update(s.p - setpoint_.p_d, learn, dt);
       }
       ctrl::PositionSetpoint sp = setpoint_;
@@ -781,7 +781,7 @@ void FlightApp::control(float dt) {
       // the attitude stays level (no trust in a position without vision).
       ctrl::PositionSetpoint sp = setpoint_;
       sp.p_d.z = s.p.z;
-      sp.v_d = Vec3{0.0f, 0.0f, land_speed_};
+      sp.v_d = Vec3{0.0f, 0.0f, params_.get(kLandSpeed)};
       sp.a_d = Vec3{0.0f, 0.0f, trim_.accel_z()};  // the learned vertical trim, frozen
       if (modes_.land_level()) {
         sp.p_d.x = s.p.x;
@@ -811,10 +811,14 @@ void FlightApp::detect_landing(float dt) {
   // On the ground the commanded descent cannot happen: the estimated vertical speed stays near zero
   // while the controller, pushing down, asks for clearly less than hover thrust.
   // The hover thrust the trim has learned: a_trim < 0 (up) means the vehicle needs more than the model.
-  const float hover_scale = 1.0f - trim_.accel_z() * (1.0f / kGravity);
-  const bool quiet = absf(filter_.velocity().z) < land_vz_max_ && last_thrust_ < land_thrust_max_ * hover_scale;
+  // LAND_VZ_MAX >= 0.05 (its range): |v_z| < it on the bit pattern; the thrust test only when that holds.
+  bool quiet = abs_below(filter_.velocity().z, params_.get(kLandVzMax));
+  if (quiet) {
+    const float hover_scale = 1.0f - trim_.accel_z() * (1.0f / kGravity);
+    quiet = last_thrust_ < land_thrust_max_ * hover_scale;
+  }
   landed_for_s_ = quiet ? landed_for_s_ + dt : 0.0f;
-  if (landed_for_s_ >= land_time_s_) landed_ = true;
+  if (landed_for_s_ >= params_.get(kLandTime)) landed_ = true;
   else if (!quiet) landed_ = false;
 }
 
@@ -893,7 +897,7 @@ void FlightApp::send_ack(uint8_t port, uint16_t command, uint8_t result) {
 }
 
 void FlightApp::telemetry() {
-  const uint32_t time_boot_ms = now_us_ / 1000u;
+  // The 32-bit division (about 600 cycles on the AVR) only for the messages that carry the time.
   if (heartbeat_rate_.tick()) {
     mav::Heartbeat hb;
     hb.custom_mode = static_cast<uint32_t>(modes_.mode());
@@ -907,7 +911,7 @@ void FlightApp::telemetry() {
   }
   if (attitude_rate_.tick()) {
     mav::AttitudeQuaternion att;
-    att.time_boot_ms = time_boot_ms;
+    att.time_boot_ms = now_us_ / 1000u;
     const Quat& q = observer_.attitude();
     att.q1 = q.w;
     att.q2 = q.x;
@@ -921,7 +925,7 @@ void FlightApp::telemetry() {
   }
   if (position_tel_rate_.tick()) {
     mav::LocalPositionNed pos;
-    pos.time_boot_ms = time_boot_ms;
+    pos.time_boot_ms = now_us_ / 1000u;
     const Vec3 p = filter_.position();
     const Vec3 v = filter_.velocity();
     pos.x = p.x;
@@ -954,17 +958,17 @@ void FlightApp::telemetry() {
     st.battery_remaining = -1;
     uint32_t errors = 0;
     for (const mav::Parser& p : parsers_) errors += p.stats().bad_checksum + p.stats().bad_length;
-    st.errors_comm = static_cast<uint16_t>(errors > UINT16_MAX ? UINT16_MAX : errors);
+    st.errors_comm = saturate16(errors);
     const uint32_t lost = parsers_[hal::kUart0].stats().sequence_lost + parsers_[hal::kUart2].stats().sequence_lost;
     const uint32_t received = parsers_[hal::kUart0].stats().frames_accepted + parsers_[hal::kUart2].stats().frames_accepted;
     // In 0.01 %; float, so the AVR needs no 64-bit division.
     st.drop_rate_comm = static_cast<uint16_t>(
         received + lost == 0 ? 0.0f : 10000.0f * static_cast<float>(lost) / static_cast<float>(received + lost));
-    st.errors_count1 = static_cast<uint16_t>(loop_timer_.overruns() > UINT16_MAX ? UINT16_MAX : loop_timer_.overruns());
-    st.errors_count2 = static_cast<uint16_t>(counters_.fixes_rejected > UINT16_MAX ? UINT16_MAX : counters_.fixes_rejected);
-    st.errors_count3 = static_cast<uint16_t>(counters_.tx_dropped_bytes > UINT16_MAX ? UINT16_MAX : counters_.tx_dropped_bytes);
+    st.errors_count1 = saturate16(loop_timer_.overruns());
+    st.errors_count2 = saturate16(counters_.fixes_rejected);
+    st.errors_count3 = saturate16(counters_.tx_dropped_bytes);
     const uint32_t rejected = radio_.stats().rejected();
-    st.errors_count4 = static_cast<uint16_t>(rejected > UINT16_MAX ? UINT16_MAX : rejected);
+    st.errors_count4 = saturate16(rejected);
     broadcast(st);
     // At most one line per status period however many frames a stranger sends.
     if (rejected != radio_rejected_reported_) {

@@ -4,11 +4,26 @@ namespace quad {
 namespace fw {
 namespace {
 
-// True when `then_us` is at most `timeout_s` before `now_us`, robust to the 32-bit microsecond clock
-// wrapping. Compared in microseconds, where the usual timeouts (0.5 s, 1 s) are exact floats.
-bool within(uint32_t now_us, uint32_t then_us, float timeout_s) {
-  const int32_t age_us = static_cast<int32_t>(now_us - then_us);
-  return age_us <= 0 || static_cast<float>(age_us) <= timeout_s * 1e6f;
+constexpr int32_t kMaxInt32 = 2147483647;
+
+// The largest age (us) that static_cast<float>(age) <= timeout_s * 1e6f admits, 0 when no positive age
+// does. The conversion of an int32 to float is monotonic, so the ages that pass are exactly those up to
+// this one.
+__attribute__((noinline)) int32_t max_age_us(float timeout_s) {
+  const float t = timeout_s * 1e6f;
+  if (!(t >= 1.0f)) return 0;                    // NaN, negative, below a microsecond
+  if (t >= 2147483648.0f) return kMaxInt32;      // every int32 age converts to at most 2^31
+  int32_t a = static_cast<int32_t>(t);           // floor: float(a) <= t
+  // Above 2^24 neighbouring ints share a float: take every one that still converts to at most t (below
+  // t + 64 for t < 2^31: no overflow).
+  while (static_cast<float>(a + 1) <= t) ++a;
+  return a;
+}
+
+// True when `then_us` is at most the timeout before `now_us`, robust to the 32-bit microsecond clock
+// wrapping: age_us <= 0 || static_cast<float>(age_us) <= timeout_s * 1e6f, on integers (max_age_us()).
+bool within(uint32_t now_us, uint32_t then_us, int32_t max_age_us) {
+  return static_cast<int32_t>(now_us - then_us) <= max_age_us;
 }
 
 }  // namespace
@@ -49,12 +64,19 @@ FlashText reason_text(Reason reason) {
   return QUAD_TEXT("?");
 }
 
+void ModeMachine::configure(const ModeConfig& config) {
+  vision_max_age_us_ = max_age_us(config.vision_timeout_s);
+  rc_max_age_us_ = max_age_us(config.rc_timeout_s);
+  rc_required_ = config.rc_required;
+  arm_throttle_max_ = config.arm_throttle_max;
+}
+
 bool ModeMachine::vision_fresh(const ModeInputs& in) const {
-  return in.vision_seen && within(in.now_us, in.vision_time_us, config_.vision_timeout_s);
+  return in.vision_seen && within(in.now_us, in.vision_time_us, vision_max_age_us_);
 }
 
 bool ModeMachine::rc_fresh(const ModeInputs& in) const {
-  return in.rc_seen && within(in.now_us, in.rc_time_us, config_.rc_timeout_s);
+  return in.rc_seen && within(in.now_us, in.rc_time_us, rc_max_age_us_);
 }
 
 Transition ModeMachine::go(FlightMode to, Reason reason, bool level) {
@@ -68,6 +90,8 @@ Transition ModeMachine::go(FlightMode to, Reason reason, bool level) {
   return t;
 }
 
+Transition ModeMachine::unchanged() const { return Transition{false, true, mode_, mode_, Reason::kNone}; }
+
 Transition ModeMachine::refuse(FlightMode mode, Reason reason) {
   Transition t;
   t.accepted = false;
@@ -77,19 +101,19 @@ Transition ModeMachine::refuse(FlightMode mode, Reason reason) {
 }
 
 Transition ModeMachine::command(Command cmd, const ModeInputs& in) {
-  const bool rc_ok = !config_.rc_required || rc_fresh(in);
+  const bool rc_ok = !rc_required_ || rc_fresh(in);
   switch (cmd) {
     case Command::kArm:
       if (armed()) return refuse(mode_, Reason::kRejectAlreadyArmed);
       if (!in.estimator_converged) return refuse(mode_, Reason::kRejectEstimatorNotConverged);
       if (!in.sensors_healthy) return refuse(mode_, Reason::kRejectSensors);
       if (!rc_ok) return refuse(mode_, Reason::kRejectNoRc);
-      if (rc_fresh(in) && in.rc_throttle > config_.arm_throttle_max) return refuse(mode_, Reason::kRejectThrottleHigh);
+      if (rc_fresh(in) && in.rc_throttle > arm_throttle_max_) return refuse(mode_, Reason::kRejectThrottleHigh);
       return go(FlightMode::kManual, Reason::kArmed);
 
     case Command::kDisarm: {
       if (!armed()) return Transition{};
-      const bool throttle_low = mode_ == FlightMode::kManual && rc_fresh(in) && in.rc_throttle <= config_.arm_throttle_max;
+      const bool throttle_low = mode_ == FlightMode::kManual && rc_fresh(in) && in.rc_throttle <= arm_throttle_max_;
       if (!in.landed && !throttle_low) return refuse(mode_, Reason::kRejectInFlight);
       return go(FlightMode::kDisarmed, Reason::kDisarmed);
     }
@@ -100,13 +124,13 @@ Transition ModeMachine::command(Command cmd, const ModeInputs& in) {
 
     case Command::kManual:
       if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
-      if (mode_ == FlightMode::kManual) return Transition{false, true, mode_, mode_, Reason::kNone};
+      if (mode_ == FlightMode::kManual) return unchanged();
       if (!rc_fresh(in)) return refuse(mode_, Reason::kRejectNoRc);
       return go(FlightMode::kManual, Reason::kManualSelected);
 
     case Command::kAuto:
       if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
-      if (mode_ == FlightMode::kAuto) return Transition{false, true, mode_, mode_, Reason::kNone};
+      if (mode_ == FlightMode::kAuto) return unchanged();
       if (mode_ == FlightMode::kLanding) return refuse(mode_, Reason::kRejectLanding);
       if (!in.estimator_healthy) return refuse(mode_, Reason::kRejectEstimatorUnhealthy);
       if (!vision_fresh(in)) return refuse(mode_, Reason::kRejectNoVision);
@@ -114,7 +138,7 @@ Transition ModeMachine::command(Command cmd, const ModeInputs& in) {
 
     case Command::kLand:
       if (!armed()) return refuse(mode_, Reason::kRejectNotArmed);
-      if (mode_ == FlightMode::kLanding) return Transition{false, true, mode_, mode_, Reason::kNone};
+      if (mode_ == FlightMode::kLanding) return unchanged();
       // Without a fresh fix there is no horizontal position to hold: land level.
       return go(FlightMode::kLanding, Reason::kLandCommanded, !vision_fresh(in));
   }
@@ -128,7 +152,7 @@ Transition ModeMachine::update(const ModeInputs& in) {
     case FlightMode::kManual:
     case FlightMode::kAuto:
       if (!in.estimator_healthy) return go(FlightMode::kLanding, Reason::kFailsafeEstimator, true);
-      if (config_.rc_required && !rc_fresh(in)) {
+      if (rc_required_ && !rc_fresh(in)) {
         return go(FlightMode::kLanding, Reason::kFailsafeRcLost, mode_ != FlightMode::kAuto || !vision_fresh(in));
       }
       if (mode_ == FlightMode::kAuto && !vision_fresh(in)) {

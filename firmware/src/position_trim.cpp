@@ -1,5 +1,6 @@
 #include "quad/firmware/position_trim.h"
 
+#include "quad/firmware/float_bits.h"
 #include "quad/math/scalar.h"
 
 namespace quad {
@@ -8,13 +9,20 @@ namespace fw {
 void AxisTrim::clamp(float limit) { accel_ = clampf(accel_, -limit, limit); }
 
 void AxisTrim::update(float position_error, float dt, float ki, float limit) {
-  if (!is_finite(position_error) || !(dt > 0.0f)) return;
+  if (!positive(dt)) return;  // !(dt > 0.0f)
+  learn(position_error, dt, ki, limit);
+}
+
+void AxisTrim::learn(float position_error, float dt, float ki, float limit) {
+  if (!is_finite(position_error)) return;
   // An offset is small; a large error is a transient (a jump of the fix, a gust, the first seconds of a
   // fault) that the PD law handles and that would wind the integral up: learn at most at the rate of
   // kMaxLearnedError. Integrating the acceleration itself (rather than the error, then scaling) keeps
-  // the clamp exact when the gain changes in flight.
-  const float e = clampf(position_error, -kMaxLearnedError, kMaxLearnedError);
-  accel_ = clampf(accel_ - ki * e * dt, -limit, limit);
+  // the clamp exact when the gain changes in flight. The clamps compare bit patterns (float_bits.h):
+  // clamp_abs(x, l) is clampf(x, -l, l) for a limit with the sign bit clear and not NaN.
+  const float e = clamp_abs(position_error, kMaxLearnedError);
+  const float a = accel_ - ki * e * dt;
+  accel_ = float_bits(limit) <= kFloatInfBits ? clamp_abs(a, limit) : clampf(a, -limit, limit);
 }
 
 void PositionTrim::configure(float ki_xy, float limit_xy, float ki_z, float limit_z) {
@@ -30,10 +38,10 @@ void PositionTrim::reset() {
 }
 
 void PositionTrim::update(const Vec3& position_error, const bool learn[3], float dt) {
-  for (int i = 0; i < 3; ++i) {
-    const int c = i == 2 ? 1 : 0;
-    if (learn[i]) axis_[i].update(position_error[i], dt, ki_[c], limit_[c]);
-  }
+  if (!positive(dt)) return;  // each axis would refuse it (AxisTrim::update): tested once
+  if (learn[0]) axis_[0].learn(position_error.x, dt, ki_[0], limit_[0]);
+  if (learn[1]) axis_[1].learn(position_error.y, dt, ki_[0], limit_[0]);
+  if (learn[2]) axis_[2].learn(position_error.z, dt, ki_[1], limit_[1]);
 }
 
 }  // namespace fw

@@ -1,5 +1,6 @@
 #include "quad/firmware/scheduler.h"
 
+#include "quad/firmware/float_bits.h"
 #include "quad/math/scalar.h"
 
 namespace quad {
@@ -8,6 +9,7 @@ namespace fw {
 void LoopTimer::set_rate_hz(float hz) {
   if (!(hz >= 1.0f)) hz = 1.0f;
   period_us_ = static_cast<uint32_t>(1e6f / hz + 0.5f);
+  period_s_ = static_cast<float>(period_us_) * 1e-6f;
 }
 
 bool LoopTimer::due(uint32_t now_us) {
@@ -31,7 +33,10 @@ void LoopTimer::end(uint32_t now_us) {
   ++iterations_;
   const float load = 1000.0f * static_cast<float>(last_exec_us_) / static_cast<float>(period_us_);
   // First-order filter with a time constant of about 100 iterations (1 s at 100 Hz).
-  load_permille_ += 0.01f * ((load > 1000.0f ? 1000.0f : load) - load_permille_);
+  // load > 1000.0f on the bits (load >= 0, or a NaN, which passes as through the float comparison).
+  const uint32_t b = float_bits(load);
+  const bool above = b > float_bits(1000.0f) && b <= kFloatInfBits;
+  load_permille_ += 0.01f * ((above ? 1000.0f : load) - load_permille_);
 }
 
 void RateDivider::configure(float rate_hz, float loop_hz, uint8_t slot) {

@@ -1,12 +1,16 @@
 #include "quad/firmware/vision.h"
 
+#include "quad/firmware/float_bits.h"
+
 namespace quad {
 namespace fw {
 namespace {
 
+// Rounded to the nearest of 32767 steps per unit: clampf(x, -1, 1) * 32767, then +-0.5 and truncation.
+// The clamp and the sign test compare bit patterns (float_bits.h), exactly as the float comparisons.
 int16_t quantise(float x) {
-  const float s = clampf(x, -1.0f, 1.0f) * 32767.0f;
-  return static_cast<int16_t>(s < 0.0f ? s - 0.5f : s + 0.5f);
+  const float s = clamp_abs(x, 1.0f) * 32767.0f;
+  return static_cast<int16_t>(negative(s) ? s - 0.5f : s + 0.5f);
 }
 
 }  // namespace
@@ -26,7 +30,7 @@ void AttitudeHistory::push(uint32_t t_us, const Quat& q) {
   Quat stored = q;
   if (count_ > 0) {
     const Quat prev = unpack(at(0));
-    if (dot(prev, q) < 0.0f) stored = -q;
+    if (negative(dot(prev, q))) stored = -q;
   }
   r.q[0] = quantise(stored.w);
   r.q[1] = quantise(stored.x);

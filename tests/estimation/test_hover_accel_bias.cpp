@@ -109,3 +109,65 @@ TEST(HoverAccelBias, OffBadSamplesAndSteps) {
 }
 
 }  // namespace
+
+// update() compares bit patterns (the gate, the gain's limit of 1, the clamp): against the float code it
+// replaced (written out here) the learned bias must be bit-identical for random samples, non-finite
+// ones, steps of every kind (0, negative, NaN, infinite, long enough for a gain of 1) and configurations
+// (off, a zero limit, an infinite limit, a tiny time constant).
+#include <cstring>
+#include <limits>
+
+namespace {
+
+struct ReferenceBias {
+  float inv_tau = 0.0f, limit = 0.0f, bx = 0.0f, by = 0.0f;
+  void configure(float tau_s, float l) {
+    inv_tau = tau_s > 0.0f ? 1.0f / tau_s : 0.0f;
+    limit = quad::maxf(l, 0.0f);
+    if (inv_tau == 0.0f) bx = by = 0.0f;
+    bx = quad::clampf(bx, -limit, limit);
+    by = quad::clampf(by, -limit, limit);
+  }
+  void update(const Vec3& a, bool hovering, float dt) {
+    if (!hovering || inv_tau == 0.0f || !quad::is_finite(a) || !(dt > 0.0f)) return;
+    const float k = quad::minf(dt * inv_tau, 1.0f);
+    bx = quad::clampf(bx + k * (a.x - bx), -limit, limit);
+    by = quad::clampf(by + k * (a.y - by), -limit, limit);
+  }
+};
+
+uint32_t bits(float x) {
+  uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+}  // namespace
+
+TEST(HoverAccelBias, BitPatternUpdateMatchesTheFloatImplementation) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  struct Config { float tau, limit; };
+  for (const Config& c : {Config{10.0f, 0.15f}, Config{0.0f, 0.15f}, Config{10.0f, 0.0f}, Config{10.0f, inf},
+                          Config{1e-3f, 0.15f}, Config{1e-38f, 1.0f}, Config{inf, 0.15f}, Config{600.0f, nan}}) {
+    HoverAccelBias b;
+    ReferenceBias r;
+    b.configure(c.tau, c.limit);
+    r.configure(c.tau, c.limit);
+    std::mt19937 rng(static_cast<uint32_t>(bits(c.tau) ^ bits(c.limit)));
+    std::normal_distribution<float> n(0.0f, 0.5f);
+    const float dts[] = {0.01f, 0.0f, -0.01f, nan, inf, 20.0f, 1e-40f, -0.0f};
+    for (int i = 0; i < 20000; ++i) {
+      Vec3 a{n(rng), n(rng), -9.8f + n(rng)};
+      if (rng() % 20 == 0) a[static_cast<int>(rng() % 3)] = (rng() % 2) ? nan : -inf;
+      if (rng() % 50 == 0) a.x = (rng() % 2) ? c.limit : -c.limit;
+      const bool hovering = rng() % 5 != 0;
+      const float dt = (rng() % 6 == 0) ? dts[rng() % 8] : kDt;
+      b.update(a, hovering, dt);
+      r.update(a, hovering, dt);
+      ASSERT_EQ(bits(b.bias().x), bits(r.bx)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
+      ASSERT_EQ(bits(b.bias().y), bits(r.by)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
+      ASSERT_EQ(bits(b.bias().z), bits(0.0f));
+    }
+  }
+}

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -731,3 +732,65 @@ TEST(FirmwareApp, SurvivesRandomFieldsInEveryMessage) {
 }
 
 }  // namespace
+
+// The trim's clamps compare bit patterns and PositionTrim tests dt once: against the float code it
+// replaced (written out here), the held accelerations must be bit-identical for random errors (inside
+// and beyond the 0.2 m clamp, exactly at it, NaN, infinite), learn flags, steps (0, negative, NaN,
+// infinite) and limits (0, in range, NaN, negative: the clampf fallback).
+namespace {
+
+float reference_axis(float accel, float e_in, float dt, float ki, float limit) {
+  if (!quad::is_finite(e_in) || !(dt > 0.0f)) return accel;
+  const float e = quad::clampf(e_in, -quad::fw::AxisTrim::kMaxLearnedError, quad::fw::AxisTrim::kMaxLearnedError);
+  return quad::clampf(accel - ki * e * dt, -limit, limit);
+}
+
+uint32_t trim_bits(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+}  // namespace
+
+TEST(PositionTrim, BitPatternClampsMatchTheFloatImplementation) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> err(-0.5f, 0.5f), gain(0.0f, 5.0f);
+  const float dts[] = {0.01f, 0.0025f, 0.0f, -0.01f, nan, inf, 1e-30f};
+  const float limits[] = {2.0f, 0.0f, 0.05f, 5.0f, -1.0f, nan, inf, -0.0f};
+  for (float limit : limits) {
+    const float ki_xy = gain(rng), ki_z = gain(rng);
+    quad::fw::PositionTrim t;
+    t.configure(ki_xy, limit, ki_z, limit);
+    float ref[3] = {t.accel().x, t.accel().y, t.accel().z};
+    quad::fw::AxisTrim single;
+    float ref_single = single.accel();
+    for (int i = 0; i < 20000; ++i) {
+      auto pick = [&]() {
+        switch (rng() % 10) {
+          case 0: return 0.2f;
+          case 1: return -0.2f;
+          case 2: return nan;
+          case 3: return (rng() % 2) ? inf : -inf;
+          default: return err(rng);
+        }
+      };
+      const quad::Vec3 e{pick(), pick(), pick()};
+      const bool learn[3] = {rng() % 4 != 0, rng() % 4 != 0, rng() % 4 != 0};
+      const float dt = (rng() % 8 == 0) ? dts[rng() % 7] : 0.01f;
+      t.update(e, learn, dt);
+      const float ki[3] = {ki_xy, ki_xy, ki_z};
+      for (int a = 0; a < 3; ++a) {
+        if (learn[a]) ref[a] = reference_axis(ref[a], e[a], dt, ki[a], limit);
+      }
+      ASSERT_EQ(trim_bits(t.accel().x), trim_bits(ref[0])) << "limit " << limit << " step " << i;
+      ASSERT_EQ(trim_bits(t.accel().y), trim_bits(ref[1])) << "limit " << limit << " step " << i;
+      ASSERT_EQ(trim_bits(t.accel().z), trim_bits(ref[2])) << "limit " << limit << " step " << i;
+      single.update(e.x, dt, ki_xy, limit);
+      ref_single = reference_axis(ref_single, e.x, dt, ki_xy, limit);
+      ASSERT_EQ(trim_bits(single.accel()), trim_bits(ref_single)) << "limit " << limit << " step " << i;
+    }
+  }
+}

@@ -6,7 +6,9 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <random>
 
 #include "app_bench.h"
 #include "quad/firmware/imu_clip.h"
@@ -206,3 +208,116 @@ TEST(FirmwareAppClipping, ClippingLongerThanTheHoldLandsThroughTheEstimatorFails
 }
 
 }  // namespace
+
+// The guard compares bit patterns and stops adding to its quiet time once past the burst gap: against
+// the float implementation it replaced (written out here), outputs, flags, counters and health must be
+// identical on random sequences with samples at, just below and just above the limits, non-finite ones,
+// and every configuration kind (including a zero hold and odd ranges).
+namespace {
+
+struct ReferenceGuard {
+  float gyro_limit = 0.0f, accel_limit = 0.0f, hold_s = 0.0f;
+  Vec3 last_good;
+  float clipping_for_s = 0.0f, quiet_for_s = ImuClipGuard::kBurstGapS;
+  bool gyro_clipped = false, accel_clipped = false, burst_started = false;
+  uint32_t clipped_samples = 0, bursts = 0;
+  static bool at_limit(float x, float limit) { return quad::is_finite(x) && quad::absf(x) >= limit; }
+  void configure(float g, float a, float h) {
+    gyro_limit = ImuClipGuard::kClipFraction * g;
+    accel_limit = ImuClipGuard::kClipFraction * a;
+    hold_s = h;
+  }
+  bool healthy() const { return clipping_for_s <= hold_s; }
+  Vec3 update(const quad::hal::ImuSample& raw, float dt) {
+    Vec3 gyro = raw.gyro;
+    bool gc = false;
+    for (int i = 0; i < 3; ++i) {
+      if (at_limit(raw.gyro[i], gyro_limit)) gc = true;
+      else if (quad::is_finite(raw.gyro[i])) last_good[i] = raw.gyro[i];
+    }
+    const bool ac = at_limit(raw.accel.x, accel_limit) || at_limit(raw.accel.y, accel_limit) || at_limit(raw.accel.z, accel_limit);
+    gyro_clipped = gc;
+    accel_clipped = ac;
+    burst_started = false;
+    if (!gc && !ac) {
+      clipping_for_s = 0.0f;
+      quiet_for_s += dt;
+      return gyro;
+    }
+    ++clipped_samples;
+    if (quiet_for_s >= ImuClipGuard::kBurstGapS) {
+      burst_started = true;
+      ++bursts;
+    }
+    quiet_for_s = 0.0f;
+    clipping_for_s += dt;
+    if (!healthy()) return gyro;
+    for (int i = 0; i < 3; ++i) {
+      if (at_limit(raw.gyro[i], gyro_limit)) gyro[i] = last_good[i];
+    }
+    return gyro;
+  }
+};
+
+uint32_t pattern(float x) {
+  uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+}  // namespace
+
+TEST(ImuClipGuard, BitPatternGuardMatchesTheFloatImplementation) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  struct Config { float g, a, h; };
+  for (const Config& cfg : {Config{kGyroRange, kAccelRange, 0.05f}, Config{kGyroRange, kAccelRange, 0.0f},
+                            Config{1.0f, 10.0f, 0.5f}, Config{0.0f, kAccelRange, 0.05f}, Config{-1.0f, -5.0f, 0.05f},
+                            Config{nan, nan, 0.05f}, Config{inf, inf, 0.05f}}) {
+    ImuClipGuard g;
+    ReferenceGuard r;
+    g.configure(cfg.g, cfg.a, cfg.h);
+    r.configure(cfg.g, cfg.a, cfg.h);
+    std::mt19937 rng(static_cast<uint32_t>(pattern(cfg.g) ^ pattern(cfg.h)));
+    const float gl = ImuClipGuard::kClipFraction * cfg.g, al = ImuClipGuard::kClipFraction * cfg.a;
+    auto pick = [&](float limit, float typical) {
+      switch (rng() % 12) {
+        case 0: return limit;
+        case 1: return -limit;
+        case 2: return std::nextafter(limit, 0.0f);
+        case 3: return -std::nextafter(limit, inf);
+        case 4: return nan;
+        case 5: return (rng() % 2) ? inf : -inf;
+        case 6: return (rng() % 2) ? 0.0f : -0.0f;
+        default: return typical * (static_cast<float>(rng() % 2001) / 1000.0f - 1.0f);
+      }
+    };
+    // Long quiet stretches between clips, so bursts begin and end (the 1 s gap) many times.
+    for (int i = 0; i < 60000; ++i) {
+      const bool clipping_phase = (i / 50) % 7 == 0 || (i / 300) % 5 == 0;
+      quad::hal::ImuSample s;
+      if (clipping_phase) {
+        s.gyro = Vec3{pick(gl, 3.0f), pick(gl, 3.0f), pick(gl, 3.0f)};
+        s.accel = Vec3{pick(al, 20.0f), pick(al, 20.0f), pick(al, 20.0f)};
+      } else {
+        std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+        s.gyro = Vec3{u(rng), u(rng), u(rng)};
+        s.accel = Vec3{u(rng), u(rng), -9.8f + u(rng)};
+      }
+      const float dt = (rng() % 3 == 0) ? 0.0025f : 0.01f;
+      const Vec3 a = g.update(s, dt);
+      const Vec3 b = r.update(s, dt);
+      SCOPED_TRACE(testing::Message() << "config " << cfg.g << " sample " << i);
+      ASSERT_EQ(pattern(a.x), pattern(b.x));
+      ASSERT_EQ(pattern(a.y), pattern(b.y));
+      ASSERT_EQ(pattern(a.z), pattern(b.z));
+      ASSERT_EQ(g.gyro_clipped(), r.gyro_clipped);
+      ASSERT_EQ(g.accel_clipped(), r.accel_clipped);
+      ASSERT_EQ(g.burst_started(), r.burst_started);
+      ASSERT_EQ(g.healthy(), r.healthy());
+      ASSERT_EQ(g.clipped_samples(), r.clipped_samples);
+      ASSERT_EQ(g.bursts(), r.bursts);
+    }
+    if (cfg.g == kGyroRange) EXPECT_GT(r.bursts, 3u);  // the sequence does exercise the burst logic
+  }
+}

@@ -1,6 +1,8 @@
 // Flight-mode state machine: every transition, every refusal and every failsafe of firmware/modes.h.
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "quad/firmware/modes.h"
 
 namespace {
@@ -360,3 +362,59 @@ TEST(Modes, EveryReasonHasText) {
 }
 
 }  // namespace
+
+// The timeouts are compared in integer microseconds (ModeMachine keeps the largest fresh age): the
+// result must be the float comparison of the specification, age <= 0 || float(age) <= timeout * 1e6,
+// for every timeout (also beyond 2^24 us, where neighbouring integers share a float) and every age.
+#include <cmath>
+#include <limits>
+#include <random>
+
+TEST(Modes, FreshnessIsTheFloatComparisonOfTheTimeoutForEveryAge) {
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> timeouts = {0.5f, 1.0f, 0.05f, 10.0f, 0.1f, 0.3f, 1e-7f, 0.0f, -1.0f, 16.777216f, 16.777217f,
+                                 17.0f, 33.5f, 100.0f, 1234.567f, 2147.48f, 2147.4836f, 2147.4837f, 3000.0f, inf,
+                                 std::numeric_limits<float>::quiet_NaN()};
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> log_t(-6.0f, 3.5f);
+  for (int i = 0; i < 300; ++i) timeouts.push_back(std::pow(10.0f, log_t(rng)));
+  for (float timeout : timeouts) {
+    quad::fw::ModeConfig c;
+    c.vision_timeout_s = timeout;
+    c.rc_timeout_s = timeout;
+    const ModeMachine m(c);
+    const float t = timeout * 1e6f;
+    std::vector<int32_t> ages = {0, 1, -1, 2147483647, -2147483647 - 1};
+    // Around the boundary: the integers near t (when it is in range), and random ones.
+    if (t > -3e9f && t < 3e9f) {
+      const int64_t center = static_cast<int64_t>(t);
+      for (int64_t d = -200; d <= 200; ++d) {
+        const int64_t a = center + d;
+        if (a >= -2147483647 - 1 && a <= 2147483647) ages.push_back(static_cast<int32_t>(a));
+      }
+    }
+    for (int i = 0; i < 2000; ++i) ages.push_back(static_cast<int32_t>(rng()));
+    for (int32_t age : ages) {
+      ModeInputs in = ready(0x80000000u);
+      in.vision_time_us = in.now_us - static_cast<uint32_t>(age);
+      in.rc_time_us = in.vision_time_us;
+      const bool expected = age <= 0 || static_cast<float>(age) <= t;
+      ASSERT_EQ(m.vision_fresh(in), expected) << "timeout " << timeout << " age " << age;
+      ASSERT_EQ(m.rc_fresh(in), expected) << "timeout " << timeout << " age " << age;
+    }
+  }
+}
+
+TEST(Modes, DefaultMachineUsesTheDefaultConfigTimeouts) {
+  const ModeMachine d;
+  const ModeMachine c{quad::fw::ModeConfig()};
+  for (int32_t age : {0, 499999, 500000, 500001, 999999, 1000000, 1000001}) {
+    ModeInputs in = ready();
+    in.vision_time_us = in.now_us - static_cast<uint32_t>(age);
+    in.rc_time_us = in.vision_time_us;
+    EXPECT_EQ(d.vision_fresh(in), c.vision_fresh(in)) << age;
+    EXPECT_EQ(d.rc_fresh(in), c.rc_fresh(in)) << age;
+    EXPECT_EQ(d.vision_fresh(in), age <= 500000) << age;
+    EXPECT_EQ(d.rc_fresh(in), age <= 1000000) << age;
+  }
+}

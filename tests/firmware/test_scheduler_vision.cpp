@@ -237,3 +237,155 @@ TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// The bit-pattern comparisons (float_bits.h) and the application's checks built on them
+// (app_checks.h): each must return exactly what the float expression it replaces returns.
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "quad/estimation/calibration.h"
+#include "quad/firmware/app_checks.h"
+#include "quad/firmware/float_bits.h"
+
+namespace {
+
+uint32_t bits_of(float x) {
+  uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+float next_up(float x) { return std::nextafter(x, std::numeric_limits<float>::infinity()); }
+float next_down(float x) { return std::nextafter(x, -std::numeric_limits<float>::infinity()); }
+
+// Specials, the given limits and their neighbours (both signs), random patterns and random values.
+std::vector<float> interesting_floats(std::initializer_list<float> limits, int random_count, uint32_t seed) {
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> v = {0.0f, -0.0f, inf, -inf, std::numeric_limits<float>::quiet_NaN(),
+                          -std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::denorm_min(),
+                          std::numeric_limits<float>::max(), 1.0f, -1.0f};
+  for (float l : limits) {
+    for (float x : {l, next_up(l), next_down(l)}) {
+      v.push_back(x);
+      v.push_back(-x);
+    }
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> small(-2.0f, 2.0f);
+  for (int i = 0; i < random_count; ++i) {
+    const uint32_t b = rng();
+    float x;
+    std::memcpy(&x, &b, sizeof x);
+    v.push_back(x);
+    const float l = *(limits.begin() + static_cast<int>(rng() % limits.size()));
+    v.push_back(small(rng) * l);
+  }
+  return v;
+}
+
+bool same_float(float a, float b) { return (std::isnan(a) && std::isnan(b)) || bits_of(a) == bits_of(b); }
+
+}  // namespace
+
+TEST(FloatBits, ComparisonsAgreeWithTheFloatOnesOnEveryKindOfValue) {
+  using namespace quad::fw;
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float limit : {0.0f, 0.05f, 0.17f, 0.2f, 0.3f, 1.0f, 3.0f, 11.0f, 1000.0f, inf}) {
+    for (float x : interesting_floats({limit, 0.05f, 1.0f}, 20000, 7u)) {
+      SCOPED_TRACE(testing::Message() << "x " << x << " limit " << limit);
+      ASSERT_EQ(abs_below(x, limit), std::fabs(x) < limit);
+      ASSERT_EQ(abs_at_least(x, limit), std::fabs(x) >= limit);
+      ASSERT_EQ(abs_at_most(x, limit), std::fabs(x) <= limit);
+      ASSERT_TRUE(same_float(clamp_abs(x, limit), quad::clampf(x, -limit, limit)));
+      // The sign of a clamped zero too (clampf(x, -0, 0) gives -0 for x < 0).
+      if (!std::isnan(x)) ASSERT_EQ(bits_of(clamp_abs(x, limit)), bits_of(quad::clampf(x, -limit, limit)));
+      ASSERT_EQ(positive(x), x > 0.0f);
+      ASSERT_EQ(negative(x), x < 0.0f);
+      ASSERT_TRUE(same_float(plus_zero(x), x + 0.0f));
+      if (!std::isnan(x)) ASSERT_EQ(bits_of(plus_zero(x)), bits_of(x + 0.0f));
+    }
+  }
+}
+
+TEST(AppChecks, StepDtIsTheFloatFormulaForEveryElapsedTime) {
+  using quad::fw::step_dt;
+  std::mt19937 rng(3);
+  for (uint32_t period : {1000u, 2500u, 10000u, 20000u, 1000000u}) {
+    LoopTimer t;
+    t.set_rate_hz(1e6f / static_cast<float>(period));
+    ASSERT_EQ(t.period_us(), period);
+    const float nominal = t.period_s();
+    ASSERT_EQ(bits_of(nominal), bits_of(static_cast<float>(period) * 1e-6f));
+    std::vector<uint32_t> elapsed = {0u, 1u, period - 1u, period, period + 1u, 5u * period, 5u * period + 1u,
+                                     0x7FFFFFFFu, 0x80000000u, 0xFFFFFFFFu};
+    for (int i = 0; i < 20000; ++i) elapsed.push_back(i % 2 ? rng() : rng() % (6u * period));
+    for (uint32_t e : elapsed) {
+      for (bool started : {false, true}) {
+        // The original expression of FlightApp::step.
+        float dt = started ? static_cast<float>(static_cast<int32_t>(e)) * 1e-6f : nominal;
+        if (!(dt > 0.0f) || dt > 5.0f * nominal) dt = nominal;
+        ASSERT_EQ(bits_of(step_dt(started, e, period, nominal)), bits_of(dt)) << e << " " << period;
+      }
+    }
+  }
+}
+
+TEST(AppChecks, SpeedAndForceTestsAreTheNormComparisons) {
+  using namespace quad::fw;
+  using quad::Vec3;
+  const auto vals = interesting_floats({0.05f, 0.17f, 0.3f, 0.1732f, 3.0f, 11.0f, 11.547f, 20.0f}, 3000, 11u);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> around_hover(-0.35f, 0.35f), around_fast(-25.0f, 25.0f), force(-12.0f, 12.0f);
+  std::vector<Vec3> vs;
+  for (size_t i = 0; i < 200000; ++i) {
+    switch (i % 4) {
+      case 0: vs.push_back(Vec3{vals[rng() % vals.size()], vals[rng() % vals.size()], vals[rng() % vals.size()]}); break;
+      case 1: vs.push_back(Vec3{around_hover(rng), around_hover(rng), around_hover(rng)}); break;
+      case 2: vs.push_back(Vec3{around_fast(rng), around_fast(rng), around_fast(rng)}); break;
+      default: vs.push_back(Vec3{force(rng), force(rng), force(rng) * 0.3f}); break;
+    }
+  }
+  // On the edges of the shortcuts: three equal axes just inside and outside 0.17, 11 and 3.
+  for (float a : {0.17f, 11.0f, 3.0f, 0.3f, 20.0f}) {
+    for (float x : {a, next_up(a), next_down(a)}) vs.push_back(Vec3{x, x, x});
+  }
+  for (const Vec3& v : vs) {
+    SCOPED_TRACE(testing::Message() << v.x << " " << v.y << " " << v.z);
+    ASSERT_EQ(slow_for_hover(v), quad::norm_sq(v) < quad::sqf(kHoverMaxSpeed));
+    ASSERT_EQ(healthy_speed(v), quad::is_finite(v) && quad::norm_sq(v) < quad::sqf(kMaxHealthySpeed));
+    if (quad::is_finite(v)) ASSERT_EQ(plausible_force(v), quad::norm_sq(v) > quad::sqf(0.3f * quad::kGravity));
+    const uint8_t m = moving_axes(v);
+    ASSERT_EQ((m & 1u) != 0u, std::fabs(v.x) >= kTrimMovingSpeed);
+    ASSERT_EQ((m & 2u) != 0u, std::fabs(v.y) >= kTrimMovingSpeed);
+    ASSERT_EQ((m & 4u) != 0u, std::fabs(v.z) >= kTrimMovingSpeed);
+  }
+}
+
+TEST(AppChecks, IdentityMagCalibrationOnlyForTheDefaults) {
+  using namespace quad::fw;
+  Params p;
+  EXPECT_TRUE(identity_calibration(p));
+  // Each of the twelve parameters, moved one float step, makes it a real calibration.
+  for (uint8_t i = kMagOfsX; i <= kMagSiZZ; ++i) {
+    Params q;
+    const float v = q.get(i);
+    ASSERT_EQ(q.set(i, v == 0.0f ? 1e-6f : next_down(v)), ParamError::kNone);
+    EXPECT_FALSE(identity_calibration(q)) << static_cast<int>(i);
+  }
+  // The default calibration is the identity on every finite field (thesis eq. 7.5 as MagCalibration
+  // applies it): skipping it changes nothing but the sign of an exact zero.
+  quad::est::MagCalibration c;
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<float> f(-2.0f, 2.0f);
+  for (int i = 0; i < 10000; ++i) {
+    const quad::Vec3 m{f(rng), f(rng), f(rng)};
+    const quad::Vec3 out = c.apply(m);
+    ASSERT_EQ(bits_of(out.x), bits_of(m.x));
+    ASSERT_EQ(bits_of(out.y), bits_of(m.y));
+    ASSERT_EQ(bits_of(out.z), bits_of(m.z));
+  }
+}

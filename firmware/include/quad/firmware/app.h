@@ -152,7 +152,8 @@ class FlightApp {
   void estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag, float dt);
   // Clip counters, SYS_STATUS flags and the once-per-burst STATUSTEXT after a guarded sample.
   void report_clipping();
-  ModeInputs mode_inputs() const;
+  // with_throttle false leaves rc_throttle at 0: ModeMachine::update() does not read it (commands do).
+  ModeInputs mode_inputs(bool with_throttle = true) const;
   void handle_transition(const Transition& t);
   void enter_mode(FlightMode from, FlightMode to);
   void control(float dt);
@@ -209,7 +210,7 @@ class FlightApp {
   uint8_t accel_count_ = 0;
   Vec3 star_ned_;
   est::MagCalibration mag_cal_;      // MAG_OFS_*, MAG_SI_*
-  float mag_declination_ = 0.0f;     // MAG_DECL, rad
+  bool mag_cal_identity_ = true;     // MAG_OFS zero, MAG_SI the identity: eq. 7.5 is the field itself
   Vec3 mag_ref_magnetic_;            // Earth field learned at boot, magnetic north along x
   bool mag_ref_learned_ = false;
 
@@ -225,10 +226,7 @@ class FlightApp {
   bool rc_switches_enabled_ = false;
   bool switches_known_ = false;  // the first frame only records the switch positions
   RcSwitches switches_;
-  float land_speed_ = 0.5f;
-  float land_vz_max_ = 0.25f;
   float land_thrust_max_ = 0.0f;  // N
-  float land_time_s_ = 1.0f;
   float landed_for_s_ = 0.0f;
   bool landed_ = true;
   float motors_[hal::kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};

@@ -17,6 +17,7 @@
 
 #include <stdint.h>
 
+#include "quad/firmware/float_bits.h"
 #include "quad/hal/hal.h"
 #include "quad/math/math.h"
 
@@ -36,7 +37,7 @@ class ImuClipGuard {
   // gyro_range rad/s, accel_range m/s^2 (both > 0), hold_s >= 0. Keeps the counters and the state.
   void configure(float gyro_range, float accel_range, float hold_s);
 
-  // One raw sample, dt seconds after the previous one. Returns the gyro to integrate (see above).
+  // One raw sample, dt > 0 seconds after the previous one. Returns the gyro to integrate (see above).
   Vec3 update(const hal::ImuSample& raw, float dt);
 
   bool gyro_clipped() const { return gyro_clipped_; }    // this sample has a clipped gyro axis
@@ -50,8 +51,9 @@ class ImuClipGuard {
   uint32_t bursts() const { return bursts_; }
 
  private:
-  float gyro_limit_ = 0.0f;
-  float accel_limit_ = 0.0f;
+  // kClipFraction * range as the pattern |x| is compared with (float_bits.h; imu_clip.cpp limit_bits()).
+  uint32_t gyro_limit_ = 0u;
+  uint32_t accel_limit_ = 0u;
   float hold_s_ = 0.0f;
   Vec3 last_good_gyro_;
   float clipping_for_s_ = 0.0f;  // since the last sample with no clipped axis

@@ -84,9 +84,11 @@ struct Transition {
 
 class ModeMachine {
  public:
-  explicit ModeMachine(const ModeConfig& config = ModeConfig()) : config_(config) {}
+  // The default ModeConfig's values (the in-class initialisers below are what configure() makes of it).
+  ModeMachine() = default;
+  explicit ModeMachine(const ModeConfig& config) { configure(config); }
 
-  void configure(const ModeConfig& config) { config_ = config; }
+  void configure(const ModeConfig& config);
 
   FlightMode mode() const { return mode_; }
   bool armed() const { return mode_ != FlightMode::kDisarmed; }
@@ -106,8 +108,15 @@ class ModeMachine {
  private:
   Transition go(FlightMode to, Reason reason, bool level = false);
   static Transition refuse(FlightMode mode, Reason reason);
+  Transition unchanged() const;  // a no-op command: accepted, mode kept
 
-  ModeConfig config_;
+  // The timeouts as the largest age in microseconds that is still fresh: an age passes exactly when
+  // static_cast<float>(age_us) <= timeout_s * 1e6f (integers on the hot path: no float compare, no
+  // conversion of the age; modes.cpp max_age_us()).
+  int32_t vision_max_age_us_ = 500000;  // ModeConfig().vision_timeout_s = 0.5 s
+  int32_t rc_max_age_us_ = 1000000;     // ModeConfig().rc_timeout_s = 1 s
+  bool rc_required_ = true;
+  float arm_throttle_max_ = 0.1f;
   FlightMode mode_ = FlightMode::kDisarmed;
   bool land_level_ = false;
 };

@@ -41,6 +41,8 @@ class AxisTrim {
   // One step with the position error p_i - p_d,i (NED, m) over dt seconds, gain ki (1/s^2 per m, 0:
   // held), limit in m/s^2.
   void update(float position_error, float dt, float ki, float limit);
+  // The same for a dt already known to be > 0 (PositionTrim tests it once for the three axes).
+  void learn(float position_error, float dt, float ki, float limit);
 
   // The acceleration feed-forward to add to a_d,i (NED, m/s^2; on z negative = more thrust).
   float accel() const { return accel_; }

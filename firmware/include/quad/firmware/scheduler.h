@@ -14,6 +14,8 @@ class LoopTimer {
  public:
   void set_rate_hz(float hz);
   uint32_t period_us() const { return period_us_; }
+  // The period in seconds, float(period_us()) * 1e-6f, computed when the rate is set.
+  float period_s() const { return period_s_; }
 
   // True when an iteration is due at `now_us`; advances the grid. The first call always fires.
   bool due(uint32_t now_us);
@@ -33,6 +35,7 @@ class LoopTimer {
 
  private:
   uint32_t period_us_ = 10000;
+  float period_s_ = static_cast<float>(10000u) * 1e-6f;
   uint32_t next_us_ = 0;
   bool started_ = false;
   uint32_t begin_us_ = 0;
