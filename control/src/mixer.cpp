@@ -1,5 +1,7 @@
 #include "quad/control/mixer.h"
 
+#include "quad/math/float_bits.h"
+
 namespace quad {
 namespace ctrl {
 
@@ -20,32 +22,27 @@ float add_signed(float x, int8_t sign, float g) { return sign > 0 ? x + g : (sig
 // Exact for every float, NaN aside (the inputs are checked finite, and no step can make a NaN of them);
 // -0 counts as 0, as the float comparisons do. On the AVR a float comparison is a library call, these
 // are four byte compares.
-constexpr uint32_t kOneBits = 0x3F800000u;   // 1.0f
-constexpr uint32_t kSignBit = 0x80000000u;   // -0.0f
+constexpr uint32_t kOneBits = kFloatOneBits;  // 1.0f
+constexpr uint32_t kSignBit = kFloatSignBit;  // -0.0f
 // The round-off slack of the final check: 8 ulps of 1 (2^-20 = 9.5e-7) either side of [0, 1].
 constexpr uint32_t kSlackHiBits = kOneBits + 8u;  // 1 + 2^-20
 constexpr uint32_t kSlackLoBits = 0xB5800000u;    // -2^-20
 
-uint32_t bits_of(float x) {
-  uint32_t u;
-  memcpy(&u, &x, sizeof u);
-  return u;
-}
 bool in_unit(float x) {  // 0 <= x <= 1
-  const uint32_t u = bits_of(x);
+  const uint32_t u = float_bits(x);
   return u <= kOneBits || u == kSignBit;
 }
 bool above_one(float x) {  // x > 1
-  const uint32_t u = bits_of(x);
+  const uint32_t u = float_bits(x);
   return u > kOneBits && u < kSignBit;
 }
-bool below_zero(float x) { return bits_of(x) > kSignBit; }  // x < 0
+bool below_zero(float x) { return float_bits(x) > kSignBit; }  // x < 0
 bool within_slack(float x) {  // -2^-20 <= x <= 1 + 2^-20
-  const uint32_t u = bits_of(x);
+  const uint32_t u = float_bits(x);
   return u <= kSlackHiBits || (u >= kSignBit && u <= kSlackLoBits);
 }
 float clamp_unit(float x) {
-  const uint32_t u = bits_of(x);
+  const uint32_t u = float_bits(x);
   if (u >= kSignBit) return 0.0f;
   return u > kOneBits ? 1.0f : x;
 }

@@ -1,6 +1,7 @@
 #include "quad/estimation/conditioned_observer.h"
 
 #include "quad/estimation/vector_attitude.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace est {
@@ -9,26 +10,8 @@ namespace {
 
 constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 
-// The bit pattern of a float. For floats that are zero or positive (not NaN) the patterns order as the
-// values, so the comparisons of the hot path are integer ones (a few cycles) instead of calls into the
-// AVR's software float compare; each use below states why its operands qualify.
-uint32_t bits(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b;
-}
-constexpr uint32_t kOneBits = 0x3F800000u;  // 1.0f
-// |x| <= limit, limit zero or positive: exact (a NaN x fails, as the float comparison does).
-bool abs_at_most(float x, float limit) { return (bits(x) & 0x7FFFFFFFu) <= bits(limit); }
-
-// x / 2 in the hot paths: exact_half() on the AVR, the multiplication elsewhere (bit-identical).
-inline float half(float x) {
-#if defined(QUAD_TARGET_AVR)
-  return exact_half(x);
-#else
-  return 0.5f * x;
-#endif
-}
+// (Comparisons of the hot path are on bit patterns, quad/math/float_bits.h: integer ones instead of
+// calls into the AVR's software float compare; each use below states why its operands qualify.)
 
 // Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
 // approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
@@ -45,20 +28,6 @@ Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float ha
 
 }  // namespace
 
-#if defined(QUAD_TARGET_AVR)
-__attribute__((noinline))  // one copy for every caller (flash)
-#endif
-float exact_half(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  const uint32_t e = b & 0x7F800000u;
-  if (e > 0x00800000u && e != 0x7F800000u) {  // exponent field 2..254: the half is normal
-    b -= 0x00800000u;
-    memcpy(&x, &b, sizeof x);
-    return x;
-  }
-  return 0.5f * x;
-}
 
 ConditionedObserver::ConditionedObserver(const ObserverParams& params) : params_(params) { cache_reference(); }
 
@@ -139,8 +108,8 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // 0 < dt <= kMaxDt on the bits: as a signed integer the pattern is positive exactly for positive
   // floats and positive NaNs (+0 is zero, everything with the sign bit negative), and a NaN's is above
   // kMaxDt's, so this is the float test (NaN of either sign fails it).
-  const int32_t dt_bits = static_cast<int32_t>(bits(dt));
-  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(bits(kMaxDt)))) {
+  const int32_t dt_bits = static_cast<int32_t>(float_bits(dt));
+  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) {
     ++health_.skipped;
     return;
   }
@@ -157,7 +126,7 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   const float a2 = dot(accel, accel);  // (norm_sq, without its extra call level)
   // a2 is a sum of squares (>= +0 or NaN) and both bounds are >= 0: integer comparisons are exact (a NaN
   // pattern is above every finite one, so it fails the upper bound).
-  if (bits(a2) > bits(accel_lo2_) && bits(a2) < bits(accel_hi2_)) {
+  if (float_bits(a2) > float_bits(accel_lo2_) && float_bits(a2) < float_bits(accel_hi2_)) {
     u_meas = accel * (-1.0f / sqrtf(a2));
     use_accel = true;
   }
@@ -165,18 +134,18 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
 
   bool use_mag = false;
   if (mag_valid) {
-    use_mag = is_finite(mag) && bits(inv_mag_h_) != 0u;  // inv_mag_h_ > 0 (it is +0 or positive)
+    use_mag = is_finite(mag) && float_bits(inv_mag_h_) != 0u;  // inv_mag_h_ > 0 (it is +0 or positive)
     if (!use_mag) ++health_.mag_rejected;
   }
 
-  if (bits(dt) != bits(step_dt_)) cache_step(dt);  // (dt > 0 here: equal values have equal patterns)
+  if (float_bits(dt) != float_bits(step_dt_)) cache_step(dt);  // (dt > 0 here: equal values have equal patterns)
 
   // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
   // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.
   Vec3 sigma_r, db;
   if (use_accel) {
     const Vec3 e_u = cross(u_meas, u_hat);
-    sigma_r = bits(k.k1) == kOneBits ? e_u : e_u * k.k1;  // table 8.1's k1 = 1: multiplying by one is exact
+    sigma_r = float_bits(k.k1) == kFloatOneBits ? e_u : e_u * k.k1;  // table 8.1's k1 = 1: multiplying by one is exact
     db = e_u * -k3_dt_;
   }
   if (use_mag) {
@@ -184,9 +153,9 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
     // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
     Vec3 v_hat;
     // (A component is zero when its pattern without the sign is; x 1 is exact.)
-    if (bits(v_ref_.x) << 1) v_hat = bits(v_ref_.x) == kOneBits ? r_.row(0) : r_.row(0) * v_ref_.x;
-    if (bits(v_ref_.y) << 1) v_hat += r_.row(1) * v_ref_.y;
-    if (bits(v_ref_.z) << 1) v_hat += u_hat * v_ref_.z;
+    if (float_bits(v_ref_.x) << 1) v_hat = float_bits(v_ref_.x) == kFloatOneBits ? r_.row(0) : r_.row(0) * v_ref_.x;
+    if (float_bits(v_ref_.y) << 1) v_hat += r_.row(1) * v_ref_.y;
+    if (float_bits(v_ref_.z) << 1) v_hat += u_hat * v_ref_.z;
     if (k.innovation == Innovation::Conditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.

@@ -1,6 +1,6 @@
 #include "quad/estimation/position_filter.h"
 
-#include "quad/estimation/conditioned_observer.h"  // exact_half()
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace est {
@@ -17,39 +17,12 @@ float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static
 // fewer on the AVR).
 int32_t micros_between(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
 
-// |x| <= limit for a limit that is zero or positive (not NaN): the magnitudes of IEEE floats order as
-// their bit patterns, so an integer comparison decides it exactly, without the software float compare
-// (and false for a NaN x, as the float comparison is).
-uint32_t magnitude_bits(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b & 0x7FFFFFFFu;
-}
-bool abs_at_most(float x, float limit) { return magnitude_bits(x) <= magnitude_bits(limit); }
-// The same ordering for two floats that are both positive (not NaN): their patterns compare as the values.
-uint32_t bits(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b;
-}
-
-// x > 0 as an integer test, exactly (false for zeros and NaN): the patterns 1 .. 0x7F800000 are the
-// positive floats up to +infinity.
-bool positive(float x) { return bits(x) - 1u < 0x7F800000u; }
+// (Comparisons on bit patterns, halving on the exponent: quad/math/float_bits.h.)
 // x <= limit for a limit that is +0 or positive, exactly (false when either is NaN): a negative x is
 // below it, a positive one compares by its pattern.
 bool at_most(float x, float limit) {
-  if (magnitude_bits(limit) > 0x7F800000u) return false;
-  return bits(x) >> 31 ? magnitude_bits(x) <= 0x7F800000u : bits(x) <= bits(limit);
-}
-
-// x / 2 in the hot paths: exact_half() on the AVR, the multiplication elsewhere (bit-identical).
-inline float half(float x) {
-#if defined(QUAD_TARGET_AVR)
-  return exact_half(x);
-#else
-  return 0.5f * x;
-#endif
+  if (abs_bits(limit) > kFloatInfBits) return false;
+  return float_bits(x) >> 31 ? abs_bits(x) <= kFloatInfBits : float_bits(x) <= float_bits(limit);
 }
 
 // x / 4 and x / 8 the same way (exact: powers of two).
@@ -59,7 +32,7 @@ inline float eighth(float x) { return half(half(half(x))); }
 // g x, on the AVR without the software multiplication when g is exactly 1 (exact: table 8.1's Q = I2 T
 // has q_p = q_v = 1).
 #if defined(QUAD_TARGET_AVR)
-__attribute__((noinline)) float times(float g, float x) { return bits(g) == 0x3F800000u ? x : g * x; }
+__attribute__((noinline)) float times(float g, float x) { return float_bits(g) == kFloatOneBits ? x : g * x; }
 #else
 inline float times(float g, float x) { return g * x; }
 #endif
@@ -293,7 +266,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   t_us_ = t_us;
   if (!initialized_) return;
   propagate(u, step_us);
-  if (bits(q_dt_) > bits(kMaxStep)) {  // dt > kMaxStep (both positive)
+  if (float_bits(q_dt_) > float_bits(kMaxStep)) {  // dt > kMaxStep (both positive)
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
     have_fix_ = false;
@@ -462,7 +435,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
   float nu[3];
   float nis = 0.0f;
   const float gate2 = sqf(params_.gate_sigma);
-  bool pass = magnitude_bits(gate2) <= 0x7F800000u;  // a NaN gate passes nothing (as the float comparison)
+  bool pass = abs_bits(gate2) <= kFloatInfBits;  // a NaN gate passes nothing (as the float comparison)
   for (int i = 0; i < 3; ++i) {
     nu[i] = y[i] - p_s[i];
     const float d2 = nu[i] * nu[i] * inv_s[covariance_class(i)];

@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "quad/firmware/app_checks.h"
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 #include "quad/firmware/setup_signing.h"
 
 namespace quad {

@@ -1,6 +1,6 @@
 #include "quad/firmware/position_trim.h"
 
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 #include "quad/math/scalar.h"
 
 namespace quad {

@@ -1,6 +1,6 @@
 #include "quad/firmware/vision.h"
 
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace fw {

@@ -784,30 +784,3 @@ TEST(ConditionedObserver, TableGainsWithALearnedReferenceAgreeWithTheEquationsIn
   EXPECT_LT(worst_q, 1e-5);
   EXPECT_LT(worst_b, 1e-6);
 }
-
-TEST(ExactHalf, IsBitIdenticalToMultiplyingByOneHalf) {
-  // Every exponent and both signs, mantissas on a stride (zero, subnormals, the smallest normal exponent,
-  // infinity and NaN take the multiplication; the rest the exponent field).
-  uint64_t checked = 0;
-  for (uint32_t sign = 0; sign < 2; ++sign) {
-    for (uint32_t e = 0; e < 256; ++e) {
-      // every mantissa at exponent field 2 (the smallest the bit path takes), 1 in 61 next to it and at
-      // the fallback's exponents (0, 1, 254, 255), 1 in 4093 elsewhere
-      const uint32_t stride = e == 2 ? 1u : (e <= 3 || e >= 254 ? 61u : 4093u);
-      for (uint32_t m = 0; m < (1u << 23); m += stride) {
-        const uint32_t b = (sign << 31) | (e << 23) | m;
-        float x;
-        std::memcpy(&x, &b, sizeof x);
-        const float want = 0.5f * x;
-        const float got = quad::est::exact_half(x);
-        if (std::isnan(want)) {
-          ASSERT_TRUE(std::isnan(got)) << std::hex << b;
-        } else {
-          ASSERT_EQ(float_bits(got), float_bits(want)) << std::hex << b;
-        }
-        ++checked;
-      }
-    }
-  }
-  EXPECT_GT(checked, 17000000u);
-}

@@ -239,77 +239,26 @@ TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
-// The bit-pattern comparisons (float_bits.h) and the application's checks built on them
-// (app_checks.h): each must return exactly what the float expression it replaces returns.
+// The application's checks built on the bit-pattern comparisons (app_checks.h; the comparisons
+// themselves: tests/math/test_float_bits.cpp): each must return exactly what the float expression it
+// replaces returns.
 
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <vector>
 
+#include "float_cases.h"
 #include "quad/estimation/calibration.h"
 #include "quad/firmware/app_checks.h"
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 
-namespace {
+using quad_test::bits_of;
+using quad_test::interesting_floats;
+using quad_test::next_down;
+using quad_test::next_up;
+using quad_test::same_float;
 
-uint32_t bits_of(float x) {
-  uint32_t b;
-  std::memcpy(&b, &x, sizeof b);
-  return b;
-}
-
-float next_up(float x) { return std::nextafter(x, std::numeric_limits<float>::infinity()); }
-float next_down(float x) { return std::nextafter(x, -std::numeric_limits<float>::infinity()); }
-
-// Specials, the given limits and their neighbours (both signs), random patterns and random values.
-std::vector<float> interesting_floats(std::initializer_list<float> limits, int random_count, uint32_t seed) {
-  const float inf = std::numeric_limits<float>::infinity();
-  std::vector<float> v = {0.0f, -0.0f, inf, -inf, std::numeric_limits<float>::quiet_NaN(),
-                          -std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::denorm_min(),
-                          std::numeric_limits<float>::max(), 1.0f, -1.0f};
-  for (float l : limits) {
-    for (float x : {l, next_up(l), next_down(l)}) {
-      v.push_back(x);
-      v.push_back(-x);
-    }
-  }
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> small(-2.0f, 2.0f);
-  for (int i = 0; i < random_count; ++i) {
-    const uint32_t b = rng();
-    float x;
-    std::memcpy(&x, &b, sizeof x);
-    v.push_back(x);
-    const float l = *(limits.begin() + static_cast<int>(rng() % limits.size()));
-    v.push_back(small(rng) * l);
-  }
-  return v;
-}
-
-bool same_float(float a, float b) { return (std::isnan(a) && std::isnan(b)) || bits_of(a) == bits_of(b); }
-
-}  // namespace
-
-TEST(FloatBits, ComparisonsAgreeWithTheFloatOnesOnEveryKindOfValue) {
-  using namespace quad::fw;
-  const float inf = std::numeric_limits<float>::infinity();
-  for (float limit : {0.0f, 0.05f, 0.17f, 0.2f, 0.3f, 1.0f, 3.0f, 11.0f, 1000.0f, inf}) {
-    for (float x : interesting_floats({limit, 0.05f, 1.0f}, 20000, 7u)) {
-      SCOPED_TRACE(testing::Message() << "x " << x << " limit " << limit);
-      ASSERT_EQ(abs_below(x, limit), std::fabs(x) < limit);
-      ASSERT_EQ(abs_at_least(x, limit), std::fabs(x) >= limit);
-      ASSERT_EQ(abs_at_most(x, limit), std::fabs(x) <= limit);
-      ASSERT_TRUE(same_float(clamp_abs(x, limit), quad::clampf(x, -limit, limit)));
-      // The sign of a clamped zero too (clampf(x, -0, 0) gives -0 for x < 0).
-      if (!std::isnan(x)) ASSERT_EQ(bits_of(clamp_abs(x, limit)), bits_of(quad::clampf(x, -limit, limit)));
-      ASSERT_EQ(positive(x), x > 0.0f);
-      ASSERT_EQ(negative(x), x < 0.0f);
-      ASSERT_TRUE(same_float(plus_zero(x), x + 0.0f));
-      if (!std::isnan(x)) ASSERT_EQ(bits_of(plus_zero(x)), bits_of(x + 0.0f));
-    }
-  }
-}
 
 TEST(AppChecks, StepDtIsTheFloatFormulaForEveryElapsedTime) {
   using quad::fw::step_dt;

@@ -37,12 +37,6 @@ enum class Innovation : uint8_t {
   Unconditioned,  // eq. 4.3-4.4 (Mahony's explicit filter): the magnetometer also tilts the estimate
 };
 
-// x / 2 computed on the bits: for a normal x whose half is normal, one less in the exponent field; zero,
-// subnormal, infinite and NaN operands go through 0.5f * x. The result is bit-identical to 0.5f * x. The
-// AVR's estimation kernels halve this way (an integer subtraction against a ~150-cycle software
-// multiplication); on targets with an FPU they multiply. Declared here for the test that checks it.
-float exact_half(float x);
-
 struct ObserverParams {
   // Thesis table 8.1.
   float k1 = 1.0f;        // gravity direction gain

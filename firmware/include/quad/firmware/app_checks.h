@@ -8,7 +8,7 @@
 
 #include <stdint.h>
 
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 #include "quad/firmware/params.h"
 #include "quad/math/math.h"
 

@@ -17,7 +17,7 @@
 
 #include <stdint.h>
 
-#include "quad/firmware/float_bits.h"
+#include "quad/math/float_bits.h"
 #include "quad/hal/hal.h"
 #include "quad/math/math.h"
 
