@@ -10,10 +10,13 @@
 #include <iostream>
 #include <vector>
 
+#include "float_cases.h"
 #include "attitude_sim.h"
 #include "quad/estimation/estimation.h"
 
 namespace {
+
+using quad_test::bits_of;
 
 using quad::Vec3;
 using quad::est::ConditionedObserver;
@@ -692,12 +695,6 @@ struct LegacyFloatObserver {
   }
 };
 
-uint32_t float_bits(float x) {
-  uint32_t b;
-  std::memcpy(&b, &x, sizeof b);
-  return b;
-}
-
 }  // namespace
 
 TEST(ConditionedObserver, StepIsBitIdenticalToTheVectorFormItReplaced) {
@@ -748,14 +745,14 @@ TEST(ConditionedObserver, StepIsBitIdenticalToTheVectorFormItReplaced) {
       ref.update(s.gyro, s.accel, s.mag, mag, dt);
       sim.step(kDt);
       const quad::Quat& a = obs.attitude();
-      ASSERT_EQ(float_bits(a.w), float_bits(ref.q.w)) << c.name << " step " << k;
-      ASSERT_EQ(float_bits(a.x), float_bits(ref.q.x)) << c.name << " step " << k;
-      ASSERT_EQ(float_bits(a.y), float_bits(ref.q.y)) << c.name << " step " << k;
-      ASSERT_EQ(float_bits(a.z), float_bits(ref.q.z)) << c.name << " step " << k;
+      ASSERT_EQ(bits_of(a.w), bits_of(ref.q.w)) << c.name << " step " << k;
+      ASSERT_EQ(bits_of(a.x), bits_of(ref.q.x)) << c.name << " step " << k;
+      ASSERT_EQ(bits_of(a.y), bits_of(ref.q.y)) << c.name << " step " << k;
+      ASSERT_EQ(bits_of(a.z), bits_of(ref.q.z)) << c.name << " step " << k;
       for (int i = 0; i < 3; ++i) {
-        ASSERT_EQ(float_bits(obs.gyro_bias()[i]), float_bits(ref.bias[i])) << c.name << " step " << k;
-        ASSERT_EQ(float_bits(obs.rate()[i]), float_bits(ref.rate[i])) << c.name << " step " << k;
-        for (int j = 0; j < 3; ++j) ASSERT_EQ(float_bits(obs.dcm().m[i][j]), float_bits(ref.r.m[i][j]));
+        ASSERT_EQ(bits_of(obs.gyro_bias()[i]), bits_of(ref.bias[i])) << c.name << " step " << k;
+        ASSERT_EQ(bits_of(obs.rate()[i]), bits_of(ref.rate[i])) << c.name << " step " << k;
+        for (int j = 0; j < 3; ++j) ASSERT_EQ(bits_of(obs.dcm().m[i][j]), bits_of(ref.r.m[i][j]));
       }
     }
     EXPECT_GT(rejected, 100);

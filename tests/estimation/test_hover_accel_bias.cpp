@@ -7,9 +7,12 @@
 #include <cstdio>
 #include <random>
 
+#include "float_cases.h"
 #include "quad/estimation/hover_accel_bias.h"
 
 namespace {
+
+using quad_test::bits_of;
 
 using quad::Vec3;
 using quad::est::HoverAccelBias;
@@ -136,12 +139,6 @@ struct ReferenceBias {
   }
 };
 
-uint32_t bits(float x) {
-  uint32_t b;
-  std::memcpy(&b, &x, sizeof b);
-  return b;
-}
-
 }  // namespace
 
 TEST(HoverAccelBias, BitPatternUpdateMatchesTheFloatImplementation) {
@@ -154,7 +151,7 @@ TEST(HoverAccelBias, BitPatternUpdateMatchesTheFloatImplementation) {
     ReferenceBias r;
     b.configure(c.tau, c.limit);
     r.configure(c.tau, c.limit);
-    std::mt19937 rng(static_cast<uint32_t>(bits(c.tau) ^ bits(c.limit)));
+    std::mt19937 rng(static_cast<uint32_t>(bits_of(c.tau) ^ bits_of(c.limit)));
     std::normal_distribution<float> n(0.0f, 0.5f);
     const float dts[] = {0.01f, 0.0f, -0.01f, nan, inf, 20.0f, 1e-40f, -0.0f};
     for (int i = 0; i < 20000; ++i) {
@@ -165,9 +162,9 @@ TEST(HoverAccelBias, BitPatternUpdateMatchesTheFloatImplementation) {
       const float dt = (rng() % 6 == 0) ? dts[rng() % 8] : kDt;
       b.update(a, hovering, dt);
       r.update(a, hovering, dt);
-      ASSERT_EQ(bits(b.bias().x), bits(r.bx)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
-      ASSERT_EQ(bits(b.bias().y), bits(r.by)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
-      ASSERT_EQ(bits(b.bias().z), bits(0.0f));
+      ASSERT_EQ(bits_of(b.bias().x), bits_of(r.bx)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
+      ASSERT_EQ(bits_of(b.bias().y), bits_of(r.by)) << "tau " << c.tau << " limit " << c.limit << " step " << i;
+      ASSERT_EQ(bits_of(b.bias().z), bits_of(0.0f));
     }
   }
 }

@@ -14,10 +14,13 @@
 #include <string>
 #include <vector>
 
+#include "float_cases.h"
 #include "app_bench.h"
 #include "quad/firmware/app.h"
 
 namespace {
+
+using quad_test::bits_of;
 
 using quad::fw::test::Bench;
 using quad::fw::test::VerticalVehicle;
@@ -745,12 +748,6 @@ float reference_axis(float accel, float e_in, float dt, float ki, float limit) {
   return quad::clampf(accel - ki * e * dt, -limit, limit);
 }
 
-uint32_t trim_bits(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b;
-}
-
 }  // namespace
 
 TEST(PositionTrim, BitPatternClampsMatchTheFloatImplementation) {
@@ -785,12 +782,12 @@ TEST(PositionTrim, BitPatternClampsMatchTheFloatImplementation) {
       for (int a = 0; a < 3; ++a) {
         if (learn[a]) ref[a] = reference_axis(ref[a], e[a], dt, ki[a], limit);
       }
-      ASSERT_EQ(trim_bits(t.accel().x), trim_bits(ref[0])) << "limit " << limit << " step " << i;
-      ASSERT_EQ(trim_bits(t.accel().y), trim_bits(ref[1])) << "limit " << limit << " step " << i;
-      ASSERT_EQ(trim_bits(t.accel().z), trim_bits(ref[2])) << "limit " << limit << " step " << i;
+      ASSERT_EQ(bits_of(t.accel().x), bits_of(ref[0])) << "limit " << limit << " step " << i;
+      ASSERT_EQ(bits_of(t.accel().y), bits_of(ref[1])) << "limit " << limit << " step " << i;
+      ASSERT_EQ(bits_of(t.accel().z), bits_of(ref[2])) << "limit " << limit << " step " << i;
       single.update(e.x, dt, ki_xy, limit);
       ref_single = reference_axis(ref_single, e.x, dt, ki_xy, limit);
-      ASSERT_EQ(trim_bits(single.accel()), trim_bits(ref_single)) << "limit " << limit << " step " << i;
+      ASSERT_EQ(bits_of(single.accel()), bits_of(ref_single)) << "limit " << limit << " step " << i;
     }
   }
 }

@@ -10,11 +10,14 @@
 #include <limits>
 #include <random>
 
+#include "float_cases.h"
 #include "app_bench.h"
 #include "quad/firmware/imu_clip.h"
 #include "quad/firmware/params.h"
 
 namespace {
+
+using quad_test::bits_of;
 
 using quad::Vec3;
 using quad::fw::FlightMode;
@@ -259,12 +262,6 @@ struct ReferenceGuard {
   }
 };
 
-uint32_t pattern(float x) {
-  uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b;
-}
-
 }  // namespace
 
 TEST(ImuClipGuard, BitPatternGuardMatchesTheFloatImplementation) {
@@ -278,7 +275,7 @@ TEST(ImuClipGuard, BitPatternGuardMatchesTheFloatImplementation) {
     ReferenceGuard r;
     g.configure(cfg.g, cfg.a, cfg.h);
     r.configure(cfg.g, cfg.a, cfg.h);
-    std::mt19937 rng(static_cast<uint32_t>(pattern(cfg.g) ^ pattern(cfg.h)));
+    std::mt19937 rng(static_cast<uint32_t>(bits_of(cfg.g) ^ bits_of(cfg.h)));
     const float gl = ImuClipGuard::kClipFraction * cfg.g, al = ImuClipGuard::kClipFraction * cfg.a;
     auto pick = [&](float limit, float typical) {
       switch (rng() % 12) {
@@ -308,9 +305,9 @@ TEST(ImuClipGuard, BitPatternGuardMatchesTheFloatImplementation) {
       const Vec3 a = g.update(s, dt);
       const Vec3 b = r.update(s, dt);
       SCOPED_TRACE(testing::Message() << "config " << cfg.g << " sample " << i);
-      ASSERT_EQ(pattern(a.x), pattern(b.x));
-      ASSERT_EQ(pattern(a.y), pattern(b.y));
-      ASSERT_EQ(pattern(a.z), pattern(b.z));
+      ASSERT_EQ(bits_of(a.x), bits_of(b.x));
+      ASSERT_EQ(bits_of(a.y), bits_of(b.y));
+      ASSERT_EQ(bits_of(a.z), bits_of(b.z));
       ASSERT_EQ(g.gyro_clipped(), r.gyro_clipped);
       ASSERT_EQ(g.accel_clipped(), r.accel_clipped);
       ASSERT_EQ(g.burst_started(), r.burst_started);
