@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "quad/firmware/app_checks.h"
+#include "quad/firmware/param_fields.h"
 #include "quad/math/float_bits.h"
 #include "quad/firmware/setup_signing.h"
 
@@ -63,14 +64,15 @@ void copy_name(char (&dst)[16], const char* src) {
 
 // One STATUSTEXT line assembled from flash texts and RAM strings (names, the control library's field
 // names); anything beyond MAVLink's 50 characters is cut.
+// (Out of line: one copy of each part, not one per line assembled.)
 class StatusLine {
  public:
-  explicit StatusLine(uint8_t severity) { msg_.severity = severity; }
-  StatusLine& operator<<(FlashText text) {
+  __attribute__((noinline)) explicit StatusLine(uint8_t severity) { msg_.severity = severity; }
+  __attribute__((noinline)) StatusLine& operator<<(FlashText text) {
     append_text(msg_.text, sizeof msg_.text, n_, text);
     return *this;
   }
-  StatusLine& operator<<(const char* ram) {
+  __attribute__((noinline)) StatusLine& operator<<(const char* ram) {
     for (const char* c = ram; c != nullptr && *c != '\0' && n_ < sizeof msg_.text; ++c) msg_.text[n_++] = *c;
     return *this;
   }
@@ -112,6 +114,18 @@ FlashText rejection_text(est::CalibrationStatus status) {
 
 }  // namespace
 
+__attribute__((noinline)) void load_fields(const Params& p, void* dst, const ParamField* table, uint8_t n) {
+  uint8_t* const base = static_cast<uint8_t*>(dst);
+  for (uint8_t i = 0; i < n; ++i) {
+    ParamField f;
+    flash_copy(&f, &table[i], sizeof f);
+    const float v = p.get(f.id);
+    memcpy(base + f.offset, &v, sizeof v);
+  }
+}
+
+AppCounters::AppCounters() { memset(static_cast<void*>(this), 0, sizeof *this); }
+
 FlightApp::FlightApp()
     : senders_{mav::Sender(kVehicleSystemId, kVehicleComponentId), mav::Sender(kVehicleSystemId, kVehicleComponentId)} {}
 
@@ -135,36 +149,22 @@ void FlightApp::init(const AppIo& io, bool hil) {
 }
 
 bool FlightApp::apply_params(const Params& p, const char** error) {
+  // The float fields that take a parameter unchanged come from the tables of param_fields.h; the rest here.
   ctrl::CascadeParams cp;
+  load_fields(p, cp, kCascadeFields);
   cp.vehicle.frame = p.get(kVehFrame) >= 0.5f ? ctrl::Frame::kX : ctrl::Frame::kPlus;
-  cp.vehicle.mass = p.get(kVehMass);
-  cp.vehicle.inertia = Vec3{p.get(kVehIxx), p.get(kVehIyy), p.get(kVehIzz)};
-  cp.vehicle.arm_length = p.get(kVehArm);
-  cp.vehicle.max_motor_thrust = p.get(kVehMotThrMax);
-  cp.vehicle.thrust_coeff = p.get(kVehThrCoef);
   cp.vehicle.yaw_coeff = p.get(kVehYawK) * p.get(kVehThrCoef);
-  cp.position.kp = Vec3{p.get(kPosKpXY), p.get(kPosKpXY), p.get(kPosKpZ)};
-  cp.position.kv = Vec3{p.get(kPosKvXY), p.get(kPosKvXY), p.get(kPosKvZ)};
-  cp.attitude.alpha = p.get(kAttAlpha);
-  cp.attitude.gamma = Vec3{p.get(kAttGammaXY), p.get(kAttGammaXY), p.get(kAttGammaZ)};
-  cp.max_tilt = p.get(kPosTiltMax);
 
   ctrl::ManualParams mp;
-  mp.max_angle = p.get(kManTiltMax);
-  mp.max_yaw_rate = p.get(kManYawRate);
+  load_fields(p, mp, kManualFields);
   mp.max_thrust = p.get(kManThrMax) * cp.vehicle.max_total_thrust();
   mp.dead_band = static_cast<uint16_t>(p.get(kManDeadband));
 
   ctrl::ShaperParams sp;
-  sp.max_speed = p.get(kShpSpeed);
-  sp.max_accel = p.get(kShpAccel);
-  sp.final_gain = p.get(kShpGain);
+  load_fields(p, sp, kShaperFields);
 
   est::MagCalibration mag_cal;
-  mag_cal.offset = Vec3{p.get(kMagOfsX), p.get(kMagOfsY), p.get(kMagOfsZ)};
-  mag_cal.soft_iron = Mat3::from_rows(Vec3{p.get(kMagSiXX), p.get(kMagSiXY), p.get(kMagSiXZ)},
-                                      Vec3{p.get(kMagSiYX), p.get(kMagSiYY), p.get(kMagSiYZ)},
-                                      Vec3{p.get(kMagSiZX), p.get(kMagSiZY), p.get(kMagSiZZ)});
+  load_fields(p, mag_cal, kMagFields);
 
   const char* bad = ctrl::validate(mp);
   if (bad == nullptr) bad = ctrl::validate(sp);
@@ -183,13 +183,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   shaper_.set_params(sp);
 
   est::ObserverParams op;
-  op.k1 = p.get(kObsK1);
-  op.k2 = p.get(kObsK2);
-  op.k3 = p.get(kObsK3);
-  op.k4 = p.get(kObsK4);
-  op.kb = p.get(kObsKb);
-  op.delta = p.get(kObsDelta);
-  op.accel_norm_tolerance = p.get(kObsAccTol);
+  load_fields(p, op, kObserverFields);
   // The Earth field is learned from the boot calibration (magnetic north as x), then turned by the
   // declination so the heading is relative to true north; a new MAG_DECL turns it again.
   op.mag_ref_from_init = !mag_ref_learned_;
@@ -200,17 +194,12 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
 
   est::PositionFilterParams fp;
   fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
-  fp.q_pos = p.get(kKfQPos);
-  fp.q_vel = p.get(kKfQVel);
-  fp.q_accel = p.get(kKfQAcc);
-  fp.fix_sigma_xy = p.get(kKfFixSigXY);
-  fp.fix_sigma_z = p.get(kKfFixSigZ);
-  fp.gate_sigma = p.get(kKfGateSig);
+  load_fields(p, fp, kFilterFields);
   fp.z_accel_bias = p.get(kKfZBias) >= 0.5f;
   fp.xy_accel_bias = p.get(kKfXYBias) >= 0.5f;
   filter_.set_params(fp);
 
-  star_ned_ = Vec3{p.get(kVisStarN), p.get(kVisStarE), p.get(kVisStarD)};
+  load_fields(p, star_ned_, kStarFields);
 
   // Every field given (no default-initialised ModeConfig to copy from RAM on the AVR).
   const ModeConfig mc{p.get(kFsVisTimeout), p.get(kFsRcTimeout), p.get(kFsRcEnable) >= 0.5f, p.get(kArmThrMax)};
@@ -219,11 +208,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   radio_.set_enabled(p.get(kSignEnable) >= 0.5f);
 
   CalibrationConfig cc;
-  cc.duration_s = p.get(kCalTime);
-  cc.limits.max_gyro_std = p.get(kCalGyroStd);
-  cc.limits.max_accel_std = p.get(kCalAccStd);
-  cc.limits.max_gyro_mean = p.get(kCalGyroMax);
-  cc.limits.max_accel_bias = p.get(kCalAccMax);
+  load_fields(p, cc, kCalibrationFields);
   calibration_.configure(cc);
   imu_clip_.configure(p.get(kImuGyroRange), p.get(kImuAccRange), p.get(kImuClipHold));
 
@@ -967,7 +952,7 @@ void FlightApp::telemetry() {
     st.errors_count1 = saturate16(loop_timer_.overruns());
     st.errors_count2 = saturate16(counters_.fixes_rejected);
     st.errors_count3 = saturate16(counters_.tx_dropped_bytes);
-    const uint32_t rejected = radio_.stats().rejected();
+    const uint32_t rejected = radio_.rejected();
     st.errors_count4 = saturate16(rejected);
     broadcast(st);
     // At most one line per status period however many frames a stranger sends.

@@ -43,7 +43,7 @@ void RadioSigning::set_enabled(bool enabled) {
 
 mav::SignatureCheck RadioSigning::check(const mav::Frame& frame) {
   if (enabled_ && !has_key_) {
-    ++stats_.rejected_no_key;
+    ++rejected_no_key_;
     return frame.is_signed() ? mav::SignatureCheck::kRejectedBadSignature : mav::SignatureCheck::kRejectedUnsigned;
   }
   return verifier_.check(frame);
@@ -78,7 +78,7 @@ bool RadioSigning::save_clock(const StorageIo& io) {
   for (uint8_t i = 0; i < kSigningClockPayload; ++i, t >>= 8) bytes[i] = static_cast<uint8_t>(t);
   if (!record_save(io, kClockRecord, bytes)) return false;
   persisted_mark_ = clock_.now();
-  ++stats_.clock_saves;
+  ++clock_saves_;
   return true;
 }
 

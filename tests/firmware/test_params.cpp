@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "quad/firmware/param_fields.h"
 #include "quad/firmware/params.h"
 #include "quad/firmware/storage_layout.h"
 
@@ -358,6 +359,189 @@ TEST_F(ParamStore, ARecordOfAnotherTableIsNotLoaded) {
 TEST_F(ParamStore, EverythingFitsTheAvrEeprom) {
   EXPECT_LE(quad::fw::kStorageUsed, 4096u);
   EXPECT_EQ(quad::fw::kSigningKeyOffset, quad::fw::params_store_size());
+}
+
+// The table is stored as a pool of distinct values and packed names (params.cpp): every entry must
+// still give exactly the name, default, minimum and maximum that QUAD_PARAM_TABLE says.
+TEST(ParamTable, EveryEntryIsExactlyTheTableRow) {
+  struct Row {
+    const char* name;
+    float def, lo, hi;
+  };
+  const Row rows[] = {
+#define QUAD_PARAM_ROW(id, name, def, lo, hi) {name, def, lo, hi},
+      QUAD_PARAM_TABLE(QUAD_PARAM_ROW)
+#undef QUAD_PARAM_ROW
+  };
+  ASSERT_EQ(sizeof rows / sizeof rows[0], static_cast<size_t>(quad::fw::kParamCount));
+  for (uint8_t i = 0; i < quad::fw::kParamCount; ++i) {
+    const quad::fw::ParamInfo info = quad::fw::param_info(i);
+    EXPECT_STREQ(info.name, rows[i].name) << int(i);
+    EXPECT_EQ(info.name[quad::fw::kParamNameLength], '\0');
+    // Bit patterns, not values: the pool must not merge 0.0f with -0.0f or round anything.
+    EXPECT_EQ(std::memcmp(&info.default_value, &rows[i].def, sizeof(float)), 0) << rows[i].name;
+    EXPECT_EQ(std::memcmp(&info.min, &rows[i].lo, sizeof(float)), 0) << rows[i].name;
+    EXPECT_EQ(std::memcmp(&info.max, &rows[i].hi, sizeof(float)), 0) << rows[i].name;
+    EXPECT_EQ(Params().get(i), rows[i].def) << rows[i].name;
+  }
+  // An index beyond the table reads entry 0, as before.
+  EXPECT_STREQ(quad::fw::param_info(quad::fw::kParamCount).name, rows[0].name);
+}
+
+// param_find over the packed names: strncmp(name, stored, 16) semantics for every name, its prefixes,
+// its extensions and a 16-byte id without a terminator.
+TEST(ParamTable, FindComparesTheFirstSixteenCharacters) {
+  for (uint8_t i = 0; i < quad::fw::kParamCount; ++i) {
+    const std::string name = quad::fw::param_info(i).name;
+    EXPECT_EQ(quad::fw::param_find(name.c_str()), i) << name;
+    EXPECT_EQ(quad::fw::param_find(name.substr(0, name.size() - 1).c_str()), -1) << name;
+    EXPECT_EQ(quad::fw::param_find((name + "X").c_str()), name.size() == 16 ? i : -1) << name;
+    char id[16];
+    std::memset(id, 0, sizeof id);
+    std::memcpy(id, name.data(), name.size());
+    EXPECT_EQ(quad::fw::param_find(id), i) << name;
+    // Characters after the 16th never count.
+    char longer[24];
+    std::memset(longer, 'Z', sizeof longer);
+    longer[23] = '\0';
+    std::memcpy(longer, name.data(), name.size());
+    if (name.size() < 16) longer[name.size()] = '\0';
+    EXPECT_EQ(quad::fw::param_find(longer), i) << name;
+  }
+  EXPECT_EQ(quad::fw::param_find(""), -1);
+  EXPECT_EQ(quad::fw::param_find("SYS_LOOP_HZ_"), -1);
+  EXPECT_EQ(quad::fw::param_find("TEL_SYS_HZ"), quad::fw::kTelSysHz) << "the last name";
+}
+
+// Every entry of param_fields.h's tables against the member-by-member assignments they replaced in
+// FlightApp::apply_params(): each parameter holds a value no other parameter holds, so a wrong id or a
+// wrong offset shows as a field with another parameter's value (or its default).
+class ParamFields : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::set<float> seen;
+    for (uint8_t i = 0; i < quad::fw::kParamCount; ++i) {
+      const quad::fw::ParamInfo info = quad::fw::param_info(i);
+      const float v = info.min + (0.1f + 0.8f * static_cast<float>(i + 1) / (quad::fw::kParamCount + 1)) * (info.max - info.min);
+      ASSERT_EQ(p_.set(i, v), ParamError::kNone) << info.name;
+      ASSERT_TRUE(seen.insert(v).second) << info.name << ": pick another value";
+    }
+  }
+  float get(quad::fw::ParamId id) const { return p_.get(id); }
+  Params p_;
+};
+
+TEST_F(ParamFields, Cascade) {
+  quad::ctrl::CascadeParams c;
+  const quad::ctrl::CascadeParams defaults;
+  quad::fw::load_fields(p_, c, quad::fw::kCascadeFields);
+  EXPECT_EQ(c.vehicle.mass, get(quad::fw::kVehMass));
+  EXPECT_EQ(c.vehicle.inertia.x, get(quad::fw::kVehIxx));
+  EXPECT_EQ(c.vehicle.inertia.y, get(quad::fw::kVehIyy));
+  EXPECT_EQ(c.vehicle.inertia.z, get(quad::fw::kVehIzz));
+  EXPECT_EQ(c.vehicle.arm_length, get(quad::fw::kVehArm));
+  EXPECT_EQ(c.vehicle.max_motor_thrust, get(quad::fw::kVehMotThrMax));
+  EXPECT_EQ(c.vehicle.thrust_coeff, get(quad::fw::kVehThrCoef));
+  EXPECT_EQ(c.position.kp.x, get(quad::fw::kPosKpXY));
+  EXPECT_EQ(c.position.kp.y, get(quad::fw::kPosKpXY));
+  EXPECT_EQ(c.position.kp.z, get(quad::fw::kPosKpZ));
+  EXPECT_EQ(c.position.kv.x, get(quad::fw::kPosKvXY));
+  EXPECT_EQ(c.position.kv.y, get(quad::fw::kPosKvXY));
+  EXPECT_EQ(c.position.kv.z, get(quad::fw::kPosKvZ));
+  EXPECT_EQ(c.attitude.alpha, get(quad::fw::kAttAlpha));
+  EXPECT_EQ(c.attitude.gamma.x, get(quad::fw::kAttGammaXY));
+  EXPECT_EQ(c.attitude.gamma.y, get(quad::fw::kAttGammaXY));
+  EXPECT_EQ(c.attitude.gamma.z, get(quad::fw::kAttGammaZ));
+  EXPECT_EQ(c.max_tilt, get(quad::fw::kPosTiltMax));
+  // The computed fields are apply_params()' own: untouched here.
+  EXPECT_EQ(c.vehicle.yaw_coeff, defaults.vehicle.yaw_coeff);
+  EXPECT_EQ(c.vehicle.frame, defaults.vehicle.frame);
+  EXPECT_EQ(sizeof quad::fw::kCascadeFields / sizeof(quad::fw::ParamField), 18u) << "a new entry needs a check here";
+}
+
+TEST_F(ParamFields, ManualAndShaper) {
+  quad::ctrl::ManualParams m;
+  const quad::ctrl::ManualParams md;
+  quad::fw::load_fields(p_, m, quad::fw::kManualFields);
+  EXPECT_EQ(m.max_angle, get(quad::fw::kManTiltMax));
+  EXPECT_EQ(m.max_yaw_rate, get(quad::fw::kManYawRate));
+  EXPECT_EQ(m.max_thrust, md.max_thrust);
+  EXPECT_EQ(m.dead_band, md.dead_band);
+  EXPECT_EQ(m.min_pulse, md.min_pulse);
+  EXPECT_EQ(m.max_pulse, md.max_pulse);
+  EXPECT_EQ(sizeof quad::fw::kManualFields / sizeof(quad::fw::ParamField), 2u);
+
+  quad::ctrl::ShaperParams s;
+  quad::fw::load_fields(p_, s, quad::fw::kShaperFields);
+  EXPECT_EQ(s.max_speed, get(quad::fw::kShpSpeed));
+  EXPECT_EQ(s.max_accel, get(quad::fw::kShpAccel));
+  EXPECT_EQ(s.final_gain, get(quad::fw::kShpGain));
+  EXPECT_EQ(sizeof quad::fw::kShaperFields / sizeof(quad::fw::ParamField), 3u);
+}
+
+TEST_F(ParamFields, MagnetometerCalibration) {
+  quad::est::MagCalibration c;
+  quad::fw::load_fields(p_, c, quad::fw::kMagFields);
+  EXPECT_EQ(c.offset.x, get(quad::fw::kMagOfsX));
+  EXPECT_EQ(c.offset.y, get(quad::fw::kMagOfsY));
+  EXPECT_EQ(c.offset.z, get(quad::fw::kMagOfsZ));
+  // Mat3::from_rows(X*, Y*, Z*) as before: row r, column c.
+  const quad::Mat3 w = quad::Mat3::from_rows(
+      quad::Vec3{get(quad::fw::kMagSiXX), get(quad::fw::kMagSiXY), get(quad::fw::kMagSiXZ)},
+      quad::Vec3{get(quad::fw::kMagSiYX), get(quad::fw::kMagSiYY), get(quad::fw::kMagSiYZ)},
+      quad::Vec3{get(quad::fw::kMagSiZX), get(quad::fw::kMagSiZY), get(quad::fw::kMagSiZZ)});
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(c.soft_iron(r, k), w(r, k)) << r << k;
+  }
+  EXPECT_EQ(sizeof quad::fw::kMagFields / sizeof(quad::fw::ParamField), 12u);
+}
+
+TEST_F(ParamFields, ObserverFilterStarAndCalibration) {
+  quad::est::ObserverParams o;
+  const quad::est::ObserverParams od;
+  quad::fw::load_fields(p_, o, quad::fw::kObserverFields);
+  EXPECT_EQ(o.k1, get(quad::fw::kObsK1));
+  EXPECT_EQ(o.k2, get(quad::fw::kObsK2));
+  EXPECT_EQ(o.k3, get(quad::fw::kObsK3));
+  EXPECT_EQ(o.k4, get(quad::fw::kObsK4));
+  EXPECT_EQ(o.kb, get(quad::fw::kObsKb));
+  EXPECT_EQ(o.delta, get(quad::fw::kObsDelta));
+  EXPECT_EQ(o.accel_norm_tolerance, get(quad::fw::kObsAccTol));
+  EXPECT_EQ(o.k_i, od.k_i);
+  EXPECT_EQ(o.mag_ref_ned.x, od.mag_ref_ned.x);
+  EXPECT_EQ(o.mag_ref_ned.z, od.mag_ref_ned.z);
+  EXPECT_EQ(sizeof quad::fw::kObserverFields / sizeof(quad::fw::ParamField), 7u);
+
+  quad::est::PositionFilterParams f;
+  const quad::est::PositionFilterParams fd;
+  quad::fw::load_fields(p_, f, quad::fw::kFilterFields);
+  EXPECT_EQ(f.q_pos, get(quad::fw::kKfQPos));
+  EXPECT_EQ(f.q_vel, get(quad::fw::kKfQVel));
+  EXPECT_EQ(f.q_accel, get(quad::fw::kKfQAcc));
+  EXPECT_EQ(f.fix_sigma_xy, get(quad::fw::kKfFixSigXY));
+  EXPECT_EQ(f.fix_sigma_z, get(quad::fw::kKfFixSigZ));
+  EXPECT_EQ(f.gate_sigma, get(quad::fw::kKfGateSig));
+  EXPECT_EQ(f.q_bias, fd.q_bias);
+  EXPECT_EQ(f.bias_sigma0, fd.bias_sigma0);
+  EXPECT_EQ(f.reset_position_sigma, fd.reset_position_sigma);
+  EXPECT_EQ(sizeof quad::fw::kFilterFields / sizeof(quad::fw::ParamField), 6u);
+
+  quad::Vec3 star{-1.0f, -2.0f, -3.0f};
+  quad::fw::load_fields(p_, star, quad::fw::kStarFields);
+  EXPECT_EQ(star.x, get(quad::fw::kVisStarN));
+  EXPECT_EQ(star.y, get(quad::fw::kVisStarE));
+  EXPECT_EQ(star.z, get(quad::fw::kVisStarD));
+
+  quad::fw::CalibrationConfig cc;
+  const quad::fw::CalibrationConfig cd;
+  quad::fw::load_fields(p_, cc, quad::fw::kCalibrationFields);
+  EXPECT_EQ(cc.duration_s, get(quad::fw::kCalTime));
+  EXPECT_EQ(cc.limits.max_gyro_std, get(quad::fw::kCalGyroStd));
+  EXPECT_EQ(cc.limits.max_accel_std, get(quad::fw::kCalAccStd));
+  EXPECT_EQ(cc.limits.max_gyro_mean, get(quad::fw::kCalGyroMax));
+  EXPECT_EQ(cc.limits.max_accel_bias, get(quad::fw::kCalAccMax));
+  EXPECT_EQ(cc.limits.min_samples, cd.limits.min_samples);
+  EXPECT_EQ(sizeof quad::fw::kCalibrationFields / sizeof(quad::fw::ParamField), 5u);
 }
 
 }  // namespace

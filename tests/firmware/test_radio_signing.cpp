@@ -216,6 +216,9 @@ TEST(RadioSigning, RemovingTheKeyOverUsbAndEnableWithoutKeyClosesTheRadio) {
   b.send_signed(kRadio, arm_command(), b.gcs, owner.signer);
   EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
   EXPECT_EQ(b.app->radio_signing().stats().rejected_no_key, 2u);
+  // rejected() (SYS_STATUS errors_count4) is stats().rejected(): the no-key rejections counted too.
+  EXPECT_EQ(b.app->radio_signing().rejected(), b.app->radio_signing().stats().rejected());
+  EXPECT_GE(b.app->radio_signing().rejected(), 2u);
   b.boot();
   EXPECT_TRUE(b.said("signing: no key, radio closed"));
 }
@@ -278,6 +281,9 @@ TEST(RadioSigning, NodeMavlinkSetupSigningAndSignedCommandsAreUnderstood) {
   // And node-mavlink's frame replayed: rejected.
   b.receive_bytes(kRadio, frames["arm"]);
   EXPECT_EQ(b.app->radio_signing().stats().verifier.replayed, 1u);
+  // rejected(): the bad signature and the replay, the verifier's counts summed as stats().rejected().
+  EXPECT_EQ(b.app->radio_signing().rejected(), b.app->radio_signing().stats().rejected());
+  EXPECT_EQ(b.app->radio_signing().rejected(), 2u);
 }
 
 TEST(RadioSigning, KeyRecordFitsWithTheParametersInTheEeprom) {

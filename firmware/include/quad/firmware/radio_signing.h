@@ -69,17 +69,22 @@ class RadioSigning {
   // moves the clock to its initial timestamp, forgets the streams heard under the old key.
   Provisioned provision(const StorageIo& io, const SetupSigning& msg);
   // A SETUP_SIGNING received on the radio: refused and counted.
-  void refuse_provisioning() { ++stats_.provisioning_refused; }
+  void refuse_provisioning() { ++provisioning_refused_; }
 
   // Saves the clock when it moved since the last save and kClockSavePeriodUs passed (or now, with
   // `force`). Call only when a storage write may block (disarmed).
   void persist_clock(const StorageIo& io, uint32_t now_us, bool force);
 
   RadioSigningStats stats() const {
-    RadioSigningStats s = stats_;
+    RadioSigningStats s;
     s.verifier = verifier_.stats();
+    s.rejected_no_key = rejected_no_key_;
+    s.provisioning_refused = provisioning_refused_;
+    s.clock_saves = clock_saves_;
     return s;
   }
+  // stats().rejected() without assembling the whole record.
+  uint32_t rejected() const { return verifier_.stats().rejected() + rejected_no_key_; }
   uint64_t clock() const { return clock_.now(); }
 
  private:
@@ -94,7 +99,10 @@ class RadioSigning {
   uint64_t persisted_mark_ = 0;  // the clock at boot or at the last save
   bool save_started_ = false;
   uint32_t last_save_us_ = 0;
-  RadioSigningStats stats_;
+  // RadioSigningStats' own counters (its verifier part is the verifier's, not a second copy in RAM).
+  uint32_t rejected_no_key_ = 0;
+  uint32_t provisioning_refused_ = 0;
+  uint32_t clock_saves_ = 0;
 };
 
 }  // namespace fw
