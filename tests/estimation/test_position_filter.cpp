@@ -175,9 +175,10 @@ SimRun make_run(const Scenario& sc) {
 Vec3 fvec(const Eigen::Vector3d& v) { return quad_test::from_eigen(v); }
 
 // Online run: predict at every step, each fix handed over at its arrival (stamped with its capture time,
-// or with its arrival time for the on-arrival comparison). `each` is called after every step.
-template <class F, class Each>
-void run_filter(F& kf, const SimRun& run, bool stamp_capture, Each each) {
+// or with its arrival time for the on-arrival comparison) through `fuse(fix, stamp)`. `each` is called
+// after every step.
+template <class F, class Each, class Fuse>
+void run_filter(F& kf, const SimRun& run, bool stamp_capture, Each each, Fuse fuse) {
   size_t next = 0;
   kf.predict(Vec3{}, run.t_us[0]);
   kf.reset(fvec(run.p_true[0]), Vec3{0.2f, 0.0f, 0.0f}, run.t_us[0]);
@@ -185,10 +186,14 @@ void run_filter(F& kf, const SimRun& run, bool stamp_capture, Each each) {
     kf.predict(fvec(run.u[k - 1]), run.t_us[k]);
     while (next < run.fixes.size() && static_cast<int32_t>(run.fixes[next].arrival_us - run.t_us[k]) <= 0) {
       const Fix& f = run.fixes[next++];
-      kf.fuse_position(fvec(f.y), stamp_capture ? f.capture_us : run.t_us[k]);
+      fuse(f, stamp_capture ? f.capture_us : run.t_us[k]);
     }
     each(k);
   }
+}
+template <class F, class Each>
+void run_filter(F& kf, const SimRun& run, bool stamp_capture, Each each) {
+  run_filter(kf, run, stamp_capture, each, [&](const Fix& f, uint32_t stamp) { kf.fuse_position(fvec(f.y), stamp); });
 }
 
 double position_rms(const PositionFilterParams& p, const SimRun& run, bool stamp_capture, double skip_s = 2.0) {
@@ -442,33 +447,26 @@ FoldStats count_folds(const PositionFilterParams& p, const SimRun& run) {
   FoldStats st;
   uint32_t fold_us = 0, merged_us = 0;
   bool merged = false;
-  size_t next = 0;
-  kf.predict(Vec3{}, run.t_us[0]);
-  kf.reset(fvec(run.p_true[0]), Vec3{0.2f, 0.0f, 0.0f}, run.t_us[0]);
-  for (size_t k = 1; k < run.t_us.size(); ++k) {
-    kf.predict(fvec(run.u[k - 1]), run.t_us[k]);
-    while (next < run.fixes.size() && static_cast<int32_t>(run.fixes[next].arrival_us - run.t_us[k]) <= 0) {
-      const Fix& f = run.fixes[next++];
-      const uint16_t before = kf.old_epoch_entries();
-      if (before > 0) {
-        const int32_t since_fold = static_cast<int32_t>(f.capture_us - fold_us);
-        if (since_fold <= 0) ++st.old_epoch_fixes;
-        if (since_fold > 0 && since_fold < static_cast<int32_t>(kStepUs)) ++st.straddling_fixes;
-      }
-      merged = merged && static_cast<int32_t>(f.capture_us - merged_us) <= 0;
-      if (merged) ++st.merged_fixes;
-      kf.fuse_position(fvec(f.y), f.capture_us);
-      if (kf.old_epoch_entries() > before) {
-        ++st.folds;
-        if (before > 0) {
-          ++st.second_folds;
-          merged = true;
-          merged_us = fold_us;
-        }
-        fold_us = kf.time_us();
-      }
+  run_filter(kf, run, true, [](size_t) {}, [&](const Fix& f, uint32_t) {
+    const uint16_t before = kf.old_epoch_entries();
+    if (before > 0) {
+      const int32_t since_fold = static_cast<int32_t>(f.capture_us - fold_us);
+      if (since_fold <= 0) ++st.old_epoch_fixes;
+      if (since_fold > 0 && since_fold < static_cast<int32_t>(kStepUs)) ++st.straddling_fixes;
     }
-  }
+    merged = merged && static_cast<int32_t>(f.capture_us - merged_us) <= 0;
+    if (merged) ++st.merged_fixes;
+    kf.fuse_position(fvec(f.y), f.capture_us);
+    if (kf.old_epoch_entries() > before) {
+      ++st.folds;
+      if (before > 0) {
+        ++st.second_folds;
+        merged = true;
+        merged_us = fold_us;
+      }
+      fold_us = kf.time_us();
+    }
+  });
   return st;
 }
 
