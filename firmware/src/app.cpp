@@ -4,8 +4,8 @@
 
 #include "quad/firmware/app_checks.h"
 #include "quad/firmware/param_fields.h"
-#include "quad/math/float_bits.h"
 #include "quad/firmware/setup_signing.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace fw {

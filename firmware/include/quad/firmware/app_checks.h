@@ -8,8 +8,8 @@
 
 #include <stdint.h>
 
-#include "quad/math/float_bits.h"
 #include "quad/firmware/params.h"
+#include "quad/math/float_bits.h"
 #include "quad/math/math.h"
 
 namespace quad {

@@ -17,8 +17,8 @@
 
 #include <stdint.h>
 
-#include "quad/math/float_bits.h"
 #include "quad/hal/hal.h"
+#include "quad/math/float_bits.h"
 #include "quad/math/math.h"
 
 namespace quad {
