@@ -24,6 +24,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "quad/hal/hal.h"  // hal::TracePoint: the phase numbers the firmware writes to GPIOR1
+
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_elf.h>
@@ -143,22 +145,23 @@ struct PhaseProfile {
   static void on_write(avr_t* avr, avr_io_addr_t, uint8_t v, void* param) {
     auto* p = static_cast<PhaseProfile*>(param);
     const uint64_t now = avr->cycle;
-    switch (v) {
-      case 1: p->step_begin = now; p->in_step = true; p->flown = false; ++p->iterations; break;
-      case 2: if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin)); break;
-      case 3:
+    using Point = quad::hal::TracePoint;
+    switch (static_cast<Point>(v)) {
+      case Point::kStepBegin: p->step_begin = now; p->in_step = true; p->flown = false; ++p->iterations; break;
+      case Point::kControlIdle: if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin)); break;
+      case Point::kControlFlown:
         if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin));
         p->flown = true;
         break;
-      case 4:
+      case Point::kStepEnd:
         if (p->in_step) {
           p->step.push_back(p->sample(avr, p->step_begin));
           if (p->flown) p->step_flown.push_back(p->step.back());
         }
         p->in_step = false;
         break;
-      case 5: p->fix_begin = now; p->in_fix = true; break;
-      case 6: if (p->in_fix) p->fix.push_back(p->sample(avr, p->fix_begin)); p->in_fix = false; break;
+      case Point::kFixBegin: p->fix_begin = now; p->in_fix = true; break;
+      case Point::kFixEnd: if (p->in_fix) p->fix.push_back(p->sample(avr, p->fix_begin)); p->in_fix = false; break;
       default: break;
     }
   }
