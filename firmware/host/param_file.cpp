@@ -90,5 +90,51 @@ bool read_param_file(const std::string& path, std::vector<ParamOverride>* out, s
   return parse_param_text(text.str(), path, out, error);
 }
 
+namespace {
+
+// params_save_all() writes through plain function pointers: the buffer being built.
+std::vector<uint8_t>* g_blob = nullptr;
+
+bool blob_read(uint16_t offset, void* dst, uint16_t length) {
+  if (static_cast<size_t>(offset) + length > g_blob->size()) return false;
+  std::memcpy(dst, g_blob->data() + offset, length);
+  return true;
+}
+
+bool blob_write(uint16_t offset, const void* src, uint16_t length) {
+  if (static_cast<size_t>(offset) + length > g_blob->size()) return false;
+  std::memcpy(g_blob->data() + offset, src, length);
+  return true;
+}
+
+}  // namespace
+
+bool build_param_storage(const std::string& path, size_t size, std::vector<uint8_t>* blob, std::string* error) {
+  std::vector<ParamOverride> overrides;
+  if (!read_param_file(path, &overrides, error)) return false;
+  Params params;
+  for (const ParamOverride& o : overrides) {
+    if (params.set(o.index, o.value) != ParamError::kNone) {
+      *error = path + ": " + param_info(o.index).name + " = " + format_float(o.value) + " refused";
+      return false;
+    }
+  }
+  // StorageIo offsets are 16 bits: a larger buffer could not be addressed as the firmware does.
+  if (size > 65535) {
+    *error = "a parameter storage of " + std::to_string(size) + " bytes is larger than 65535";
+    return false;
+  }
+  std::vector<uint8_t> storage(size, 0xFF);
+  g_blob = &storage;
+  const bool saved = params_save_all(StorageIo{blob_read, blob_write}, params);
+  g_blob = nullptr;
+  if (!saved) {
+    *error = "the parameters do not fit in " + std::to_string(size) + " bytes";
+    return false;
+  }
+  blob->swap(storage);
+  return true;
+}
+
 }  // namespace fw
 }  // namespace quad

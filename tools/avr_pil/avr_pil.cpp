@@ -3,7 +3,7 @@
 // simulator created), byte for byte, with flow control so no byte is dropped.
 //
 //   avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]
-//           [--realtime] [--max-seconds S]
+//           [--params FILE] [--realtime] [--max-seconds S]
 //
 // The command line matches quad_firmware's, so the simulator starts either the same way
 // (`quad_sim --firmware "avr_pil --elf build/avr-apm25/firmware/quad_fw.elf"`). A port given no
@@ -11,6 +11,11 @@
 // compatibility: the bytes' timing on the wire is the AVR's own (simavr times its UARTs from UBRR).
 // simavr's uart_pty part is not used: it drops input bytes; this bridge feeds input only while the
 // UART signals XON.
+//
+// --params FILE (quad_sim passes the scenario's firmware parameters) is stored the way the firmware
+// stores it (fw::build_param_storage, the firmware's own params_save_all) and preloaded into the
+// EEPROM before the CPU starts, so the image boots with those values as quad_firmware does. Without it
+// the EEPROM starts erased: defaults.
 //
 // It also times the firmware's own work to the cycle: the flight application marks the phases of each
 // iteration on GPIOR1 (hal::TracePoint), and at exit this prints the cycles of the control part
@@ -24,8 +29,10 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "param_file.h"    // fw::build_param_storage: the EEPROM image of a --params file
 #include "quad/hal/hal.h"  // hal::TracePoint: the phase numbers the firmware writes to GPIOR1
 
+#include <simavr/avr_eeprom.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_elf.h>
@@ -230,14 +237,26 @@ bool pump(UartBridge& u) {
 int usage() {
   std::fprintf(stderr,
                "usage: avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]\n"
-               "               [--realtime] [--max-seconds S]\n");
+               "               [--params FILE] [--realtime] [--max-seconds S]\n");
   return 2;
+}
+
+// Copies `blob` to the start of the EEPROM: hal/avr/storage.cpp maps storage offset N to EEPROM
+// address N (eeprom_read_block), and the blob already holds the store at the firmware's own offset.
+// simavr's ioctl returns -1 even when it copied, so the copy is read back to be sure.
+bool preload_eeprom(avr_t* avr, std::vector<uint8_t>& blob) {  // non-const: simavr takes a uint8_t*
+  avr_eeprom_desc_t set{blob.data(), 0, static_cast<uint32_t>(blob.size())};
+  if (avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &set) == -2) return false;
+  std::vector<uint8_t> back(blob.size(), 0);
+  avr_eeprom_desc_t get{back.data(), 0, static_cast<uint32_t>(back.size())};
+  if (avr_ioctl(avr, AVR_IOCTL_EEPROM_GET, &get) == -2) return false;
+  return back == blob;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string elf, uart0, uart2;
+  std::string elf, uart0, uart2, params;
   bool realtime = false;
   double max_seconds = 0.0;
   for (int i = 1; i < argc; ++i) {
@@ -253,7 +272,7 @@ int main(int argc, char** argv) {
     else if (a == "--uart0") uart0 = value("--uart0");
     else if (a == "--uart2") uart2 = value("--uart2");
     else if (a == "--uart0-baud" || a == "--uart2-baud") value(a.c_str());
-    else if (a == "--params") value("--params");  // parameters live in the AVR's EEPROM
+    else if (a == "--params") params = value("--params");
     else if (a == "--realtime") realtime = true;
     else if (a == "--max-seconds") max_seconds = std::atof(value("--max-seconds"));
     else {
@@ -263,12 +282,6 @@ int main(int argc, char** argv) {
   }
   if (elf.empty()) return usage();
 
-  elf_firmware_t fw;
-  std::memset(&fw, 0, sizeof fw);
-  if (elf_read_firmware(elf.c_str(), &fw) != 0) {
-    std::fprintf(stderr, "avr_pil: %s: cannot read the ELF image\n", elf.c_str());
-    return 1;
-  }
   avr_t* avr = avr_make_mcu_by_name("atmega2560");
   if (!avr) {
     std::fprintf(stderr, "avr_pil: simavr has no atmega2560 core\n");
@@ -276,10 +289,31 @@ int main(int argc, char** argv) {
   }
   avr_init(avr);
   avr->frequency = 16000000;
+  // A bad parameter file stops here, before anything runs: the firmware would silently fly defaults.
+  std::vector<uint8_t> eeprom;
+  if (!params.empty()) {
+    std::string error;
+    if (!quad::fw::build_param_storage(params, avr->e2end + 1u, &eeprom, &error)) {
+      std::fprintf(stderr, "avr_pil: --params: %s\n", error.c_str());
+      return 1;
+    }
+  }
+  elf_firmware_t fw;
+  std::memset(&fw, 0, sizeof fw);
+  if (elf_read_firmware(elf.c_str(), &fw) != 0) {
+    std::fprintf(stderr, "avr_pil: %s: cannot read the ELF image\n", elf.c_str());
+    return 1;
+  }
   // simavr's default sleep handler usleep()s for the time the AVR sleeps: the firmware's idle() would
   // pace the bridge to the wall clock. Sleep costs nothing here; --realtime paces below.
   avr->sleep = [](avr_t*, avr_cycle_count_t) {};
   avr_load_firmware(avr, &fw);
+  // After the ELF's own .eeprom section (if any), which avr_load_firmware copies in.
+  if (!eeprom.empty() && !preload_eeprom(avr, eeprom)) {
+    std::fprintf(stderr, "avr_pil: cannot preload %zu bytes of %s into the simulated EEPROM\n", eeprom.size(),
+                 params.c_str());
+    return 1;
+  }
 
   UartBridge u0, u2;
   u0.name = '0';
