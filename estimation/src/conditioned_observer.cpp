@@ -17,14 +17,23 @@ constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 // approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
 // renormalises to round-off without the square root and division of a full normalisation.
 // half_dt_sq = (dt/2)^2 comes from the caller's per-dt cache.
-Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float half_dt_sq) {
+// Without `renormalise` the Newton step is left out: the norm then moves by x^4/24 per step (1.6e-7 at
+// 35 rad/s and 400 Hz) plus round-off, which the next renormalised step takes back.
+Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float half_dt_sq, bool renormalise = true) {
   const float half_dt = half(dt);
   const float x2 = half_dt_sq * dot(omega, omega);
   const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
   const Quat d{1.0f - half(x2), omega.x * k, omega.y * k, omega.z * k};
-  const Quat n = q * d;  // A(Omega) q = q (x) [0, Omega]
-  return n * (1.5f - half(dot(n, n)));
+  // A(Omega) q = q (x) d (eq. 3.11), written out as operator* computes it (the same roundings) to
+  // spare the AVR the call and the copies of both operands: this runs in every iteration.
+  const Quat n{q.w * d.w - q.x * d.x - q.y * d.y - q.z * d.z, q.w * d.x + q.x * d.w + q.y * d.z - q.z * d.y,
+               q.w * d.y - q.x * d.z + q.y * d.w + q.z * d.x, q.w * d.z + q.x * d.y - q.y * d.x + q.z * d.w};
+  return renormalise ? n * (1.5f - half(dot(n, n))) : n;
 }
+
+// Steps in a row without the Newton renormalisation: update() renormalises every step; correct() and
+// propagate() every fourth (at 400 Hz the propagation just before the next correction).
+constexpr uint8_t kPropagationsPerRenormalisation = 4;
 
 }  // namespace
 
@@ -75,11 +84,41 @@ void ConditionedObserver::cache_reference() {
 // one): computed when dt changes rather than on every sample.
 void ConditionedObserver::cache_step(float dt) {
   step_dt_ = dt;
-  half_dt_sq_ = 0.25f * dt * dt;
   k3_dt_ = params_.k3 * dt;
   k4_mag_dt_ = params_.k4 * inv_mag_h_ * dt;
   k_i_dt_ = params_.k_i * dt;
   kb_dt_ = params_.kb * dt;
+}
+
+void ConditionedObserver::cache_propagation(float dt) {
+  prop_dt_ = dt;
+  half_dt_sq_ = 0.25f * dt * dt;
+}
+
+// 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise.
+bool ConditionedObserver::step_ok(const Vec3& gyro, float dt) {
+  // On the bits: as a signed integer the pattern is positive exactly for positive floats and positive
+  // NaNs (+0 is zero, everything with the sign bit negative), and a NaN's is above kMaxDt's, so this is
+  // the float test (NaN of either sign fails it).
+  const int32_t dt_bits = static_cast<int32_t>(float_bits(dt));
+  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) {
+    ++health_.skipped;
+    return false;
+  }
+  if (float_bits(dt) != float_bits(prop_dt_)) cache_propagation(dt);  // (dt > 0: equal values, equal patterns)
+  return true;
+}
+
+// The step's result, unless it is not finite (then the state stays as it was, and the step is counted).
+bool ConditionedObserver::commit(const Quat& q_next, const Vec3& b_next, const Vec3& rate) {
+  if (!is_finite(q_next) || !is_finite(b_next)) {
+    ++health_.state_restored;
+    return false;
+  }
+  q_ = q_next;
+  bias_ = b_next;
+  rate_ = rate;
+  return true;
 }
 
 bool ConditionedObserver::initialize(const Vec3& accel_frd, const Vec3& mag_frd) {
@@ -98,20 +137,39 @@ bool ConditionedObserver::initialize(const Vec3& accel_frd, const Vec3& mag_frd)
 void ConditionedObserver::reset(const Quat& q_ib, const Vec3& gyro_bias) {
   q_ = normalized(q_ib);
   r_ = to_dcm(q_);
+  r_stale_ = false;
+  unnormalised_steps_ = 0;
+  sigma_r_ = Vec3{};
   // eq. 4.9 requires ||b(0)|| < Delta.
   bias_ = is_finite(gyro_bias) ? sat_delta(gyro_bias, 0.999f * params_.delta) : Vec3{};
   rate_ = Vec3{};
   initialized_ = true;
 }
 
-void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt) {
-  // 0 < dt <= kMaxDt on the bits: as a signed integer the pattern is positive exactly for positive
-  // floats and positive NaNs (+0 is zero, everything with the sign bit negative), and a NaN's is above
-  // kMaxDt's, so this is the float test (NaN of either sign fails it).
-  const int32_t dt_bits = static_cast<int32_t>(float_bits(dt));
-  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) {
-    ++health_.skipped;
-    return;
+void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
+  if (!step_ok(gyro, dt)) return;
+  const Vec3 rate = gyro - bias_;
+  const Vec3 omega = rate + sigma_r_;  // eq. 4.10 with the held innovation
+  const bool renormalise = unnormalised_steps_ + 1u >= kPropagationsPerRenormalisation;
+  const Quat q_next = params_.propagator == Propagator::Exact
+                          ? normalized(integrate_exact(q_, omega, dt))
+                          : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
+  if (!commit(q_next, bias_, rate)) return;
+  unnormalised_steps_ = renormalise ? 0u : static_cast<uint8_t>(unnormalised_steps_ + 1u);
+  r_stale_ = true;
+  ++health_.propagations;
+}
+
+void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt,
+                               float correction_dt, bool multi_rate) {
+  if (!step_ok(gyro, dt)) return;
+  // A correction step the dt check would refuse (a multi-rate caller's bookkeeping gone wrong) corrects
+  // over the attitude step instead.
+  const int32_t cdt_bits = static_cast<int32_t>(float_bits(correction_dt));
+  if (!(cdt_bits > 0 && cdt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) correction_dt = dt;
+  if (r_stale_) {
+    r_ = to_dcm(q_);
+    r_stale_ = false;
   }
   const ObserverParams& k = params_;
   // Estimated directions in the body frame: with q = q_IB, u_hat_B = R^T u_I (the transpose of what
@@ -138,7 +196,8 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
     if (!use_mag) ++health_.mag_rejected;
   }
 
-  if (float_bits(dt) != float_bits(step_dt_)) cache_step(dt);  // (dt > 0 here: equal values have equal patterns)
+  // (correction_dt > 0 here: equal values have equal patterns)
+  if (float_bits(correction_dt) != float_bits(step_dt_)) cache_step(correction_dt);
 
   // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
   // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.
@@ -176,8 +235,12 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
   const Vec3 rate = gyro - bias_;
   const Vec3 omega = rate + sigma_r;
-  const Quat q_next = k.propagator == Propagator::Exact ? normalized(integrate_exact(q_, omega, dt))
-                                                        : propagate_second_order(q_, omega, dt, half_dt_sq_);
+  // Single-rate, every step renormalises; multi-rate, the fourth unnormalised step in a row does (the
+  // propagation before the next correction, at 400 Hz: the correction's iteration is the heaviest).
+  const bool renormalise = !multi_rate || unnormalised_steps_ + 1u >= kPropagationsPerRenormalisation;
+  const Quat q_next = k.propagator == Propagator::Exact
+                          ? normalized(integrate_exact(q_, omega, dt))
+                          : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
   // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
   // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
   // sat_Delta(b) - b = b (Delta/|b| - 1).
@@ -190,14 +253,16 @@ void ConditionedObserver::update(const Vec3& gyro, const Vec3& accel, const Vec3
   }
   const Vec3 b_next = bias_ + db;
 
-  if (!is_finite(q_next) || !is_finite(b_next)) {
-    ++health_.state_restored;
-    return;
+  if (!commit(q_next, b_next, rate)) return;
+  unnormalised_steps_ = renormalise ? 0u : static_cast<uint8_t>(unnormalised_steps_ + 1u);
+  sigma_r_ = sigma_r;
+  if (multi_rate) {
+    // dcm() stays the rotation this correction used (the attitude at its start): the prediction of the
+    // next iteration rotates the mean specific force of the four iterations around it with it.
+    r_stale_ = true;
+  } else {
+    r_ = to_dcm(q_);
   }
-  q_ = q_next;
-  r_ = to_dcm(q_next);
-  bias_ = b_next;
-  rate_ = rate;
   ++health_.updates;
 }
 

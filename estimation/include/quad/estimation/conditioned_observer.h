@@ -10,6 +10,9 @@
 //     quad::Quat q = obs.attitude();            // q_IB (body FRD -> NED)
 //     quad::Vec3 w = obs.rate();                // gyro minus estimated bias, for the rate controller
 //     const quad::Mat3& r = obs.dcm();          // R(q) of eq. 3.18, e.g. for kinematic_acceleration()
+//   or, with the correction at a lower rate than the gyro (a 400 Hz attitude loop on a 100 Hz
+//   estimator, as the ATmega2560 needs): correct(..., dt, correction_dt) on the correction samples and
+//   propagate(gyro_frd, dt) on the others.
 //
 // Units: gyro rad/s, accelerometer m/s^2 (specific force, reads (0,0,-g) level at rest), magnetometer any
 // unit as long as mag_ref_ned uses the same one (mag_ref_from_init learns it from the first sample).
@@ -59,7 +62,8 @@ struct ObserverParams {
 };
 
 struct ObserverHealth {
-  uint32_t updates = 0;          // samples that propagated the state
+  uint32_t updates = 0;          // samples that corrected and propagated the state (update())
+  uint32_t propagations = 0;     // samples that only propagated it (propagate())
   uint32_t skipped = 0;          // samples dropped entirely (non-finite gyro, dt not in (0, 0.5] s)
   uint32_t accel_rejected = 0;   // samples whose accelerometer was not used
   uint32_t mag_rejected = 0;     // samples flagged valid whose magnetometer was not used
@@ -83,12 +87,30 @@ class ConditionedObserver {
   void reset(const Quat& q_ib, const Vec3& gyro_bias);
 
   // One sample: thesis eq. 4.18 with the innovation of eq. 4.9 (or 4.4).
-  void update(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt);
+  void update(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt) {
+    step(gyro_frd, accel_frd, mag_frd, mag_valid, dt, dt, false);
+  }
+  // Multi-rate form, for a correction that runs at a lower rate than the propagation: the same step,
+  // with `correction_dt` (the time since the previous correction) the step of the bias (eq. 4.17) and
+  // `dt` the step of the attitude. The attitude innovation is held (zero-order) until the next
+  // correction, and propagate() applies it on the samples in between, so per unit of time the
+  // correction is the single-rate one. Unlike update(), it leaves dcm() at the rotation it used (the
+  // attitude at its start) and renormalises only as propagate() does, every fourth step: the
+  // correction's iteration is the heaviest of a 400 Hz loop.
+  void correct(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt,
+               float correction_dt) {
+    step(gyro_frd, accel_frd, mag_frd, mag_valid, dt, correction_dt, true);
+  }
+  // A sample between two corrections: eq. 4.18 with Omega_m - b + sigma_R, sigma_R held from the last
+  // correction, the bias unchanged. The same checks as update() (a bad gyro or dt skips the sample). It
+  // renormalises the attitude on every fourth step in a row only: |q| stays within ~1e-6 of one.
+  void propagate(const Vec3& gyro_frd, float dt);
 
   const Quat& attitude() const { return q_; }           // q_IB
-  // R_IB = R(attitude()) of eq. 3.18, computed once per step and shared: the observer reads the
+  // R_IB = R(attitude()) of eq. 3.18, computed once per update() and shared: the observer reads the
   // estimated directions off it on the next step, and callers can rotate with it (one matrix-vector
-  // product instead of a quaternion rotation).
+  // product instead of a quaternion rotation). In the multi-rate form it is the rotation of the last
+  // correct() (the attitude at its start), and propagate() does not change it.
   const Mat3& dcm() const { return r_; }
   const Vec3& gyro_bias() const { return bias_; }       // b of eq. 4.2, rad/s
   const Vec3& rate() const { return rate_; }            // Omega_m - b, rad/s (last sample)
@@ -97,7 +119,12 @@ class ConditionedObserver {
 
  private:
   void cache_reference();
+  void step(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt, float correction_dt,
+            bool multi_rate);
   void cache_step(float dt);
+  void cache_propagation(float dt);
+  bool step_ok(const Vec3& gyro, float dt);
+  bool commit(const Quat& q_next, const Vec3& b_next, const Vec3& rate);
 
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)
@@ -107,13 +134,18 @@ class ConditionedObserver {
   float k2_mag_;        // k2 / ||pi_{u_I} m_I|| (eq. 4.8/4.9)
   float inner_delta_;   // Delta / sqrt(3): a bias inside this cube is inside the Delta ball
   float accel_lo2_, accel_hi2_;  // accelerometer gate on |a|^2
-  float step_dt_;                // step of the cache below; cache_reference() sets -1 (matches no dt)
-  // Cached for the step dt_: (dt/2)^2, and the bias gains times dt (eq. 4.17 takes T sigma_b); set by
-  // cache_step() before the first step uses them, zero until then (a copy never reads an indeterminate value).
+  float step_dt_;                // correction step of the gains below; cache_reference() sets -1 (matches no dt)
+  float prop_dt_ = -1.0f;        // attitude step of half_dt_sq_
+  // Cached for those steps: (dt/2)^2, and the bias gains times the correction step (eq. 4.17 takes
+  // T sigma_b); set before the first step uses them, zero until then (a copy never reads an
+  // indeterminate value).
   float half_dt_sq_ = 0.0f;
   float k3_dt_ = 0.0f, k4_mag_dt_ = 0.0f, k_i_dt_ = 0.0f, kb_dt_ = 0.0f;
   Quat q_;
-  Mat3 r_ = Mat3::identity();  // R(q_)
+  Mat3 r_ = Mat3::identity();  // R(q_) as of the last update() or reset()
+  bool r_stale_ = false;       // propagate() has moved q_ since r_ was computed
+  uint8_t unnormalised_steps_ = 0;  // propagate() steps since the last Newton renormalisation
+  Vec3 sigma_r_;               // the attitude innovation of the last update(), held for propagate()
   Vec3 bias_;
   Vec3 rate_;
   bool initialized_ = false;
