@@ -1,6 +1,7 @@
 #include "quad/control/attitude_controller.h"
 
 #include "quad/control/approx.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace ctrl {
@@ -16,8 +17,15 @@ Vec3 AttitudeController::update(const Quat& q, const Vec3& omega, const Quat& q_
   // The conjugate built in place and the torque written out in components: the same operations in the
   // same order as conjugate(q_d) * q, e.vec() * gain - hadamard(gamma, omega), so the torque is
   // bit-identical, with three fewer out-of-line helper calls and their copies on the AVR.
-  const Quat e = Quat{q_d.w, -q_d.x, -q_d.y, -q_d.z} * q;  // Q_d* (x) Q (eq. 3.12: the conjugate)
-  const float gain = e.w < 0.0f ? gains_.alpha : -gains_.alpha;
+  // Q_d* (x) Q (eq. 3.12: the conjugate) in components: eq. 3.11 with p = (w, -x, -y, -z), where
+  // a - (-b) c is a + b c exactly, so these are operator*'s roundings.
+  const Quat e{q_d.w * q.w + q_d.x * q.x + q_d.y * q.y + q_d.z * q.z,
+               q_d.w * q.x - q_d.x * q.w - q_d.y * q.z + q_d.z * q.y,
+               q_d.w * q.y + q_d.x * q.z - q_d.y * q.w - q_d.z * q.x,
+               q_d.w * q.z - q_d.x * q.y + q_d.y * q.x - q_d.z * q.w};
+  // e.w < 0 on the sign bit (no software float compare): the float test for every e.w but -0, where the
+  // error is 180 deg and both ways round are equally short, and NaN (a NaN torque either way).
+  const float gain = (float_bits(e.w) >> 31) != 0u ? gains_.alpha : -gains_.alpha;
   return {e.x * gain - gains_.gamma.x * omega.x, e.y * gain - gains_.gamma.y * omega.y,
           e.z * gain - gains_.gamma.z * omega.z};
 }

@@ -53,6 +53,12 @@ const CascadeOutput& Cascade::step(const VehicleState& s, const PositionSetpoint
   return out_;
 }
 
+const CascadeOutput& Cascade::step_held(const VehicleState& s) {
+  out_.torque = attitude_.update(s.q, s.omega, out_.attitude.q_d);  // thesis eq. 8.38/8.39
+  mixer_.mix(out_.attitude.thrust, out_.torque, out_.motors);       // thesis eq. 5.8
+  return out_;
+}
+
 const CascadeOutput& Cascade::step_attitude(const VehicleState& s, const AttitudeCommand& cmd) {
   out_.mu_d = Vec3{};
   out_.attitude = cmd;

@@ -169,7 +169,7 @@ void Mixer::mix(float thrust, const Vec3& torque, MixerOutput& out) const {
   const float yaw = yaw_gain_ * torque.z;
   const float wanted = collective_gain_ * thrust;
   float rp[kMotorCount];
-  float f[kMotorCount];
+  float* const f = out.share;  // the shares are worked out in place
   for (int i = 0; i < kMotorCount; ++i) {
     // (On the plus frame each motor has only a roll or only a pitch arm: no addition.)
     rp[i] = roll_sign_[i] == 0 ? signed_term(pitch_sign_[i], pitch)
@@ -223,22 +223,19 @@ void Mixer::mix(float thrust, const Vec3& torque, MixerOutput& out) const {
     }
   }
 
-  for (int i = 0; i < kMotorCount; ++i) {
-    out.rotor_speed_sq[i] = f[i] * w_sq_max_;  // w_bar_i of eq. 5.7: f_max n_i / b
-    out.command[i] = sqrtf(f[i]);             // u_i = w_i / w_max = sqrt(n_i) (vehicle.h motor model)
-  }
+  for (int i = 0; i < kMotorCount; ++i) out.command[i] = sqrtf(f[i]);  // u_i = w_i / w_max = sqrt(n_i) (vehicle.h)
 }
 
-Wrench Mixer::forward(const float rotor_speed_sq[kMotorCount]) const {
+Wrench Mixer::forward(const float share[kMotorCount]) const {
   // thesis eq. 5.5: (T, tau) = M w_bar, evaluated per rotor with f_i = b w_bar_i (eq. 5.3). The mixer
   // keeps only its inverse, so the forward factors come from it: the nonzero factors of an axis share
   // one magnitude |arm|, and its inverse gain (normalised) is 1 / (m |arm| f_max) for the m motors with
-  // a nonzero factor. So tau_axis = sum(s_i n_i) / (m gain), n_i = w_bar_i / w_sq_max, T = f_max sum n_i.
+  // a nonzero factor. So tau_axis = sum(s_i n_i) / (m gain), T = f_max sum n_i.
   // (Not on the flight path: a few divisions are fine here.)
   float thrust = 0.0f, roll = 0.0f, pitch = 0.0f, yaw = 0.0f;
   int roll_count = 0, pitch_count = 0, yaw_count = 0;
   for (int i = 0; i < kMotorCount; ++i) {
-    const float n = rotor_speed_sq[i] / w_sq_max_;
+    const float n = share[i];
     thrust += n;
     roll = add_signed(roll, roll_sign_[i], n);
     pitch = add_signed(pitch, pitch_sign_[i], n);

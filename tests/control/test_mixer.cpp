@@ -42,8 +42,15 @@ Eigen::Vector4d full_scale(const VehicleParams& v) {
   return {4.0 * f, v.arm_length * f, v.arm_length * f, 2.0 * f * v.yaw_coeff / v.thrust_coeff};
 }
 
-Eigen::Vector4d wrench_of(const Eigen::Matrix4d& m, const MixerOutput& out) {
-  return m * Eigen::Vector4d(out.rotor_speed_sq[0], out.rotor_speed_sq[1], out.rotor_speed_sq[2], out.rotor_speed_sq[3]);
+// The squared rotor speeds of eq. 5.7 from the mixer's thrust shares: w_bar_i = n_i f_max / b.
+Eigen::Vector4d rotor_speeds_sq(const VehicleParams& v, const MixerOutput& out) {
+  Eigen::Vector4d w;
+  for (int i = 0; i < 4; ++i) w(i) = static_cast<double>(out.share[i]) * v.max_motor_thrust / v.thrust_coeff;
+  return w;
+}
+
+Eigen::Vector4d wrench_of(const Eigen::Matrix4d& m, const VehicleParams& v, const MixerOutput& out) {
+  return m * rotor_speeds_sq(v, out);
 }
 
 TEST(Mixer, PlusMatchesEquation56Exactly) {
@@ -58,7 +65,9 @@ TEST(Mixer, PlusMatchesEquation56Exactly) {
   const MixerOutput out = mixer.mix(static_cast<float>(t), Vec3{0.3f, -0.2f, 0.05f});
   const double expected[4] = {t / (4 * b) + t2 / (2 * d * b) + t3 / (4 * kappa), t / (4 * b) + t1 / (2 * d * b) - t3 / (4 * kappa),
                               t / (4 * b) - t2 / (2 * d * b) + t3 / (4 * kappa), t / (4 * b) - t1 / (2 * d * b) - t3 / (4 * kappa)};
-  for (int i = 0; i < 4; ++i) EXPECT_NEAR(out.rotor_speed_sq[i], expected[i], 1e-5 * expected[i]) << i;
+  const Eigen::Vector4d w_sq = rotor_speeds_sq(v, out);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(w_sq(i), expected[i], 1e-5 * expected[i]) << i;
+  for (int i = 0; i < 4; ++i) EXPECT_FLOAT_EQ(mixer.rotor_speed_sq(out.share[i]), static_cast<float>(w_sq(i))) << i;
 }
 
 class MixerFrames : public ::testing::TestWithParam<Frame> {};
@@ -80,18 +89,18 @@ TEST_P(MixerFrames, RoundTrip) {
     const MixerOutput out = mixer.mix(static_cast<float>(demand(0)),
                                       Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
     ASSERT_FALSE(out.yaw_limited || out.thrust_limited || out.roll_pitch_limited) << k << " " << out.yaw_limited << out.thrust_limited << out.roll_pitch_limited << " " << demand.transpose();
-    const Eigen::Vector4d got = wrench_of(m, out);
+    const Eigen::Vector4d got = wrench_of(m, v, out);
     for (int j = 0; j < 4; ++j) {
       // Relative to the component, or to 10 % of its full scale when the component is near zero.
       worst = std::max(worst, std::abs(got(j) - demand(j)) / std::max(std::abs(demand(j)), 0.1 * fs(j)));
     }
-    const quad::ctrl::Wrench lib = mixer.forward(out.rotor_speed_sq);
+    const quad::ctrl::Wrench lib = mixer.forward(out.share);
     const Eigen::Vector4d lib4(lib.thrust, lib.torque.x, lib.torque.y, lib.torque.z);
     worst_lib_forward = std::max(worst_lib_forward, ((lib4 - got).cwiseQuotient(fs)).cwiseAbs().maxCoeff());
     for (int i = 0; i < 4; ++i) {
       ASSERT_GE(out.command[i], 0.0f);
       ASSERT_LE(out.command[i], 1.0f);
-      ASSERT_NEAR(out.command[i] * out.command[i] * v.max_motor_thrust, v.thrust_coeff * out.rotor_speed_sq[i], 1e-4);
+      ASSERT_NEAR(out.command[i] * out.command[i] * v.max_motor_thrust, v.thrust_coeff * rotor_speeds_sq(v, out)(i), 1e-4);
     }
   }
   std::printf("[figure] mixer round trip (%s, 10000 demands): max relative error %.2e; library eq. 5.5 vs "
@@ -121,7 +130,7 @@ TEST_P(MixerFrames, SaturationGivesUpYawFirst) {
     const MixerOutput out = mixer.mix(static_cast<float>(demand(0)),
                                       Vec3{float(demand(1)), float(demand(2)), float(demand(3))});
     for (int i = 0; i < 4; ++i) ASSERT_TRUE(out.command[i] >= 0.0f && out.command[i] <= 1.0f);
-    const Eigen::Vector4d got = wrench_of(m, out);
+    const Eigen::Vector4d got = wrench_of(m, v, out);
     const Eigen::Vector4d reported(out.achieved.thrust, out.achieved.torque.x, out.achieved.torque.y, out.achieved.torque.z);
     worst_reported = std::max(worst_reported, ((reported - got).cwiseQuotient(fs)).cwiseAbs().maxCoeff());
     // Independent feasibility of thrust + roll/pitch (yaw zero).
@@ -280,7 +289,7 @@ TEST(Mixer, InPlaceMixWritesEveryField) {
   const Vec3 torques[] = {{0.1f, -0.05f, 0.02f}, {0.3f, -0.2f, 0.6f}, {4.0f, -3.0f, 0.6f}, {0.0f, 0.0f, -0.9f}, {}};
   for (int k = 0; k < 5; ++k) {
     MixerOutput dirty;
-    for (int i = 0; i < 4; ++i) dirty.rotor_speed_sq[i] = dirty.command[i] = NAN;
+    for (int i = 0; i < 4; ++i) dirty.share[i] = dirty.command[i] = NAN;
     dirty.achieved.thrust = NAN;
     dirty.achieved.torque = Vec3{NAN, NAN, NAN};
     dirty.yaw_limited = dirty.thrust_limited = dirty.roll_pitch_limited = (k != 4);
@@ -288,7 +297,7 @@ TEST(Mixer, InPlaceMixWritesEveryField) {
     mixer.mix(thrusts[k], torques[k], dirty);
     const MixerOutput want = mixer.mix(thrusts[k], torques[k]);
     for (int i = 0; i < 4; ++i) {
-      EXPECT_EQ(dirty.rotor_speed_sq[i], want.rotor_speed_sq[i]) << k;
+      EXPECT_EQ(dirty.share[i], want.share[i]) << k;
       EXPECT_EQ(dirty.command[i], want.command[i]) << k;
     }
     EXPECT_EQ(dirty.achieved.thrust, want.achieved.thrust) << k;

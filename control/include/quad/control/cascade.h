@@ -3,9 +3,9 @@
 //   (eq. 8.38/8.39) -> mixer (eq. 5.8).
 // The pieces stay usable on their own (see their headers); this class only owns one of each and wires
 // them. step_attitude() starts at the attitude loop: for manual flight (ManualControl::command()), and
-// for running the attitude loop faster than the position loop (step() at the position rate, then
-// step_attitude(s, output().attitude) in between: on the ATmega2560 step() costs about 31 000 cycles
-// near hover, step_attitude() about 13 300; docs/performance.md).
+// for running the attitude loop faster than the position loop, step_held() (step() at the position
+// rate, step_held() in between, as the firmware does above 100 Hz: on the ATmega2560 step() costs
+// about 24 000 cycles near hover, the attitude loop and mixer about 11 000; docs/performance.md).
 //
 // Usage:
 //   quad::ctrl::CascadeParams params;                     // Quad-C, table 8.1 gains, 35 deg tilt
@@ -70,6 +70,9 @@ class Cascade {
 
   // From a thrust and attitude command (manual flight): attitude loop and mixer only. mu_d is zero.
   const CascadeOutput& step_attitude(const VehicleState& s, const AttitudeCommand& cmd);
+  // Between two step()s of a position loop slower than the attitude loop: attitude loop and mixer on
+  // the last step()'s thrust and attitude (zero-order hold); mu_d and the command stay as they were.
+  const CascadeOutput& step_held(const VehicleState& s);
 
   const CascadeOutput& output() const { return out_; }
 

@@ -40,7 +40,9 @@ struct Wrench {
 };
 
 struct MixerOutput {
-  float rotor_speed_sq[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};  // w_bar_i, (rad/s)^2 (eq. 5.7)
+  // n_i = f_i / f_max = w_bar_i / w_bar_max in [0, 1]: eq. 5.8 per motor, in units of one motor's
+  // full thrust (rotor_speed_sq() gives w_bar_i of eq. 5.7)
+  float share[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};
   float command[kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};         // u_i = w_i / w_max in [0, 1]
   Wrench achieved;              // what the rotor speeds produce (eq. 5.5); the demand itself when no limit acted
   bool yaw_limited = false;     // priority 3 gave up some yaw
@@ -67,8 +69,11 @@ class Mixer {
   // The same into `out` (every field written): no copy of the result (Cascade).
   void mix(float thrust, const Vec3& torque, MixerOutput& out) const;
 
-  // The forward model eq. 5.5: thrust and torques from squared rotor speeds.
-  Wrench forward(const float rotor_speed_sq[kMotorCount]) const;
+  // The forward model eq. 5.5: thrust and torques from the motors' thrust shares (MixerOutput::share).
+  Wrench forward(const float share[kMotorCount]) const;
+  // w_bar_i of eq. 5.7, (rad/s)^2, for a thrust share n_i (not on the flight path: the firmware commands
+  // the motors by u_i = sqrt(n_i)).
+  float rotor_speed_sq(float share) const { return share * w_sq_max_; }
 
  private:
   bool spread(float c, const float rp[kMotorCount], float yaw, float f[kMotorCount]) const;
