@@ -214,7 +214,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
 
   const float loop_hz = p.get(kLoopHz);
   loop_timer_.set_rate_hz(loop_hz);
-  position_rate_.configure(kPositionRateHz, loop_hz);
+  stages_.configure(kPositionRateHz, loop_hz);
   // One telemetry stream per iteration at the default rates (scheduler.h: an iteration that sent all
   // four took 45 000 more cycles on the AVR than one that sent none).
   heartbeat_rate_.configure(p.get(kTelHbHz), loop_hz, 1);
@@ -553,6 +553,13 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   now_us_ = t_us;
   ++counters_.iterations;
 
+  // The stage clock counts every iteration (calibration and disarmed ones too); the time each stage
+  // covers is accumulated here and taken where it runs.
+  stages_.tick();
+  correction_dt_ += dt;
+  outer_dt_ += dt;
+  shaper_dt_ += dt;
+
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
   // calibration is the field itself).
@@ -575,6 +582,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     const Vec3 b = accel_bias_.bias();
     estimate(gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt);
   }
+  if (stages_.runs(kStageCorrect)) correction_dt_ = 0.0f;  // taken by estimate(), or nothing to correct in calibration
 
   handle_transition(modes_.update(mode_inputs(false)));
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground.
@@ -644,31 +652,52 @@ void FlightApp::report_clipping() {
 }
 
 void FlightApp::estimate(const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag, float dt) {
-  const Vec3 no_mag;
-  // Without a valid accelerometer the observer gets a zero specific force, which its norm gate refuses:
-  // no gravity correction from this sample (the gyro still propagates).
-  observer_.update(gyro, accel_valid ? accel : Vec3{}, mag != nullptr ? mag->field : no_mag, mag != nullptr, dt);
-  const Quat& q = observer_.attitude();
-  history_.push(now_us_, q);
-  // thesis eq. 8.7: u = g e_z + R a_B, averaged over the iterations between two predictions. R is the
-  // observer's own DCM of this step (computed once there), not a second conversion of q.
-  // A clipped accelerometer's stand-in: the last good kinematic acceleration while the clip guard is
-  // healthy, then none (the filter coasts on its velocity; the estimator failsafe is already landing).
-  if (accel_valid) last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), accel);
-  const Vec3 u = accel_valid || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{};
-  if (accel_count_ == 0) {
-    // The first term after a prediction: 0 + u_i is u_i (a -0 becomes +0), without three additions.
-    accel_sum_ = Vec3{plus_zero(u.x), plus_zero(u.y), plus_zero(u.z)};
+  if (stages_.runs(kStageCorrect)) {
+    // A magnetometer sample that arrived since the last correction counts if this iteration has none.
+    const Vec3* field = mag != nullptr ? &mag->field : (mag_pending_ ? &pending_mag_ : nullptr);
+    const Vec3 zero;
+    // Without a valid accelerometer the observer gets a zero specific force, which its norm gate refuses:
+    // no gravity correction from this sample (the gyro still propagates).
+    const Vec3& a = accel_valid ? accel : zero;
+    const Vec3& f = field != nullptr ? *field : zero;
+    if (stages_.per_frame() > 1) {
+      observer_.correct(gyro, a, f, field != nullptr, dt, correction_dt_);
+    } else {
+      observer_.update(gyro, a, f, field != nullptr, dt);
+    }
+    mag_pending_ = false;
   } else {
-    accel_sum_ += u;
+    // Between corrections the gyro alone carries the attitude, with the last innovation held.
+    if (mag != nullptr) {
+      pending_mag_ = mag->field;
+      mag_pending_ = true;
+    }
+    observer_.propagate(gyro, dt);
   }
-  ++accel_count_;
-  if (position_rate_.tick()) {
-    // The mean over the iterations since the last prediction; one iteration (a 100 Hz loop) is the sum
-    // itself, exactly, without the division and three multiplications (1 100 cycles on the AVR).
-    filter_.predict(accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_)), now_us_);
-    accel_count_ = 0;  // the next term replaces accel_sum_
+  history_.push(now_us_, observer_.attitude());
+  // thesis eq. 8.7: u = g e_z + R a_B, with a_B the mean specific force over the iterations since the
+  // last prediction and R the observer's DCM: this iteration's at 100 Hz; at a faster loop the rotation
+  // the last correction started from, the middle of the four samples the mean covers.
+  // A clipped accelerometer's samples are left out; with none valid, the last good kinematic
+  // acceleration stands in while the clip guard is healthy, then none (the filter coasts on its
+  // velocity; the estimator failsafe is already landing).
+  if (accel_valid) {
+    if (accel_count_ == 0) {
+      accel_sum_ = accel;  // the first term after a prediction, without three additions to zero
+    } else {
+      accel_sum_ += accel;
+    }
+    ++accel_count_;
   }
+  if (!stages_.runs(kStagePredict)) return;
+  if (accel_count_ > 0) {
+    // One sample (a 100 Hz loop) is the sum itself, exactly, without the division and three
+    // multiplications (1 100 cycles on the AVR).
+    const Vec3 mean = accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_));
+    last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), mean);
+  }
+  filter_.predict(accel_count_ > 0 || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{}, now_us_);
+  accel_count_ = 0;  // the next term replaces accel_sum_
 }
 
 ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
@@ -737,8 +766,19 @@ void FlightApp::control(float dt) {
   s.q = observer_.attitude();
   s.omega = observer_.rate();
 
+  // The position loop in its own iteration of a faster loop (every iteration at 100 Hz), and at once in
+  // the first iteration of a mode that uses it, so the attitude loop never flies another mode's command.
+  const FlightMode mode = modes_.mode();
+  const bool entered = mode != outer_mode_;
+  const bool outer_now = stages_.runs(kStagePositionLoop) || entered;
+  const bool shape_now = stages_.runs(kStageShaper) || entered;
+  const float outer_dt = outer_dt_, shaper_dt = shaper_dt_;
+  if (outer_now) outer_dt_ = 0.0f;
+  if (shape_now) shaper_dt_ = 0.0f;
+  outer_mode_ = mode;
+
   const ctrl::CascadeOutput* out = nullptr;
-  switch (modes_.mode()) {
+  switch (mode) {
     case FlightMode::kDisarmed:
       break;
     case FlightMode::kManual:
@@ -747,13 +787,14 @@ void FlightApp::control(float dt) {
       out = &cascade_.step_attitude(s, manual_.command());
       break;
     case FlightMode::kAuto: {
-      shaper_.update(dt, setpoint_);
+      if (shape_now) shaper_.update(shaper_dt, setpoint_);
+      if (!outer_now) break;
       // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
       // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
       if (!landed_) {
         const uint8_t moving = moving_axes(setpoint_.v_d);
         const bool learn[3] = {(moving & 1u) == 0u, (moving & 2u) == 0u, (moving & 4u) == 0u};
-        trim_.update(s.p - setpoint_.p_d, learn, dt);
+        trim_.update(s.p - setpoint_.p_d, learn, outer_dt);
       }
       ctrl::PositionSetpoint sp = setpoint_;
       sp.a_d += trim_.accel();
@@ -761,6 +802,7 @@ void FlightApp::control(float dt) {
       break;
     }
     case FlightMode::kLanding: {
+      if (!outer_now) break;
       // Descend at LAND_SPEED. Holding position: the horizontal target stays where the landing began.
       // Level: the horizontal errors are zeroed, so eq. 8.20 asks for no horizontal acceleration and
       // the attitude stays level (no trust in a position without vision).
@@ -777,6 +819,10 @@ void FlightApp::control(float dt) {
       out = &cascade_.step(s, sp);
       break;
     }
+  }
+  // Between two runs of the position loop the attitude loop flies its last thrust and attitude.
+  if (out == nullptr && !outer_now && (mode == FlightMode::kAuto || mode == FlightMode::kLanding)) {
+    out = &cascade_.step_held(s);
   }
   if (out == nullptr) {
     for (float& m : motors_) m = 0.0f;

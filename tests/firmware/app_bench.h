@@ -77,7 +77,7 @@ class Bench {
     s.zmag = m_b.z();
     s.fields_updated = 0x1FF;
     send(quad::hal::kUart0, s, sim);
-    t_us += 10000;
+    t_us += step_us;
   }
   void still_step(const Eigen::Quaternionf& q = Eigen::Quaternionf::Identity()) {
     hil_step(q, q.conjugate() * Eigen::Vector3f(0, 0, -kG));
@@ -147,6 +147,7 @@ class Bench {
   std::vector<uint8_t> storage;
   bool storage_fails = false;
   uint64_t t_us = 1000000;
+  uint32_t step_us = 10000;  // HIL period: 100 Hz unless a test sets SYS_LOOP_HZ and this together
   Eigen::Vector3f gyro_bias{0.02f, -0.015f, 0.01f};
   Eigen::Vector3f accel_bias{0.15f, -0.1f, 0.2f};
   // The magnetometer: Earth field (NED, gauss), soft iron D and hard iron b (thesis eq. 7.5).

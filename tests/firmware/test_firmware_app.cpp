@@ -29,7 +29,7 @@ using quad::fw::FlightMode;
 constexpr float kG = quad::fw::test::kG;
 
 void calibrate(Bench& b, const Eigen::Quaternionf& q = Eigen::Quaternionf::Identity()) {
-  for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step(q);
+  for (int i = 0; i < 1000 && !b.app->calibrated(); ++i) b.still_step(q);
   ASSERT_TRUE(b.app->calibrated());
 }
 
@@ -577,6 +577,73 @@ TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
   EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
   EXPECT_TRUE(b.said("DISARMED: landed, disarmed"));
   for (int i = 0; i < 4; ++i) EXPECT_EQ(b.actuators.back().controls[i], 0.0f);
+}
+
+// SYS_LOOP_HZ 400: the attitude propagation and the attitude loop in every iteration, the observer's
+// correction, the filter's prediction and the position loop each in one of four (docs/firmware.md). The
+// flight still works (take-off, hold, landing), the motors answer a body rate in the very iteration it
+// is measured, and the thrust the position loop asks for changes on one iteration in four only.
+TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneInFour) {
+  Bench b;
+  b.gyro_bias.setZero();
+  b.boot();
+  ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, 400.0f), nullptr);
+  b.step_us = 2500;
+  VerticalVehicle v;
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  mav::SetPositionTargetLocalNed sp;
+  sp.target_system = 1;
+  sp.coordinate_frame = mav::kFrameLocalNed;
+  sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
+  sp.z = -1.5f;
+  b.send(quad::hal::kUart0, sp, b.gcs);
+  float f_z = -kG;
+  Eigen::Vector3f rate = Eigen::Vector3f::Zero();
+  auto collective = [&] {
+    float c = 0.0f;
+    for (int i = 0; i < 4; ++i) c += b.actuators.back().controls[i] * b.actuators.back().controls[i];
+    return c;
+  };
+  int iterations = 0, collective_changes = 0;
+  auto fly = [&](int steps) {
+    for (int i = 0; i < steps; ++i) {
+      const float before = b.actuators.empty() ? 0.0f : collective();
+      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
+      f_z = v.step(b.actuators.back().controls, 0.0025f);
+      ++iterations;
+      if (collective() != before) ++collective_changes;
+      if (i % 12 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 2500);
+      if (i % 20 == 0) b.sticks(0);
+    }
+  };
+  fly(3200);  // 8 s
+  EXPECT_NEAR(v.z, -1.5f, 0.1f) << "AUTO reaches the setpoint at 400 Hz";
+  EXPECT_NEAR(b.app->position().z, v.z, 0.05f);
+  // The attitude loop's thrust shares sum to the held thrust, so the collective moves only when the
+  // position loop runs: about one iteration in four (the mixer's rounding can repeat a value).
+  EXPECT_LE(collective_changes, iterations / 4 + 2);
+  EXPECT_GE(collective_changes, iterations / 5);
+  // A roll rate in one iteration: the motors answer in that iteration (the rate term of eq. 8.39),
+  // whichever of the four it is.
+  for (int k = 0; k < 4; ++k) {
+    const auto before = b.actuators.back();
+    rate = Eigen::Vector3f(0.5f, 0.0f, 0.0f);
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
+    rate.setZero();
+    const auto& after = b.actuators.back();
+    // Plus frame (control/vehicle.h): motors 1 (left) and 3 (right) carry roll; a positive roll rate
+    // is damped by a negative roll torque: more thrust on the right, less on the left.
+    EXPECT_LT(after.controls[1] - after.controls[3], before.controls[1] - before.controls[3] - 1e-3f) << "iteration " << k;
+    for (int i = 0; i < 20; ++i) {
+      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
+      f_z = v.step(b.actuators.back().controls, 0.0025f);
+    }
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);  // the next try one iteration later
+  }
+  ASSERT_EQ(b.command(mav::kCmdNavLand), mav::kResultAccepted);
+  fly(4000);
+  EXPECT_NEAR(v.z, 0.0f, 1e-3f) << "on the ground";
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
 }
 
 }  // namespace

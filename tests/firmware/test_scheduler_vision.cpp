@@ -63,9 +63,23 @@ TEST(LoopTimer, LoadTracksExecutionShare) {
     t.end(now + 2500);  // 25 % of the period
     now += 10000;
   }
-  EXPECT_NEAR(t.load_permille(), 250, 2);
+  EXPECT_NEAR(t.load_permille(), 250, 1);
   EXPECT_EQ(t.overruns(), 0u);
   EXPECT_EQ(t.iterations(), 1000u);
+  // The integer share against the float formula at every execution time of a 400 Hz period, and an
+  // iteration longer than the period counts as the whole period (1000).
+  t.set_rate_hz(400.0f);
+  for (uint32_t exec = 0; exec <= 3000; exec += 7) {
+    LoopTimer u;
+    u.set_rate_hz(400.0f);
+    for (int i = 0; i < 1000; ++i) {
+      u.begin(now);
+      u.end(now + exec);
+      now += 2500;
+    }
+    const double expected = std::min(1000.0, 1000.0 * exec / 2500.0);
+    EXPECT_NEAR(u.load_permille(), expected, 1.0) << exec << " us";
+  }
 }
 
 TEST(LoopTimer, SurvivesClockWrap) {
@@ -149,6 +163,46 @@ TEST(RateDivider, RunsAtTheRequestedShareOfTheLoop) {
   int n = 0;
   for (int i = 0; i < 40000; ++i) n += d.tick() ? 1 : 0;
   EXPECT_NEAR(n, 3330, 1) << "0.1 Hz resolution at 400 Hz";
+}
+
+// The 100 Hz stages of the firmware over a faster loop: each stage once per 10 ms frame, in its own
+// iteration when the loop has four or more per frame, in the order correction, prediction, position
+// loop, shaper; all in every iteration at 100 Hz; and, for a loop rate that does not divide, each stage
+// still once per frame.
+TEST(StageClock, EachStageOncePerFrameInItsOwnIteration) {
+  using quad::fw::StageClock;
+  for (const float loop_hz : {100.0f, 200.0f, 250.0f, 300.0f, 400.0f, 800.0f, 1000.0f, 50.0f}) {
+    StageClock c;
+    c.configure(100.0f, loop_hz);
+    const int expected_per_frame = loop_hz <= 100.0f ? 1 : static_cast<int>(loop_hz / 100.0f);
+    EXPECT_EQ(c.per_frame(), expected_per_frame) << loop_hz;
+    const int n = static_cast<int>(10.0f * loop_hz);  // 10 s
+    int runs[4] = {0, 0, 0, 0}, shared = 0, out_of_order = 0;
+    int last[4] = {-1, -1, -1, -1};
+    for (int i = 0; i < n; ++i) {
+      c.tick();
+      int fired = 0;
+      for (uint8_t s = 0; s < 4; ++s) {
+        if (!c.runs(s)) continue;
+        ++runs[s];
+        ++fired;
+        last[s] = i;
+      }
+      if (fired > 1) ++shared;
+      // Within a frame of four or more iterations: the prediction the iteration after the correction,
+      // the position loop the one after that.
+      if (c.per_frame() >= 4 && c.runs(1) && last[0] != i - 1) ++out_of_order;
+      if (c.per_frame() >= 4 && c.runs(2) && last[1] != i - 1) ++out_of_order;
+    }
+    // 100 Hz x 10 s (50 Hz: every iteration, 500); the first frame may be cut short.
+    const int frames = loop_hz <= 100.0f ? n : 1000;
+    for (int s = 0; s < 4; ++s) EXPECT_NEAR(runs[s], frames, 1) << loop_hz << " Hz, stage " << s;
+    if (c.per_frame() >= 4) {
+      EXPECT_EQ(shared, 0) << loop_hz << " Hz: one stage per iteration";
+      EXPECT_LE(out_of_order, 1) << loop_hz;  // (the cut first frame)
+    }
+    if (c.per_frame() == 1) EXPECT_EQ(shared, n) << "100 Hz: every stage in every iteration";
+  }
 }
 
 quad::Quat random_quat(std::mt19937& rng) {

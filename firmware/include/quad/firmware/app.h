@@ -42,8 +42,9 @@ namespace fw {
 constexpr uint8_t kVehicleSystemId = 1;
 constexpr uint8_t kVehicleComponentId = 1;
 
-// The position filter predicts at about this rate whatever the control loop rate; its history covers
-// 250 ms of vision delay at that rate.
+// The position filter predicts, the observer corrects and the position loop runs at about this rate
+// whatever the control loop rate (the thesis' 100 Hz); only the attitude propagation and the attitude
+// loop run at the loop rate. The filter's history covers 250 ms of vision delay at that rate.
 constexpr float kPositionRateHz = 100.0f;
 constexpr int kPositionHistory = est::history_length(100);
 
@@ -194,7 +195,16 @@ class FlightApp {
   mavlink::Sender senders_[hal::kPortCount];
 
   LoopTimer loop_timer_;
-  RateDivider position_rate_;
+  // The stages that run at kPositionRateHz out of a faster loop, each in its own iteration of the 10 ms
+  // frame (at 100 Hz all in every one): the observer's correction, the position filter's prediction
+  // (after it, with its rotation), the position loop (after that, with the predicted state), the
+  // setpoint shaper. The attitude propagation and the attitude loop run in every iteration.
+  enum Stage : uint8_t { kStageCorrect = 0, kStagePredict = 1, kStagePositionLoop = 2, kStageShaper = 3 };
+  StageClock stages_;
+  float correction_dt_ = 0.0f;     // s since the observer's last correction
+  float outer_dt_ = 0.0f;          // s since the position loop last ran
+  float shaper_dt_ = 0.0f;         // s since the shaper last stepped
+  FlightMode outer_mode_ = FlightMode::kDisarmed;  // the mode of the last control(): a new one runs the position loop at once
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;
   RateDivider position_tel_rate_;
@@ -205,7 +215,9 @@ class FlightApp {
   est::ConditionedObserver observer_;
   est::PositionFilter<kPositionHistory> filter_;
   AttitudeHistory history_;
-  Vec3 accel_sum_;       // kinematic acceleration summed between position-filter predictions
+  Vec3 accel_sum_;       // body specific force summed between position-filter predictions (valid samples)
+  Vec3 pending_mag_;     // a magnetometer sample that arrived between two corrections
+  bool mag_pending_ = false;
   ImuClipGuard imu_clip_;
   Vec3 last_good_kinematic_accel_;  // stands in for a clipped accelerometer's (eq. 8.7)
   bool gyro_clipped_since_status_ = false;   // SYS_STATUS health: cleared bits for the whole period

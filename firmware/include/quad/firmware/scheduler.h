@@ -30,8 +30,8 @@ class LoopTimer {
   uint32_t iterations() const { return iterations_; }
   uint32_t last_exec_us() const { return last_exec_us_; }
   uint32_t max_exec_us() const { return max_exec_us_; }
-  // Share of the period spent in the loop, 0..1000 per mille (SYS_STATUS.load), filtered over ~1 s.
-  uint16_t load_permille() const { return static_cast<uint16_t>(load_permille_ + 0.5f); }
+  // Share of the period spent in the loop, 0..1000 per mille (SYS_STATUS.load), filtered over 64 iterations.
+  uint16_t load_permille() const { return static_cast<uint16_t>((load_q8_ + 128) >> 8); }
 
  private:
   uint32_t period_us_ = 10000;
@@ -43,7 +43,8 @@ class LoopTimer {
   uint32_t max_exec_us_ = 0;
   uint32_t overruns_ = 0;
   uint32_t iterations_ = 0;
-  float load_permille_ = 0.0f;
+  uint32_t load_scale_ = (1000u * 65536u + 5000u) / 10000u;  // set_rate_hz(): 1000 * 2^16 / period_us_
+  int32_t load_q8_ = 0;  // filtered load, per mille x 256
 };
 
 // Runs a task at `rate_hz` out of a loop at `loop_hz` by counting iterations (deterministic in
@@ -64,6 +65,25 @@ class RateDivider {
   uint16_t step_ = 0;    // rate, 0.1 Hz (0: off)
   uint16_t period_ = 0;  // loop rate, 0.1 Hz
   uint16_t phase_ = 0;   // accumulated, < period_
+};
+
+// Spreads the stages of a frame at `rate_hz` (kPositionRateHz, 100 Hz) over the iterations of a faster
+// loop, so that no iteration carries all of them: with n = floor(loop_hz / rate_hz) iterations per frame,
+// stage s runs in iteration s mod n of each frame (every stage in every iteration at n = 1). On the
+// ATmega2560 at 400 Hz this is what keeps each iteration near a quarter of the 100 Hz one
+// (docs/performance.md). A loop rate that does not divide (250 Hz: frames of two and three iterations)
+// runs the stages in the first n iterations of each frame.
+class StageClock {
+ public:
+  void configure(float rate_hz, float loop_hz);
+  void tick();  // once per loop iteration, before runs()
+  bool runs(uint8_t stage) const { return stage % per_frame_ == index_; }
+  uint8_t per_frame() const { return per_frame_; }
+
+ private:
+  RateDivider frame_;     // fires on the first iteration of each frame
+  uint8_t per_frame_ = 1;
+  uint8_t index_ = 0;     // the iteration within the frame (saturates)
 };
 
 }  // namespace fw
