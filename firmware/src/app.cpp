@@ -557,8 +557,13 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // covers is accumulated here and taken where it runs.
   stages_.tick();
   correction_dt_ += dt;
-  outer_dt_ += dt;
   shaper_dt_ += dt;
+  slow_dt_ += dt;
+  // The application's own slow work (the hover bias gate, the mode machine, the position trim, landing
+  // detection) at the frame rate, in the shaper's iteration: the lightest of a 400 Hz frame.
+  const bool slow_now = stages_.runs(kStageShaper);
+  const float slow_dt = slow_dt_;
+  if (slow_now) slow_dt_ = 0.0f;
 
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
@@ -577,19 +582,19 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
     report_clipping();
     const Vec3 accel = imu.accel - bias_.bias.accel;
     const bool accel_valid = !imu_clip_.accel_clipped();
-    accel_bias_.update(accel, accel_valid && hovering(), dt);
+    if (slow_now) accel_bias_.update(accel, accel_valid && hovering(), slow_dt);
     // The learned bias has z = +0: accel.z - 0.0f is accel.z itself (IEEE: x - (+0) = x, -0 included).
     const Vec3 b = accel_bias_.bias();
     estimate(gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt);
   }
   if (stages_.runs(kStageCorrect)) correction_dt_ = 0.0f;  // taken by estimate(), or nothing to correct in calibration
 
-  handle_transition(modes_.update(mode_inputs(false)));
+  if (slow_now) handle_transition(modes_.update(mode_inputs(false)));
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground.
   if (!modes_.armed()) radio_.persist_clock(io_.storage, now_us_, false);
-  control(dt);
+  control(dt, slow_now, slow_dt);
   mark(modes_.mode() == FlightMode::kDisarmed ? hal::TracePoint::kControlIdle : hal::TracePoint::kControlFlown);
-  detect_landing(dt);
+  if (slow_now) detect_landing(slow_dt);
   telemetry();
 
   if (param_stream_next_ >= 0) {
@@ -759,7 +764,7 @@ void FlightApp::enter_mode(FlightMode from, FlightMode to) {
   }
 }
 
-void FlightApp::control(float dt) {
+void FlightApp::control(float dt, bool slow_now, float slow_dt) {
   ctrl::VehicleState s;
   s.p = filter_.position();
   s.v = filter_.velocity();
@@ -772,8 +777,7 @@ void FlightApp::control(float dt) {
   const bool entered = mode != outer_mode_;
   const bool outer_now = stages_.runs(kStagePositionLoop) || entered;
   const bool shape_now = stages_.runs(kStageShaper) || entered;
-  const float outer_dt = outer_dt_, shaper_dt = shaper_dt_;
-  if (outer_now) outer_dt_ = 0.0f;
+  const float shaper_dt = shaper_dt_;
   if (shape_now) shaper_dt_ = 0.0f;
   outer_mode_ = mode;
 
@@ -788,14 +792,14 @@ void FlightApp::control(float dt) {
       break;
     case FlightMode::kAuto: {
       if (shape_now) shaper_.update(shaper_dt, setpoint_);
-      if (!outer_now) break;
       // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
       // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
-      if (!landed_) {
+      if (slow_now && !landed_) {
         const uint8_t moving = moving_axes(setpoint_.v_d);
         const bool learn[3] = {(moving & 1u) == 0u, (moving & 2u) == 0u, (moving & 4u) == 0u};
-        trim_.update(s.p - setpoint_.p_d, learn, outer_dt);
+        trim_.update(s.p - setpoint_.p_d, learn, slow_dt);
       }
+      if (!outer_now) break;
       ctrl::PositionSetpoint sp = setpoint_;
       sp.a_d += trim_.accel();
       out = &cascade_.step(s, sp);

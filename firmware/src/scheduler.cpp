@@ -37,10 +37,15 @@ void LoopTimer::end(uint32_t now_us) {
   // form (a division and four other operations) was 1 600 cycles of every iteration, this about 200.
   // exec <= period keeps exec * scale below 1000 * 2^16 + period (no overflow).
   const uint32_t exec = last_exec_us_ < period_us_ ? last_exec_us_ : period_us_;
-  const int32_t permille = static_cast<int32_t>((exec * load_scale_) >> 16);
-  // First-order filter with a time constant of 64 iterations (0.64 s at 100 Hz), in per mille x 256 (the
-  // truncating division leaves at most a quarter per mille).
-  load_q8_ += ((permille << 8) - load_q8_) / 64;
+  const uint32_t target = ((exec * load_scale_) >> 16) << 8;  // per mille x 256
+  // First-order filter with a time constant of 64 iterations (0.64 s at 100 Hz), on unsigned steps
+  // (shifts; a signed division is a library call on the AVR); the truncation leaves at most a quarter
+  // per mille.
+  if (target >= load_q8_) {
+    load_q8_ += (target - load_q8_) >> 6;
+  } else {
+    load_q8_ -= (load_q8_ - target) >> 6;
+  }
 }
 
 void RateDivider::configure(float rate_hz, float loop_hz, uint8_t slot) {

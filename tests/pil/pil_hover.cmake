@@ -4,7 +4,8 @@
 # firmware parameters applied, and horizontal standard deviation over the hold within MAX_STD_RATIO of
 # the host firmware's.
 #   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
-#         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] [-DPERIOD_CYCLES=<cycles>] -P pil_hover.cmake
+#         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] [-DPERIOD_CYCLES=<cycles> [-DPERIOD_SCOPE=flown]]
+#         -P pil_hover.cmake
 foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "pil_hover.cmake: ${var} is not set")
@@ -115,12 +116,26 @@ if(DEFINED PERIOD_CYCLES)
   foreach(line ${profile})
     message(STATUS "${line}")
   endforeach()
-  string(REGEX MATCH "cycles of whole iteration: [0-9]+ samples, median [0-9]+, p99 [0-9]+, max ([0-9]+)" found "${log}")
+  # PERIOD_SCOPE flown: only the iterations that flew the vehicle must fit (above 100 Hz the end of the
+  # boot calibration, one iteration on the ground before arming, takes longer than a period).
+  if(PERIOD_SCOPE STREQUAL "flown")
+    set(scope "whole iteration flown")
+  else()
+    set(scope "whole iteration")
+  endif()
+  string(REGEX MATCH "cycles of ${scope}: [0-9]+ samples, median [0-9]+, p99 [0-9]+, max ([0-9]+)" found "${log}")
   set(step_max "${CMAKE_MATCH_1}")
+  string(REGEX MATCH "cycles of vision fix: [0-9]+ samples, median [0-9]+, p99 [0-9]+, max ([0-9]+)" found "${log}")
+  set(fix_max "${CMAKE_MATCH_1}")
   if(step_max STREQUAL "")
     list(APPEND failures "no iteration profile in ${OUT}/target/firmware.log (hal::trace not wired?)")
   elseif(step_max GREATER PERIOD_CYCLES)
-    list(APPEND failures "the longest iteration took ${step_max} cycles, more than the ${PERIOD_CYCLES} of a control period")
+    list(APPEND failures "the longest ${scope} took ${step_max} cycles, more than the ${PERIOD_CYCLES} of a control period")
+  elseif(NOT fix_max STREQUAL "")
+    # A fix is fused between iterations: a period may hold both (for the record, docs/performance.md).
+    math(EXPR both "${step_max} + ${fix_max}")
+    math(EXPR share "100 * ${both} / ${PERIOD_CYCLES}")
+    message(STATUS "longest ${scope} + longest vision fix: ${both} cycles, ${share} % of the ${PERIOD_CYCLES}-cycle period")
   endif()
 endif()
 

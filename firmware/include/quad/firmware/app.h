@@ -160,7 +160,8 @@ class FlightApp {
   ModeInputs mode_inputs(bool with_throttle = true) const;
   void handle_transition(const Transition& t);
   void enter_mode(FlightMode from, FlightMode to);
-  void control(float dt);
+  // slow_now: this iteration runs the frame-rate work (slow_dt: the time since it last did).
+  void control(float dt, bool slow_now, float slow_dt);
   void detect_landing(float dt);
   void telemetry();
   void mark(hal::TracePoint point) const {
@@ -202,8 +203,8 @@ class FlightApp {
   enum Stage : uint8_t { kStageCorrect = 0, kStagePredict = 1, kStagePositionLoop = 2, kStageShaper = 3 };
   StageClock stages_;
   float correction_dt_ = 0.0f;     // s since the observer's last correction
-  float outer_dt_ = 0.0f;          // s since the position loop last ran
   float shaper_dt_ = 0.0f;         // s since the shaper last stepped
+  float slow_dt_ = 0.0f;           // s since the application's frame-rate work last ran
   FlightMode outer_mode_ = FlightMode::kDisarmed;  // the mode of the last control(): a new one runs the position loop at once
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;

@@ -44,7 +44,7 @@ class LoopTimer {
   uint32_t overruns_ = 0;
   uint32_t iterations_ = 0;
   uint32_t load_scale_ = (1000u * 65536u + 5000u) / 10000u;  // set_rate_hz(): 1000 * 2^16 / period_us_
-  int32_t load_q8_ = 0;  // filtered load, per mille x 256
+  uint32_t load_q8_ = 0;  // filtered load, per mille x 256
 };
 
 // Runs a task at `rate_hz` out of a loop at `loop_hz` by counting iterations (deterministic in
