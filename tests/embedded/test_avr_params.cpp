@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "raw_pty.h"
+
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -134,27 +136,6 @@ TEST(AvrPilParams, ABadFileStopsItBeforeTheEmulation) {
   std::remove(path.c_str());
 }
 
-struct PtyPair {
-  int master = -1, slave = -1;
-  std::string path;
-  PtyPair() {
-    char name[256];
-    if (openpty(&master, &slave, name, nullptr, nullptr) == 0) {
-      path = name;
-      termios tio{};
-      tcgetattr(master, &tio);
-      cfmakeraw(&tio);
-      tcsetattr(master, TCSANOW, &tio);
-      tcsetattr(slave, TCSANOW, &tio);
-      fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
-    }
-  }
-  ~PtyPair() {
-    if (master >= 0) close(master);
-    if (slave >= 0) close(slave);
-  }
-};
-
 struct Boot {
   std::map<uint16_t, float> values;  // PARAM_VALUE answers by index
   std::vector<std::string> texts;    // STATUSTEXT
@@ -169,7 +150,7 @@ struct Boot {
 // parameters `wanted`, until all are answered or the deadline passes.
 Boot boot_and_read(const std::string& params_path, const std::vector<uint8_t>& wanted) {
   Boot boot;
-  PtyPair p0, p2;
+  quad_test::RawPty p0(true), p2(true);
   if (p0.path.empty() || p2.path.empty()) return boot;
   const pid_t pid = fork();
   if (pid < 0) return boot;

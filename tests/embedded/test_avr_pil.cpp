@@ -10,32 +10,14 @@
 
 #include <gtest/gtest.h>
 
+#include "raw_pty.h"
+
 #include <chrono>
 #include <random>
 #include <string>
 #include <vector>
 
 namespace {
-
-struct PtyPair {
-  int master = -1, slave = -1;
-  std::string path;
-  PtyPair() {
-    char name[256];
-    if (openpty(&master, &slave, name, nullptr, nullptr) == 0) {
-      path = name;
-      termios tio{};
-      tcgetattr(master, &tio);
-      cfmakeraw(&tio);
-      tcsetattr(master, TCSANOW, &tio);
-      tcsetattr(slave, TCSANOW, &tio);
-    }
-  }
-  ~PtyPair() {
-    if (master >= 0) close(master);
-    if (slave >= 0) close(slave);
-  }
-};
 
 // Writes `out` to fd while collecting what comes back, until all is back or the deadline passes.
 std::vector<uint8_t> exchange(int fd0, const std::vector<uint8_t>& out0, int fd2, const std::vector<uint8_t>& out2,
@@ -67,7 +49,7 @@ std::vector<uint8_t> exchange(int fd0, const std::vector<uint8_t>& out0, int fd2
 
 TEST(AvrPil, BridgesBothUartsWithoutLosingAByte) {
   ASSERT_EQ(access(UART_ECHO_ELF, R_OK), 0) << UART_ECHO_ELF << " missing: run `make avr` first";
-  PtyPair p0, p2;
+  quad_test::RawPty p0, p2;
   ASSERT_FALSE(p0.path.empty());
   ASSERT_FALSE(p2.path.empty());
   const pid_t pid = fork();
