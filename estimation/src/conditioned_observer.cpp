@@ -14,7 +14,7 @@ constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 // calls into the AVR's software float compare; each use below states why its operands qualify.)
 
 // Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
-// approximation changes the norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
+// approximation changes the squared norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
 // renormalises to round-off without the square root and division of a full normalisation.
 // half_dt_sq = (dt/2)^2 comes from the caller's per-dt cache.
 // Without `renormalise` the Newton step is left out: the norm then moves by x^4/24 per step (1.6e-7 at
