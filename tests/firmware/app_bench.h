@@ -123,6 +123,16 @@ class Bench {
     return acks.empty() ? 255 : acks.back().result;
   }
   uint8_t arm() { return command(mav::kCmdComponentArmDisarm, 1.0f); }
+  // A SET_POSITION_TARGET_LOCAL_NED with the position only (velocity, acceleration, yaw and yaw rate
+  // ignored), straight above the origin at NED z.
+  void position_target(float z) {
+    mav::SetPositionTargetLocalNed sp;
+    sp.target_system = 1;
+    sp.coordinate_frame = mav::kFrameLocalNed;
+    sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
+    sp.z = z;
+    send(quad::hal::kUart0, sp, gcs);
+  }
   uint8_t set_mode(FlightMode m) { return command(mav::kCmdDoSetMode, 1.0f, static_cast<float>(m)); }
 
   // The star seen from a vehicle at p (NED) with attitude q, as the vision station reports it.

@@ -441,17 +441,6 @@ void into_auto(Bench& b, const Eigen::Vector3f& p) {
   EXPECT_EQ(b.app->mode(), FlightMode::kAuto);
 }
 
-// A SET_POSITION_TARGET_LOCAL_NED with the position only (velocity, acceleration, yaw and yaw rate
-// ignored), straight above the origin at NED z.
-void send_position_target(Bench& b, float z) {
-  mav::SetPositionTargetLocalNed sp;
-  sp.target_system = 1;
-  sp.coordinate_frame = mav::kFrameLocalNed;
-  sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
-  sp.z = z;
-  b.send(quad::hal::kUart0, sp, b.gcs);
-}
-
 TEST(FirmwareApp, RcSwitchesArmKillAndSelectTheMode) {
   // Thesis sec. 6.1.4: a motor-enable toggle and a manual/auto toggle (MANUAL_CONTROL buttons bits 0/1).
   Bench b;
@@ -561,7 +550,7 @@ TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
   VerticalVehicle v;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
   // Climb to 1.5 m.
-  send_position_target(b, -1.5f);
+  b.position_target(-1.5f);
   float f_z = -kG;
   auto fly = [&](int steps) {
     for (int i = 0; i < steps; ++i) {
@@ -597,7 +586,7 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   b.step_us = 2500;
   VerticalVehicle v;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
-  send_position_target(b, -1.5f);
+  b.position_target(-1.5f);
   float f_z = -kG;
   Eigen::Vector3f rate = Eigen::Vector3f::Zero();
   auto collective = [&] {
@@ -664,7 +653,7 @@ float hover_offset_with_heavier_vehicle(float ki, float seconds, float* trim = n
   VerticalVehicle v;
   v.mass = 1.4f * 1.05f;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
-  send_position_target(b, -1.0f);
+  b.position_target(-1.0f);
   float f_z = -kG;
   const int steps = static_cast<int>(seconds * 100.0f);
   double sum = 0.0;

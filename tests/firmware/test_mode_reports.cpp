@@ -337,12 +337,7 @@ class Flight {
     EXPECT_EQ(b.set_mode(FlightMode::kAuto), mav::kResultAccepted);
   }
   void climb_to(float z) {
-    mav::SetPositionTargetLocalNed sp;
-    sp.target_system = 1;
-    sp.coordinate_frame = mav::kFrameLocalNed;
-    sp.type_mask = 0x38 | 0x1C0 | 0x800 | 0x400;
-    sp.z = z;
-    b.send(quad::hal::kUart0, sp, b.gcs);
+    b.position_target(z);
     fly(1000, true);
     EXPECT_NEAR(v.z, z, 0.05f);
   }
