@@ -636,6 +636,46 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
 }
 
+// SYS_LOOP_HZ changed in flight (a PARAM_SET while hovering): the stage clock starts a new frame, the
+// observer moves between its single-rate and multi-rate forms, and the position loop goes on: after
+// each change the vehicle moves 30 cm to a new height and holds it.
+TEST(FirmwareApp, ChangingTheLoopRateInFlightKeepsThePositionLoop) {
+  Bench b;
+  b.gyro_bias.setZero();
+  b.boot();
+  VerticalVehicle v;
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  b.position_target(-1.5f);
+  float f_z = -kG;
+  int step_count = 0;
+  auto fly = [&](float seconds) {
+    const float dt = 1e-6f * static_cast<float>(b.step_us);
+    const int per_10ms = static_cast<int>(10000u / b.step_us);
+    const int steps = static_cast<int>(seconds / dt + 0.5f);
+    for (int i = 0; i < steps; ++i, ++step_count) {
+      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
+      f_z = v.step(b.actuators.back().controls, dt);
+      if (step_count % (3 * per_10ms) == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - b.step_us);
+      if (step_count % (5 * per_10ms) == 0) b.sticks(0);
+    }
+  };
+  fly(8.0f);  // at 100 Hz: climbed and settled
+  ASSERT_NEAR(v.z, -1.5f, 0.05f);
+  float target = -1.5f;
+  for (const float hz : {400.0f, 200.0f, 100.0f, 400.0f}) {
+    ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, hz), nullptr);
+    b.step_us = static_cast<uint32_t>(1e6f / hz + 0.5f);
+    target = target < -1.35f ? -1.2f : -1.5f;
+    b.position_target(target);
+    fly(6.0f);
+    std::printf("[figure] loop rate changed in flight to %.0f Hz, then a 30 cm move: %.1f mm from the target after 6 s\n",
+                hz, std::fabs(v.z - target) * 1000.0f);
+    EXPECT_NEAR(v.z, target, 0.03f) << hz << " Hz";
+    EXPECT_EQ(b.app->mode(), FlightMode::kAuto) << hz << " Hz";
+    EXPECT_NEAR(b.app->position().z, v.z, 0.02f) << hz << " Hz";
+  }
+}
+
 }  // namespace
 
 namespace {
