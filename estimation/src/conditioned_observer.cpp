@@ -31,9 +31,12 @@ Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float ha
   return renormalise ? n * (1.5f - half(dot(n, n))) : n;
 }
 
-// Steps in a row without the Newton renormalisation: update() renormalises every step; correct() and
-// propagate() every fourth (at 400 Hz the propagation just before the next correction).
-constexpr uint8_t kPropagationsPerRenormalisation = 4;
+// The multi-rate form renormalises on the third propagation after a correction (at 400 Hz the
+// propagation just before the next correction, the lightest iteration of the frame), and in any case
+// on every fourth step in a row (a caller that only corrects, or only propagates). update()
+// renormalises every step.
+constexpr uint8_t kRenormalisingPropagation = 3;
+constexpr uint8_t kMaxUnnormalisedSteps = 3;
 
 }  // namespace
 
@@ -139,6 +142,7 @@ void ConditionedObserver::reset(const Quat& q_ib, const Vec3& gyro_bias) {
   r_ = to_dcm(q_);
   r_stale_ = false;
   unnormalised_steps_ = 0;
+  propagations_since_correction_ = 0;
   sigma_r_ = Vec3{};
   // eq. 4.9 requires ||b(0)|| < Delta.
   bias_ = is_finite(gyro_bias) ? sat_delta(gyro_bias, 0.999f * params_.delta) : Vec3{};
@@ -150,7 +154,9 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
   if (!step_ok(gyro, dt)) return;
   const Vec3 rate = gyro - bias_;
   const Vec3 omega = rate + sigma_r_;  // eq. 4.10 with the held innovation
-  const bool renormalise = unnormalised_steps_ + 1u >= kPropagationsPerRenormalisation;
+  if (propagations_since_correction_ < 255u) ++propagations_since_correction_;
+  const bool renormalise = propagations_since_correction_ == kRenormalisingPropagation ||
+                           unnormalised_steps_ >= kMaxUnnormalisedSteps;
   const Quat q_next = params_.propagator == Propagator::Exact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
@@ -237,7 +243,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   const Vec3 omega = rate + sigma_r;
   // Single-rate, every step renormalises; multi-rate, the fourth unnormalised step in a row does (the
   // propagation before the next correction, at 400 Hz: the correction's iteration is the heaviest).
-  const bool renormalise = !multi_rate || unnormalised_steps_ + 1u >= kPropagationsPerRenormalisation;
+  const bool renormalise = !multi_rate || unnormalised_steps_ >= kMaxUnnormalisedSteps;
   const Quat q_next = k.propagator == Propagator::Exact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
@@ -255,6 +261,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
 
   if (!commit(q_next, b_next, rate)) return;
   unnormalised_steps_ = renormalise ? 0u : static_cast<uint8_t>(unnormalised_steps_ + 1u);
+  propagations_since_correction_ = 0;  // the frame starts here, whatever the phase it was started at
   sigma_r_ = sigma_r;
   if (multi_rate) {
     // dcm() stays the rotation this correction used (the attitude at its start): the prediction of the

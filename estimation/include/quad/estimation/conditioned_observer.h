@@ -95,7 +95,7 @@ class ConditionedObserver {
   // `dt` the step of the attitude. The attitude innovation is held (zero-order) until the next
   // correction, and propagate() applies it on the samples in between, so per unit of time the
   // correction is the single-rate one. Unlike update(), it leaves dcm() at the rotation it used (the
-  // attitude at its start) and renormalises only as propagate() does, every fourth step: the
+  // attitude at its start) and does not renormalise (unless three steps in a row already did not): the
   // correction's iteration is the heaviest of a 400 Hz loop.
   void correct(const Vec3& gyro_frd, const Vec3& accel_frd, const Vec3& mag_frd, bool mag_valid, float dt,
                float correction_dt) {
@@ -103,7 +103,8 @@ class ConditionedObserver {
   }
   // A sample between two corrections: eq. 4.18 with Omega_m - b + sigma_R, sigma_R held from the last
   // correction, the bias unchanged. The same checks as update() (a bad gyro or dt skips the sample). It
-  // renormalises the attitude on every fourth step in a row only: |q| stays within ~1e-6 of one.
+  // renormalises the attitude on the third propagation after a correction (and on every fourth step in
+  // a row without one): |q| stays within ~1e-6 of one.
   void propagate(const Vec3& gyro_frd, float dt);
 
   const Quat& attitude() const { return q_; }           // q_IB
@@ -144,7 +145,8 @@ class ConditionedObserver {
   Quat q_;
   Mat3 r_ = Mat3::identity();  // R(q_) as of the last update() or reset()
   bool r_stale_ = false;       // propagate() has moved q_ since r_ was computed
-  uint8_t unnormalised_steps_ = 0;  // propagate() steps since the last Newton renormalisation
+  uint8_t unnormalised_steps_ = 0;  // steps since the last Newton renormalisation
+  uint8_t propagations_since_correction_ = 0;
   Vec3 sigma_r_;               // the attitude innovation of the last update(), held for propagate()
   Vec3 bias_;
   Vec3 rate_;
