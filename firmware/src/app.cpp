@@ -557,7 +557,6 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // covers is accumulated here and taken where it runs.
   stages_.tick();
   correction_dt_ += dt;
-  shaper_dt_ += dt;
   slow_dt_ += dt;
   // The application's own slow work (the hover bias gate, the mode machine, the position trim, landing
   // detection) at the frame rate, in the shaper's iteration: the lightest of a 400 Hz frame.
@@ -753,7 +752,10 @@ void FlightApp::enter_mode(FlightMode from, FlightMode to) {
       // Hold where the vehicle is; setpoints from the ground station move the target from here.
       shaper_.reset(p);
       shaper_.set_target(p);
+      // What the shaper gives at rest on its target (p_d = p, v_d = a_d = 0), so a position loop that
+      // runs before the shaper's next step (above 100 Hz) holds here.
       setpoint_ = ctrl::PositionSetpoint{};
+      setpoint_.p_d = p;
       setpoint_.yaw_d = yaw;
       break;
     case FlightMode::kLanding:
@@ -776,9 +778,6 @@ void FlightApp::control(float dt, bool slow_now, float slow_dt) {
   const FlightMode mode = modes_.mode();
   const bool entered = mode != outer_mode_;
   const bool outer_now = stages_.runs(kStagePositionLoop) || entered;
-  const bool shape_now = stages_.runs(kStageShaper) || entered;
-  const float shaper_dt = shaper_dt_;
-  if (shape_now) shaper_dt_ = 0.0f;
   outer_mode_ = mode;
 
   const ctrl::CascadeOutput* out = nullptr;
@@ -791,7 +790,7 @@ void FlightApp::control(float dt, bool slow_now, float slow_dt) {
       out = &cascade_.step_attitude(s, manual_.command());
       break;
     case FlightMode::kAuto: {
-      if (shape_now) shaper_.update(shaper_dt, setpoint_);
+      if (slow_now) shaper_.update(slow_dt, setpoint_);
       // The trim learns only in the air (on the ground the error is the ground's doing), and not along an
       // axis the shaped setpoint is moving on (a move's tracking lag is not an offset).
       if (slow_now && !landed_) {

@@ -21,6 +21,7 @@
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
+#include "quad/firmware/scheduler.h"
 #include "quad/math/math.h"
 
 namespace {
@@ -130,7 +131,7 @@ void warm_up() {
   }
 }
 
-// The firmware's loop at 400 Hz (FlightApp's StageClock): every iteration propagates the attitude with
+// The firmware's loop at 400 Hz, on the firmware's own StageClock: every iteration propagates the attitude with
 // the gyro and runs the attitude loop and mixer; one iteration in four each corrects the observer (over
 // the 10 ms since the last correction), predicts the position filter (with the mean specific force of
 // the four iterations and the rotation of the correction), runs the position loop (eq. 8.20, thrust and
@@ -138,10 +139,12 @@ void warm_up() {
 constexpr float kDt400 = 0.25f * kDt;
 Vec3 g_accel_sum;
 uint8_t g_accel_count = 0;
+quad::fw::StageClock g_stages;  // configured for 100 Hz stages in a 400 Hz loop by tick400_frames()
 
-void tick400(uint32_t k, const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint& sp) {
-  const uint32_t slot = k % 4u;
-  if (slot == 0u) {
+// One iteration; the stage clock ticks first, as in FlightApp::step.
+void tick400(const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint& sp) {
+  g_stages.tick();
+  if (g_stages.runs(quad::fw::kStageCorrect)) {
     g_observer.correct(s.gyro, s.accel, s.mag, mag_new, kDt400, kDt);
   } else {
     g_observer.propagate(s.gyro, kDt400);
@@ -152,27 +155,28 @@ void tick400(uint32_t k, const Sensors& s, bool mag_new, const quad::ctrl::Posit
     g_accel_sum += s.accel;
   }
   ++g_accel_count;
-  if (slot == 1u) {
+  if (g_stages.runs(quad::fw::kStagePredict)) {
     g_now_us += kPeriodUs;
     g_filter.predict(quad::est::kinematic_acceleration(g_observer.dcm(), g_accel_sum * (1.0f / static_cast<float>(g_accel_count))),
                      g_now_us);
     g_accel_count = 0;
   }
-  if (slot == 3u) g_shaper.update(kDt, g_setpoint);
-  if (slot == 2u) {
+  if (g_stages.runs(quad::fw::kStageShaper)) g_shaper.update(kDt, g_setpoint);
+  if (g_stages.runs(quad::fw::kStagePositionLoop)) {
     quad_probe::keep(g_cascade.step(vehicle_state(), sp));
   } else {
     quad_probe::keep(g_cascade.step_held(vehicle_state()));
   }
 }
 
-// Names of the measured 400 Hz iterations, by slot (check_cycle_budget.cmake takes the largest of each set).
+// Names of the measured 400 Hz iterations, by stage (check_cycle_budget.cmake takes the largest of each set).
 const char* const kTypicalTick[4] = {"tick400_typical_correct", "tick400_typical_predict",
                                      "tick400_typical_position_loop", "tick400_typical_shaper"};
 const char* const kWorstTick[4] = {"tick400_worst_correct_mag", "tick400_worst_predict", "tick400_worst_position_loop",
                                    "tick400_worst_shaper_moving"};
 
 void tick400_frames() {
+  g_stages.configure(100.0f, 400.0f);  // the firmware's kPositionRateHz stages at SYS_LOOP_HZ 400
   g_shaper.reset(kHoverPoint);
   g_setpoint = quad::ctrl::PositionSetpoint{};
   g_setpoint.p_d = kHoverPoint;
@@ -181,13 +185,16 @@ void tick400_frames() {
   // fourth frame).
   uint32_t k = 0;
   for (; k < 400u; ++k) {
-    tick400(k, sample(g_step + k), (k / 4u) % 4u != 3u, g_setpoint);
+    tick400(sample(g_step + k), (k / 4u) % 4u != 3u, g_setpoint);
     if (k % 16u == 3u) fuse_fix();
   }
+  // Up to the end of a frame, so the measured iterations below are a frame's, in stage order.
+  for (; !g_stages.runs(quad::fw::kStageShaper); ++k) tick400(sample(g_step + k), false, g_setpoint);
   // A typical frame: no magnetometer sample, no fix, hovering.
-  for (uint32_t i = 0; i < 4u; ++i, ++k) {
+  for (uint8_t i = 0; i < 4u; ++i, ++k) {
     const Sensors s = sample(g_step + k);
-    measure(kTypicalTick[i], [&] { tick400(k, s, false, g_setpoint); });
+    measure(kTypicalTick[i], [&] { tick400(s, false, g_setpoint); });
+    check(g_stages.runs(i), "tick400_stage_order");
   }
   check(!g_cascade.output().motors.yaw_limited && !g_cascade.output().attitude.limited, "tick400_typical_saturated");
   // The worst frame: a magnetometer sample at the correction, the shaper moving towards a far target,
@@ -199,10 +206,11 @@ void tick400_frames() {
   far.p_d += Vec3{1.5f, -1.2f, 0.8f};
   far.v_d.x -= 1.0f;
   far.yaw_d = 0.7f;
-  for (uint32_t i = 0; i < 4u; ++i, ++k) tick400(k, sample(g_step + k), false, far);
-  for (uint32_t i = 0; i < 4u; ++i, ++k) {
+  for (uint32_t i = 0; i < 4u; ++i, ++k) tick400(sample(g_step + k), false, far);
+  for (uint8_t i = 0; i < 4u; ++i, ++k) {
     const Sensors s = sample(g_step + k);
-    measure(kWorstTick[i], [&] { tick400(k, s, true, far); });
+    measure(kWorstTick[i], [&] { tick400(s, true, far); });
+    check(g_stages.runs(i), "tick400_stage_order");
     check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
   }
   check(g_cascade.output().attitude.limited, "tick400_worst_tilt_not_limited");

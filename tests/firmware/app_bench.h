@@ -246,6 +246,30 @@ class Bench {
   }
 };
 
+// A VerticalVehicle flown by the bench's firmware in HIL, level and heading north, at the bench's step
+// period: a vision fix of its true height every 30 ms (captured at the step) and neutral sticks every
+// 50 ms, counted from the first step of each fly().
+struct VerticalFlight {
+  explicit VerticalFlight(Bench& bench) : b(bench) {}
+  // One step; `rate` is the body rate the gyro reads, `inputs` false leaves out the fix and the sticks.
+  void step(int i, const Eigen::Vector3f& rate = Eigen::Vector3f::Zero(), bool inputs = true) {
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
+    f_z = v.step(b.actuators.back().controls, 1e-6f * static_cast<float>(b.step_us));
+    if (!inputs) return;
+    const int per_10ms = static_cast<int>(10000u / b.step_us);
+    if (i % (3 * per_10ms) == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - b.step_us);
+    if (i % (5 * per_10ms) == 0) b.sticks(0);
+  }
+  void fly(int steps) {
+    for (int i = 0; i < steps; ++i) step(i);
+  }
+  void fly_seconds(float seconds) { fly(static_cast<int>(seconds * 1e6f / static_cast<float>(b.step_us) + 0.5f)); }
+
+  Bench& b;
+  VerticalVehicle v;
+  float f_z = -kG;  // the accelerometer's z reading of the last step
+};
+
 }  // namespace test
 }  // namespace fw
 }  // namespace quad

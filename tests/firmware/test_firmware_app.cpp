@@ -24,6 +24,7 @@ using quad_test::bits_of;
 
 using quad::fw::test::Bench;
 using quad::fw::test::VerticalVehicle;
+using quad::fw::test::VerticalFlight;
 namespace mav = quad::mavlink;
 using quad::fw::FlightMode;
 constexpr float kG = quad::fw::test::kG;
@@ -547,19 +548,12 @@ TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
   Bench b;
   b.gyro_bias.setZero();
   b.boot();
-  VerticalVehicle v;
+  VerticalFlight flight(b);
+  const VerticalVehicle& v = flight.v;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
   // Climb to 1.5 m.
   b.position_target(-1.5f);
-  float f_z = -kG;
-  auto fly = [&](int steps) {
-    for (int i = 0; i < steps; ++i) {
-      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
-      f_z = v.step(b.actuators.back().controls, 0.01f);
-      if (i % 3 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 10000);
-      if (i % 5 == 0) b.sticks(0);
-    }
-  };
+  auto fly = [&](int steps) { flight.fly(steps); };
   fly(800);
   EXPECT_NEAR(v.z, -1.5f, 0.1f) << "AUTO reaches the setpoint";
   EXPECT_NEAR(b.app->position().z, v.z, 0.05f);
@@ -584,11 +578,10 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   b.boot();
   ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, 400.0f), nullptr);
   b.step_us = 2500;
-  VerticalVehicle v;
+  VerticalFlight flight(b);
+  const VerticalVehicle& v = flight.v;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
   b.position_target(-1.5f);
-  float f_z = -kG;
-  Eigen::Vector3f rate = Eigen::Vector3f::Zero();
   auto collective = [&] {
     float c = 0.0f;
     for (int i = 0; i < 4; ++i) c += b.actuators.back().controls[i] * b.actuators.back().controls[i];
@@ -598,12 +591,9 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   auto fly = [&](int steps) {
     for (int i = 0; i < steps; ++i) {
       const float before = b.actuators.empty() ? 0.0f : collective();
-      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
-      f_z = v.step(b.actuators.back().controls, 0.0025f);
+      flight.step(i);
       ++iterations;
       if (collective() != before) ++collective_changes;
-      if (i % 12 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 2500);
-      if (i % 20 == 0) b.sticks(0);
     }
   };
   fly(3200);  // 8 s
@@ -617,18 +607,13 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   // whichever of the four it is.
   for (int k = 0; k < 4; ++k) {
     const auto before = b.actuators.back();
-    rate = Eigen::Vector3f(0.5f, 0.0f, 0.0f);
-    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
-    rate.setZero();
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, flight.f_z), Eigen::Vector3f(0.5f, 0.0f, 0.0f));
     const auto& after = b.actuators.back();
     // Plus frame (control/vehicle.h): motors 1 (left) and 3 (right) carry roll; a positive roll rate
     // is damped by a negative roll torque: more thrust on the right, less on the left.
     EXPECT_LT(after.controls[1] - after.controls[3], before.controls[1] - before.controls[3] - 1e-3f) << "iteration " << k;
-    for (int i = 0; i < 20; ++i) {
-      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);
-      f_z = v.step(b.actuators.back().controls, 0.0025f);
-    }
-    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z), rate);  // the next try one iteration later
+    for (int i = 0; i < 20; ++i) flight.step(i, Eigen::Vector3f::Zero(), false);
+    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, flight.f_z));  // the next try one iteration later
   }
   ASSERT_EQ(b.command(mav::kCmdNavLand), mav::kResultAccepted);
   fly(4000);
@@ -643,22 +628,11 @@ TEST(FirmwareApp, ChangingTheLoopRateInFlightKeepsThePositionLoop) {
   Bench b;
   b.gyro_bias.setZero();
   b.boot();
-  VerticalVehicle v;
+  VerticalFlight flight(b);
+  const VerticalVehicle& v = flight.v;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
   b.position_target(-1.5f);
-  float f_z = -kG;
-  int step_count = 0;
-  auto fly = [&](float seconds) {
-    const float dt = 1e-6f * static_cast<float>(b.step_us);
-    const int per_10ms = static_cast<int>(10000u / b.step_us);
-    const int steps = static_cast<int>(seconds / dt + 0.5f);
-    for (int i = 0; i < steps; ++i, ++step_count) {
-      b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
-      f_z = v.step(b.actuators.back().controls, dt);
-      if (step_count % (3 * per_10ms) == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - b.step_us);
-      if (step_count % (5 * per_10ms) == 0) b.sticks(0);
-    }
-  };
+  auto fly = [&](float seconds) { flight.fly_seconds(seconds); };
   fly(8.0f);  // at 100 Hz: climbed and settled
   ASSERT_NEAR(v.z, -1.5f, 0.05f);
   float target = -1.5f;
@@ -690,19 +664,16 @@ float hover_offset_with_heavier_vehicle(float ki, float seconds, float* trim = n
   b.gyro_bias.setZero();
   b.boot();
   EXPECT_EQ(b.app->override_param(quad::fw::kPosKiZ, ki), nullptr);
-  VerticalVehicle v;
-  v.mass = 1.4f * 1.05f;
+  VerticalFlight flight(b);
+  const VerticalVehicle& v = flight.v;
+  flight.v.mass = 1.4f * 1.05f;
   into_auto(b, Eigen::Vector3f(0, 0, 0));
   b.position_target(-1.0f);
-  float f_z = -kG;
   const int steps = static_cast<int>(seconds * 100.0f);
   double sum = 0.0;
   int n = 0;
   for (int i = 0; i < steps; ++i) {
-    b.hil_step(Eigen::Quaternionf::Identity(), Eigen::Vector3f(0, 0, f_z));
-    f_z = v.step(b.actuators.back().controls, 0.01f);
-    if (i % 3 == 0) b.landing_target(Eigen::Vector3f(0, 0, v.z), Eigen::Quaternionf::Identity(), b.t_us - 10000);
-    if (i % 5 == 0) b.sticks(0);
+    flight.step(i);
     if (i >= steps - 200) {
       sum += v.z - (-1.0f);
       ++n;

@@ -200,11 +200,9 @@ class FlightApp {
   // frame (at 100 Hz all in every one): the observer's correction, the position filter's prediction
   // (after it, with its rotation), the position loop (after that, with the predicted state), the
   // setpoint shaper. The attitude propagation and the attitude loop run in every iteration.
-  enum Stage : uint8_t { kStageCorrect = 0, kStagePredict = 1, kStagePositionLoop = 2, kStageShaper = 3 };
   StageClock stages_;
   float correction_dt_ = 0.0f;     // s since the observer's last correction
-  float shaper_dt_ = 0.0f;         // s since the shaper last stepped
-  float slow_dt_ = 0.0f;           // s since the application's frame-rate work last ran
+  float slow_dt_ = 0.0f;           // s since the frame-rate work (shaper included) last ran
   FlightMode outer_mode_ = FlightMode::kDisarmed;  // the mode of the last control(): a new one runs the position loop at once
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;

@@ -73,6 +73,14 @@ class RateDivider {
 // ATmega2560 at 400 Hz this is what keeps each iteration near a quarter of the 100 Hz one
 // (docs/performance.md). A loop rate that does not divide (250 Hz: frames of two and three iterations)
 // runs the stages in the first n iterations of each frame.
+// The firmware's 100 Hz stages in the order of a frame (FlightApp; the cycle bench runs the same schedule).
+enum Stage : uint8_t {
+  kStageCorrect = 0,       // the observer's correction
+  kStagePredict = 1,       // the position filter's prediction, with the correction's rotation
+  kStagePositionLoop = 2,  // eq. 8.20 to the attitude command, with the predicted state
+  kStageShaper = 3,        // the setpoint shaper and the application's frame-rate work
+};
+
 class StageClock {
  public:
   void configure(float rate_hz, float loop_hz);
