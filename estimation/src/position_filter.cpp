@@ -105,6 +105,7 @@ PositionFilterCore::PositionFilterCore(HistoryEntry* storage, uint16_t capacity,
 }
 
 void PositionFilterCore::set_params(const PositionFilterParams& params) {
+  drop_fix();  // its D h and 1 / S belong to the old model
   params_ = params;
   q_step_us_ = 0;  // the cached Q(T) belongs to the old parameters (no step is 0 us)
   if (one_class_) {  // z gets its own copy back before the sharing is re-decided
@@ -139,6 +140,7 @@ void PositionFilterCore::update_class_sharing() {
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
+  drop_fix();
   for (int i = 0; i < 3; ++i) {
     x_[i] = AxisState{p_ned[i], v_ned[i], 0.0f};
     corr_[i] = Correction{};
@@ -160,13 +162,23 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
 }
 
 float PositionFilterCore::last_gain_p(int axis) const {
-  const float* k = gain_[covariance_class(axis)];
-  return k[0] - gain_tau_ * (k[1] + 0.5f * gain_tau_ * k[2]);  // K = Phi(-tau) (D h / S)
+  const int c = covariance_class(axis);
+  const float* k = gain_[c];
+  const float s = fix_stage_ == kFixGated ? fix_inv_s_[c] : 1.0f;  // (gated: gain_ holds D h)
+  return s * (k[0] - gain_tau_ * (k[1] + 0.5f * gain_tau_ * k[2]));  // K = Phi(-tau) (D h / S)
 }
 
 float PositionFilterCore::last_gain_v(int axis) const {
-  const float* k = gain_[covariance_class(axis)];
-  return k[1] + gain_tau_ * k[2];
+  const int c = covariance_class(axis);
+  const float* k = gain_[c];
+  const float s = fix_stage_ == kFixGated ? fix_inv_s_[c] : 1.0f;
+  return s * (k[1] + gain_tau_ * k[2]);
+}
+
+void PositionFilterCore::drop_fix() {
+  if (fix_stage_ == kFixIdle) return;
+  fix_stage_ = kFixIdle;
+  ++health_.dropped_pending;
 }
 
 void PositionFilterCore::clear_history() {
@@ -302,6 +314,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
     have_fix_ = false;
+    drop_fix();
     clear_history();
   }
   push_history();
@@ -409,10 +422,45 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
 }
 
 FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) {
+  const FixResult accepted = accept_fix(y);
+  if (accepted != FixResult::Pending) return accepted;
+  const FixResult gated = gate_fix(y, capture_us);
+  return gated == FixResult::Pending ? update_fix() : gated;
+}
+
+FixResult PositionFilterCore::accept_fix(const Vec3& y) {
+  if (fix_stage_ != kFixIdle) {
+    ++health_.rejected_busy;
+    return FixResult::RejectedBusy;
+  }
   if (!is_finite(y) || !clock_started_) {
     ++health_.rejected_invalid;
     return FixResult::RejectedInvalid;
   }
+  return FixResult::Pending;
+}
+
+FixResult PositionFilterCore::queue_fix(const Vec3& y, uint32_t capture_us) {
+  const FixResult accepted = accept_fix(y);
+  if (accepted != FixResult::Pending) return accepted;
+  for (int i = 0; i < 3; ++i) fix_[i] = y[i];
+  fix_us_ = capture_us;
+  fix_stage_ = kFixQueued;
+  return FixResult::Pending;
+}
+
+FixResult PositionFilterCore::advance_fix() {
+  if (fix_stage_ == kFixQueued) {
+    fix_stage_ = kFixIdle;  // (a reset in the gate must not count it as dropped)
+    return gate_fix(Vec3{fix_[0], fix_[1], fix_[2]}, fix_us_);
+  }
+  if (fix_stage_ == kFixGated) return update_fix();
+  return FixResult::RejectedInvalid;  // nothing in progress (nothing counted)
+}
+
+// The first step: the lookup at capture time, D h, S and the gate. A fix that passes leaves its D h in
+// gain_, 1 / S in fix_inv_s_, its innovations in fix_ and the time in fix_us_ for update_fix().
+FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   const float lost = sqf(params_.reset_position_sigma);
   // (also catches NaN; z's own entry only when it has one; lost >= 0: integer comparisons)
   const bool diverged = !at_most(p_[0].pp, lost) || (!one_class_ && !at_most(p_[1].pp, lost));
@@ -453,7 +501,7 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     return FixResult::RejectedTooOld;
   }
   float w[2][3];
-  float inv_s[2];
+  float* const inv_s = fix_inv_s_;
   const int classes = class_count();
   for (int c = 0; c < classes; ++c) {
     const AxisCovariance& p = p_[c];
@@ -497,19 +545,51 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
 
   gain_tau_ = tau;
   for (int c = 0; c < classes; ++c) {
-    float* k = gain_[c];
+    for (int j = 0; j < 3; ++j) gain_[c][j] = w[c][j];
+  }
+  for (int i = 0; i < 3; ++i) fix_[i] = nu[i];
+  fix_us_ = t_us_;
+  last_fix_us_ = capture_us;
+  have_fix_ = true;
+  fix_stage_ = kFixGated;
+  return FixResult::Pending;
+}
+
+// The second step: the gated fix's correction, carried by Phi(T) from the time it was gated to now,
+// into the covariance and the state.
+FixResult PositionFilterCore::update_fix() {
+  fix_stage_ = kFixIdle;
+  const int classes = class_count();
+  const float* const inv_s = fix_inv_s_;
+  const float* const nu = fix_;
+  const int32_t carry_us = micros_between(t_us_, fix_us_);
+  if (carry_us != 0) {
+    // predict() ran since the gate: D h becomes Phi(T) D h (rows of Phi(T) = [[1, T, -T^2/2], [0, 1, -T],
+    // [0, 0, 1]]), so that P -= (Phi D h)(Phi D h)^T / S and x += Phi D h nu / S are the update made at
+    // the gate and predicted since.
+    const float t = static_cast<float>(carry_us) * 1e-6f, h = half(t * t);
+    for (int c = 0; c < classes; ++c) {
+      float* w = gain_[c];
+      w[0] += t * w[1] - h * w[2];  // (w_2 = 0 without a bias state)
+      w[1] -= t * w[2];
+    }
+    gain_tau_ += t;
+  }
+  for (int c = 0; c < classes; ++c) {
+    float* k = gain_[c];  // D h, turned into the gain in place
+    const float w[3] = {k[0], k[1], k[2]};
     const bool bias = class_has_bias(c);
     k[2] = 0.0f;  // w_2 = 0 without a bias state
-    for (int j = 0; j < (bias ? 3 : 2); ++j) k[j] = w[c][j] * inv_s[c];
+    for (int j = 0; j < (bias ? 3 : 2); ++j) k[j] = w[j] * inv_s[c];
     // thesis eq. 8.11b (errata) at capture time, carried to now: P_now -= (D h)(D h)^T / S.
     AxisCovariance& p = p_[c];
-    p.pp -= k[0] * w[c][0];
-    p.pv -= k[0] * w[c][1];
-    p.vv -= k[1] * w[c][1];
+    p.pp -= k[0] * w[0];
+    p.pv -= k[0] * w[1];
+    p.vv -= k[1] * w[1];
     if (bias) {
-      p.pb -= k[0] * w[c][2];
-      p.vb -= k[1] * w[c][2];
-      p.bb -= k[2] * w[c][2];
+      p.pb -= k[0] * w[2];
+      p.vb -= k[1] * w[2];
+      p.bb -= k[2] * w[2];
     }
   }
   bool fold = false;
@@ -535,8 +615,6 @@ FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) 
     }
   }
   if (fold) fold_correction();
-  last_fix_us_ = capture_us;
-  have_fix_ = true;
   consecutive_rejections_ = 0;
   ++health_.fused;
   return FixResult::Fused;

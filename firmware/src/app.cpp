@@ -368,12 +368,33 @@ void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
     ++counters_.fixes_invalid;
     return;
   }
+  if (stages_.per_frame() >= kStageCount || filter_.fix_in_progress()) {
+    // With four or more iterations per frame (400 Hz) no iteration has room for the whole fusion beside
+    // its stage: it waits for the frame-rate work's iteration, which has no other stage, and takes its
+    // gate in one frame and its update in the next (advance_fix()). With fewer, the frame-rate work
+    // shares its iteration with another stage, and the fix is fused where it arrives, as at 100 Hz.
+    const est::FixResult r = filter_.queue_fix(p_ned, capture_us);
+    if (r != est::FixResult::Pending) fix_result(r, false);
+    return;
+  }
   const uint32_t resets_before = filter_.health().resets;
   mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = filter_.fuse_position(p_ned, capture_us);
   mark(hal::TracePoint::kFixEnd);
+  fix_result(r, filter_.health().resets != resets_before);
+}
+
+void FlightApp::advance_fix() {
+  const uint32_t resets_before = filter_.health().resets;
+  mark(hal::TracePoint::kFixBegin);
+  const est::FixResult r = filter_.advance_fix();
+  mark(hal::TracePoint::kFixEnd);
+  if (r != est::FixResult::Pending) fix_result(r, filter_.health().resets != resets_before);
+}
+
+void FlightApp::fix_result(est::FixResult r, bool reset) {
   const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
-  if (taken && (filter_.health().resets != resets_before || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
+  if (taken && (reset || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
     // The estimate jumped to a fix it had refused before (a decoy taken for the star, a moved marker,
     // a return from a long outage): not a failsafe, but the operator must hear of it.
     const Decimal n(fixes_rejected_in_a_row_);
@@ -384,12 +405,14 @@ void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
   if (taken) {
     ++counters_.fixes_fused;
     fixes_rejected_in_a_row_ = 0;
-    // Freshness counts from arrival on the vehicle clock: a fix delayed by the link is still news.
+    // Freshness counts from when the fix is taken on the vehicle clock (its arrival; above 100 Hz up to
+    // two frames later): a fix delayed by the link is still news.
     vision_seen_ = true;
     vision_time_us_ = now_us_;
   } else {
     ++counters_.fixes_rejected;
-    if (fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
+    // (One refused because another was still in progress says nothing about the star.)
+    if (r != est::FixResult::RejectedBusy && fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
   }
 }
 
@@ -559,8 +582,14 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   correction_dt_ += dt;
   slow_dt_ += dt;
   // The application's own slow work (the hover bias gate, the mode machine, the position trim, landing
-  // detection) at the frame rate, in the shaper's iteration: the lightest of a 400 Hz frame.
-  const bool slow_now = stages_.runs(kStageShaper);
+  // detection) at the frame rate, in the shaper's iteration: the lightest of a 400 Hz frame. A vision
+  // fix in progress takes that iteration instead (its gate in one frame, its update in the next); the
+  // frame-rate work then runs in the next frame's, over the time of both (slow_dt_ keeps counting).
+  bool slow_now = stages_.runs(kStageShaper);
+  if (slow_now && filter_.fix_in_progress()) {
+    advance_fix();
+    slow_now = false;
+  }
   const float slow_dt = slow_dt_;
   if (slow_now) slow_dt_ = 0.0f;
 

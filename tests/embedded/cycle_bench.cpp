@@ -141,6 +141,14 @@ Vec3 g_accel_sum;
 uint8_t g_accel_count = 0;
 quad::fw::StageClock g_stages;  // configured for 100 Hz stages in a 400 Hz loop by tick400_frames()
 
+quad::est::FixResult g_fix_result = quad::est::FixResult::RejectedInvalid;  // of the last advance_fix()
+float g_shaper_missed = 0.0f;  // s of shaper frames given to a vision fix
+
+// A vision fix as it reaches the firmware above 100 Hz: queued, fused by the frames' shaper iterations.
+void queue_fix() {
+  g_filter.queue_fix(kHoverPoint + Vec3{noise(0.03f), noise(0.03f), noise(0.03f)}, g_now_us - kFixDelayUs);
+}
+
 // One iteration; the stage clock ticks first, as in FlightApp::step.
 void tick400(const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint& sp) {
   g_stages.tick();
@@ -161,7 +169,17 @@ void tick400(const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint&
                      g_now_us);
     g_accel_count = 0;
   }
-  if (g_stages.runs(quad::fw::kStageShaper)) g_shaper.update(kDt, g_setpoint);
+  if (g_stages.runs(quad::fw::kStageShaper)) {
+    // A vision fix in progress takes the shaper's place (FlightApp::step): its gate in one frame, its
+    // update in the next; the shaper catches up with the frames it missed (their dt) afterwards.
+    if (g_filter.fix_in_progress()) {
+      g_fix_result = g_filter.advance_fix();
+      g_shaper_missed += kDt;
+    } else {
+      g_shaper.update(kDt + g_shaper_missed, g_setpoint);
+      g_shaper_missed = 0.0f;
+    }
+  }
   if (g_stages.runs(quad::fw::kStagePositionLoop)) {
     quad_probe::keep(g_cascade.step(vehicle_state(), sp));
   } else {
@@ -186,8 +204,9 @@ void tick400_frames() {
   uint32_t k = 0;
   for (; k < 400u; ++k) {
     tick400(sample(g_step + k), (k / 4u) % 4u != 3u, g_setpoint);
-    if (k % 16u == 3u) fuse_fix();
+    if (k % 16u == 3u) queue_fix();
   }
+  while (g_filter.fix_in_progress()) tick400(sample(g_step + k++), false, g_setpoint);
   // Up to the end of a frame, so the measured iterations below are a frame's, in stage order.
   for (; !g_stages.runs(quad::fw::kStageShaper); ++k) tick400(sample(g_step + k), false, g_setpoint);
   // A typical frame: no magnetometer sample, no fix, hovering.
@@ -197,6 +216,20 @@ void tick400_frames() {
     check(g_stages.runs(i), "tick400_stage_order");
   }
   check(!g_cascade.output().motors.yaw_limited && !g_cascade.output().attitude.limited, "tick400_typical_saturated");
+  // Two typical frames with a vision fix (the Kalman update): its gate in the first frame's shaper
+  // iteration, its update in the second's (the other iterations are those above).
+  queue_fix();
+  for (uint8_t f = 0; f < 2u; ++f) {
+    for (uint8_t i = 0; i < 4u; ++i, ++k) {
+      const Sensors s = sample(g_step + k);
+      if (i < 3u) {
+        tick400(s, false, g_setpoint);
+        continue;
+      }
+      measure(f == 0 ? "tick400_typical_fix_gate" : "tick400_typical_fix_update", [&] { tick400(s, false, g_setpoint); });
+      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_typical_fix_not_fused");
+    }
+  }
   // The worst frame: a magnetometer sample at the correction, the shaper moving towards a far target,
   // large tracking errors at the position loop (tilt limited, mixer giving up yaw), and the iterations
   // before and after it flying that saturated command. A frame without measurement first, so the held
@@ -214,6 +247,21 @@ void tick400_frames() {
     check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
   }
   check(g_cascade.output().attitude.limited, "tick400_worst_tilt_not_limited");
+  // The worst frames with a vision fix: the same state (magnetometer at the corrections, large errors,
+  // saturated), the gate and the update in the shaper's iterations.
+  queue_fix();
+  for (uint8_t f = 0; f < 2u; ++f) {
+    for (uint8_t i = 0; i < 4u; ++i, ++k) {
+      const Sensors s = sample(g_step + k);
+      if (i < 3u) {
+        tick400(s, true, far);
+        continue;
+      }
+      measure(f == 0 ? "tick400_worst_fix_gate" : "tick400_worst_fix_update", [&] { tick400(s, true, far); });
+      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_worst_fix_not_fused");
+      check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
+    }
+  }
 }
 
 }  // namespace
@@ -277,6 +325,17 @@ int main() {
     const Vec3 y = p + Vec3{0.02f, -0.01f, 0.015f};
     measure("kalman_fused_fix", [&] { fix = g_filter.fuse_position(y, g_now_us - kFixDelayUs); });
     check(fix == quad::est::FixResult::Fused, "kalman_fix_not_fused");
+    // The same fusion in two steps (400 Hz): the gate, a predict, the update carried across it.
+    g_now_us += kPeriodUs;
+    g_filter.predict(u, g_now_us);
+    const Vec3 y2 = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs) + Vec3{-0.01f, 0.02f, 0.0f};
+    g_filter.queue_fix(y2, g_now_us - kFixDelayUs);
+    measure("kalman_fix_gate", [&] { fix = g_filter.advance_fix(); });
+    check(fix == quad::est::FixResult::Pending, "kalman_fix_gate_failed");
+    g_now_us += kPeriodUs;
+    g_filter.predict(u, g_now_us);
+    measure("kalman_fix_update", [&] { fix = g_filter.advance_fix(); });
+    check(fix == quad::est::FixResult::Fused, "kalman_fix_update_failed");
     measure("shaper", [&] { g_shaper.update(kDt, g_setpoint); });
 
     const quad::ctrl::VehicleState st = vehicle_state();

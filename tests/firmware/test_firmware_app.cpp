@@ -621,6 +621,52 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
   EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed);
 }
 
+// Above 100 Hz a vision fix is not fused where it arrives: the frame-rate work's iteration takes its
+// gate in the next frame and its update in the one after (docs/performance.md, "The 400 Hz frame"), so
+// the estimate moves to it 5 to 8 iterations after its arrival, all at once; at 100 Hz at once.
+TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
+  for (const float rate : {400.0f, 100.0f}) {
+    Bench b;
+    b.gyro_bias.setZero();
+    b.boot();
+    ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, rate), nullptr);
+    b.step_us = static_cast<uint32_t>(1e6f / rate + 0.5f);
+    VerticalFlight flight(b);
+    into_auto(b, Eigen::Vector3f(0, 0, 0));
+    b.position_target(-1.5f);
+    flight.fly_seconds(6.0f);
+    for (int i = 0; i < 40; ++i) flight.step(i, Eigen::Vector3f::Zero(), false);  // nothing in progress
+    const uint32_t fused = b.app->counters().fixes_fused;
+    // 4 cm below the vehicle: the estimate steps down when the fix is fused (K_p of about 0.9). Step -1
+    // is the fix's arrival itself (the bench hands the frame to the firmware at once).
+    float z = b.app->position().z;
+    b.landing_target(Eigen::Vector3f(0, 0, flight.v.z + 0.04f), Eigen::Quaternionf::Identity(), b.t_us - b.step_us);
+    int fused_after = -2;
+    float step_at_fusion = 0.0f, largest_other_step = 0.0f;
+    for (int i = -1; i < 12; ++i) {
+      if (i >= 0) flight.step(i, Eigen::Vector3f::Zero(), false);
+      const float dz = b.app->position().z - z;
+      z = b.app->position().z;
+      if (fused_after < -1 && b.app->counters().fixes_fused == fused + 1) {
+        fused_after = i;
+        step_at_fusion = dz;
+      } else {
+        largest_other_step = std::max(largest_other_step, std::abs(dz));
+      }
+    }
+    EXPECT_EQ(b.app->counters().fixes_fused, fused + 1) << rate;
+    if (rate > 100.0f) {
+      // Iterations 0..7 after the arrival: the gate in the first frame-rate iteration (0..3), the update four later.
+      EXPECT_GE(fused_after, 4) << "the gate in the next frame-rate iteration, the update four later";
+      EXPECT_LE(fused_after, 7);
+    } else {
+      EXPECT_EQ(fused_after, -1) << "fused where it arrives";
+    }
+    EXPECT_GT(step_at_fusion, 0.02f) << rate;  // NED: down is +z
+    EXPECT_LT(largest_other_step, 0.25f * step_at_fusion) << rate;
+  }
+}
+
 // SYS_LOOP_HZ changed in flight (a PARAM_SET while hovering): the stage clock starts a new frame, the
 // observer moves between its single-rate and multi-rate forms, and the position loop goes on: after
 // each change the vehicle moves 30 cm to a new height and holds it.

@@ -94,6 +94,8 @@ enum class FixResult : uint8_t {
   RejectedTooOld, // captured before the oldest history entry or before the last reset
   RejectedOutOfOrder,  // captured before the last fused fix
   RejectedInvalid,     // non-finite, or fused before the first predict
+  RejectedBusy,        // queue_fix() while another fix is still in progress
+  Pending,             // queued, or gated and waiting for its update (queue_fix() / advance_fix())
 };
 
 struct PositionFilterHealth {
@@ -104,6 +106,8 @@ struct PositionFilterHealth {
   uint32_t rejected_invalid = 0;
   uint32_t resets = 0;
   uint32_t predict_skipped = 0;  // non-finite input or time not moving forward
+  uint32_t rejected_busy = 0;    // queue_fix() while a fix was in progress
+  uint32_t dropped_pending = 0;  // a fix in progress forgotten by a reset, new parameters or a gap
 };
 
 // Covariance of one axis: (p, v) or (p, v, b); symmetric, upper triangle stored.
@@ -133,6 +137,17 @@ class PositionFilterCore {
 
   // Fuses a NED position fix captured at capture_us (thesis eq. 8.11b with the errata, at capture time).
   FixResult fuse_position(const Vec3& p_ned, uint32_t capture_us);
+
+  // The same fusion in two steps, for a loop with no iteration that has room for all of it (the
+  // ATmega2560 at 400 Hz, docs/performance.md): queue_fix() takes the fix (Pending; RejectedBusy while
+  // another is in progress); the first advance_fix() looks the capture time up, forms S and gates
+  // (Pending when the fix passed, else its result); the second applies the gain to the covariance and
+  // the state (Fused). predict() may run in between: the correction D h is carried to the update's time
+  // by Phi, which is exact (the prediction is linear and its covariance does not depend on the state).
+  // Back to back the two steps are fuse_position() operation for operation (bit-identical).
+  FixResult queue_fix(const Vec3& p_ned, uint32_t capture_us);
+  FixResult advance_fix();
+  bool fix_in_progress() const { return fix_stage_ != kFixIdle; }
 
   Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
@@ -195,6 +210,10 @@ class PositionFilterCore {
   void initialize_from_fix(const Vec3& p_ned, uint32_t capture_us);
   void set_step(int32_t step_us);
   void propagate(const Vec3& u, int32_t step_us);
+  FixResult accept_fix(const Vec3& p_ned);  // the checks of every fix: Pending when it may go on
+  FixResult gate_fix(const Vec3& p_ned, uint32_t capture_us);
+  FixResult update_fix();
+  void drop_fix();
 
   PositionFilterParams params_;
   // q_step_us_ is set by set_params() (from the constructor), q_dt_ .. h_dt_ with Q(q_dt_): no
@@ -212,7 +231,8 @@ class PositionFilterCore {
   FrozenCorrection corr_old_[3];
   uint32_t inv_span_us_ = 0;                 // history spacing whose reciprocal inv_span_ holds (0: none)
   float inv_span_;
-  float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};  // last correction gain, carried to now
+  // Last correction gain, carried to now; while a fix is gated (kFixGated) its D h, the gain times S.
+  float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
   float gain_tau_ = 0.0f;                    // age of the last fused fix when it was fused
   float last_nis_ = 0.0f;
   uint32_t t_us_ = 0;
@@ -226,6 +246,13 @@ class PositionFilterCore {
   uint16_t head_ = 0;   // index of the next entry to write
   uint16_t count_ = 0;  // valid entries
   uint16_t old_left_ = 0;  // the oldest old_left_ entries predate the last fold (old epoch; 0: none)
+  // The fix in progress (queue_fix(), advance_fix()): queued, its position and capture time; gated, its
+  // innovations, 1 / S per class and the time it was gated at (the same storage: the AVR's RAM).
+  enum FixStage : uint8_t { kFixIdle, kFixQueued, kFixGated };
+  FixStage fix_stage_ = kFixIdle;
+  float fix_[3];        // queued: the fix; gated: its innovations nu
+  uint32_t fix_us_;     // queued: its capture time; gated: the time it was gated at
+  float fix_inv_s_[2];  // gated: 1 / S per covariance class
   PositionFilterHealth health_;
 };
 

@@ -147,6 +147,9 @@ class FlightApp {
   void on_setpoint(const mavlink::SetPositionTargetLocalNed& msg);
   void on_manual_control(const mavlink::ManualControl& msg);
   void on_fix(const Vec3& p_ned, uint32_t capture_us);
+  void advance_fix();  // the next step of a queued vision fix (above 100 Hz)
+  // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
+  void fix_result(est::FixResult r, bool reset);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg);
   void on_setup_signing(uint8_t port, const SetupSigning& msg);
 

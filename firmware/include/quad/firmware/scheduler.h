@@ -79,6 +79,7 @@ enum Stage : uint8_t {
   kStagePredict = 1,       // the position filter's prediction, with the correction's rotation
   kStagePositionLoop = 2,  // eq. 8.20 to the attitude command, with the predicted state
   kStageShaper = 3,        // the setpoint shaper and the application's frame-rate work
+  kStageCount = 4,         // from this many iterations per frame on, each stage has one of its own
 };
 
 class StageClock {
