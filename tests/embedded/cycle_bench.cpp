@@ -193,6 +193,23 @@ const char* const kTypicalTick[4] = {"tick400_typical_correct", "tick400_typical
 const char* const kWorstTick[4] = {"tick400_worst_correct_mag", "tick400_worst_predict", "tick400_worst_position_loop",
                                    "tick400_worst_shaper_moving"};
 
+// Two frames from the start of a frame, a vision fix queued before them: the shaper iteration (3) of the
+// first is measured as `gate` and must gate it, that of the second as `update` and must fuse it.
+void fix_frames(uint32_t& k, bool mag_new, const quad::ctrl::PositionSetpoint& sp, const char* gate, const char* update) {
+  queue_fix();
+  for (uint8_t f = 0; f < 2u; ++f) {
+    for (uint8_t i = 0; i < 4u; ++i, ++k) {
+      const Sensors s = sample(g_step + k);
+      if (i < 3u) {
+        tick400(s, mag_new, sp);
+        continue;
+      }
+      measure(f == 0 ? gate : update, [&] { tick400(s, mag_new, sp); });
+      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_fix_steps");
+    }
+  }
+}
+
 void tick400_frames() {
   g_stages.configure(100.0f, 400.0f);  // the firmware's kPositionRateHz stages at SYS_LOOP_HZ 400
   g_shaper.reset(kHoverPoint);
@@ -218,18 +235,7 @@ void tick400_frames() {
   check(!g_cascade.output().motors.yaw_limited && !g_cascade.output().attitude.limited, "tick400_typical_saturated");
   // Two typical frames with a vision fix (the Kalman update): its gate in the first frame's shaper
   // iteration, its update in the second's (the other iterations are those above).
-  queue_fix();
-  for (uint8_t f = 0; f < 2u; ++f) {
-    for (uint8_t i = 0; i < 4u; ++i, ++k) {
-      const Sensors s = sample(g_step + k);
-      if (i < 3u) {
-        tick400(s, false, g_setpoint);
-        continue;
-      }
-      measure(f == 0 ? "tick400_typical_fix_gate" : "tick400_typical_fix_update", [&] { tick400(s, false, g_setpoint); });
-      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_typical_fix_not_fused");
-    }
-  }
+  fix_frames(k, false, g_setpoint, "tick400_typical_fix_gate", "tick400_typical_fix_update");
   // The worst frame: a magnetometer sample at the correction, the shaper moving towards a far target,
   // large tracking errors at the position loop (tilt limited, mixer giving up yaw), and the iterations
   // before and after it flying that saturated command. A frame without measurement first, so the held
@@ -249,19 +255,8 @@ void tick400_frames() {
   check(g_cascade.output().attitude.limited, "tick400_worst_tilt_not_limited");
   // The worst frames with a vision fix: the same state (magnetometer at the corrections, large errors,
   // saturated), the gate and the update in the shaper's iterations.
-  queue_fix();
-  for (uint8_t f = 0; f < 2u; ++f) {
-    for (uint8_t i = 0; i < 4u; ++i, ++k) {
-      const Sensors s = sample(g_step + k);
-      if (i < 3u) {
-        tick400(s, true, far);
-        continue;
-      }
-      measure(f == 0 ? "tick400_worst_fix_gate" : "tick400_worst_fix_update", [&] { tick400(s, true, far); });
-      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_worst_fix_not_fused");
-      check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
-    }
-  }
+  fix_frames(k, true, far, "tick400_worst_fix_gate", "tick400_worst_fix_update");
+  check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
 }
 
 }  // namespace

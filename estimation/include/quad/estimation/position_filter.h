@@ -8,6 +8,9 @@
 //     kf.predict(quad::est::kinematic_acceleration(observer.dcm(), accel_frd), now_us);
 //   when a vision fix arrives, with the time its image was captured (same clock):
 //     kf.fuse_position(p_ned, capture_us);
+//   or, where no iteration has room for the whole fusion, queue it and advance it one step per iteration
+//   (gate, then update; predict() may run in between):
+//     kf.queue_fix(p_ned, capture_us);  ...  if (kf.fix_in_progress()) kf.advance_fix();
 //   kf.position(), kf.velocity()
 //
 // Each NED axis is its own filter with state (p, v), plus an acceleration bias b when enabled (v' = u - b):

@@ -147,7 +147,7 @@ class FlightApp {
   void on_setpoint(const mavlink::SetPositionTargetLocalNed& msg);
   void on_manual_control(const mavlink::ManualControl& msg);
   void on_fix(const Vec3& p_ned, uint32_t capture_us);
-  void advance_fix();  // the next step of a queued vision fix (above 100 Hz)
+  void advance_fix();  // the next step of a queued vision fix (four or more iterations per frame)
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg);
