@@ -31,6 +31,9 @@ constexpr uint16_t kIgnoreYaw = 0x400u;
 // Fixes refused in a row before the one taken that make the jump worth a STATUSTEXT (one lost outlier
 // is routine; 3 at 30 Hz is 0.1 s of a fix that disagrees with the estimate).
 constexpr uint8_t kJumpReportRejections = 3;
+// Frames in a row whose frame-rate work may give its iteration to a vision fix's step: a gate and an
+// update (FlightApp::step).
+constexpr uint8_t kMaxFrameWorkDeferred = 2;
 
 float yaw_of(const Quat& q) { return to_euler(q).yaw; }
 
@@ -405,8 +408,8 @@ void FlightApp::fix_result(est::FixResult r, bool reset) {
   if (taken) {
     ++counters_.fixes_fused;
     fixes_rejected_in_a_row_ = 0;
-    // Freshness counts from when the fix is taken on the vehicle clock (its arrival; above 100 Hz up to
-    // two frames later): a fix delayed by the link is still news.
+    // Freshness counts from when the fix is taken on the vehicle clock (its arrival; at 400 Hz a few
+    // frames later): a fix delayed by the link is still news.
     vision_seen_ = true;
     vision_time_us_ = now_us_;
   } else {
@@ -585,10 +588,17 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // detection) at the frame rate, in the shaper's iteration: the lightest of a 400 Hz frame. A vision
   // fix in progress takes that iteration instead (its gate in one frame, its update in the next); the
   // frame-rate work then runs in the next frame's, over the time of both (slow_dt_ keeps counting).
+  // It gives way at most twice in a row, so that however fast the fixes come the failsafes and the
+  // landing detection still run in one frame of three.
   bool slow_now = stages_.runs(kStageShaper);
-  if (slow_now && filter_.fix_in_progress()) {
-    advance_fix();
-    slow_now = false;
+  if (slow_now) {
+    if (filter_.fix_in_progress() && frame_work_deferred_ < kMaxFrameWorkDeferred) {
+      advance_fix();
+      slow_now = false;
+      ++frame_work_deferred_;
+    } else {
+      frame_work_deferred_ = 0;
+    }
   }
   const float slow_dt = slow_dt_;
   if (slow_now) slow_dt_ = 0.0f;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iostream>
 #include <limits>
 #include <memory>
 #include <random>
@@ -665,6 +666,41 @@ TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
     EXPECT_GT(step_at_fusion, 0.02f) << rate;  // NED: down is +z
     EXPECT_LT(largest_other_step, 0.25f * step_at_fusion) << rate;
   }
+}
+
+// A fix waiting whenever the last one is done (a camera faster than the station's 30 Hz) would keep the
+// frame-rate work's iteration busy with fixes in every frame at 400 Hz; it gives way at most twice in a
+// row, so the landing detection and the failsafes still run: a landing commanded under that stream of
+// fixes ends disarmed.
+TEST(FirmwareApp, At400HzFastVisionFixesDoNotStarveTheFrameRateWork) {
+  Bench b;
+  b.gyro_bias.setZero();
+  b.boot();
+  ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, 400.0f), nullptr);
+  b.step_us = 2500;
+  VerticalFlight flight(b);
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  b.position_target(-1.5f);
+  flight.fly_seconds(6.0f);
+  ASSERT_NEAR(flight.v.z, -1.5f, 0.1f);
+  const uint32_t fused = b.app->counters().fixes_fused, rejected = b.app->counters().fixes_rejected;
+  ASSERT_EQ(b.command(mav::kCmdNavLand), mav::kResultAccepted);
+  uint32_t sent_at_fused = 0xFFFFFFFFu;
+  for (int i = 0; i < 4000; ++i) {  // 10 s
+    flight.step(i, Eigen::Vector3f::Zero(), false);
+    const uint32_t now_fused = b.app->counters().fixes_fused;
+    if (now_fused != sent_at_fused || i % 8 == 0) {  // the next fix as soon as one is taken, and every 20 ms
+      b.landing_target(Eigen::Vector3f(0, 0, flight.v.z), Eigen::Quaternionf::Identity(), b.t_us - b.step_us);
+      sent_at_fused = now_fused;
+    }
+    if (i % 20 == 0) b.sticks(0);
+  }
+  EXPECT_NEAR(flight.v.z, 0.0f, 1e-3f) << "on the ground";
+  EXPECT_EQ(b.app->mode(), FlightMode::kDisarmed) << "landing detected";
+  const uint32_t fused_now = b.app->counters().fixes_fused - fused, refused = b.app->counters().fixes_rejected - rejected;
+  std::cout << "[figure] a fix always waiting at 400 Hz, 10 s: " << fused_now << " fused, " << refused << " refused\n";
+  EXPECT_GE(fused_now, 300u) << "30 Hz of them still fused";
+  EXPECT_GT(refused, 0u) << "the others refused while one is in progress";
 }
 
 // SYS_LOOP_HZ changed in flight (a PARAM_SET while hovering): the stage clock starts a new frame, the

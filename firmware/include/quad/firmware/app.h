@@ -206,6 +206,7 @@ class FlightApp {
   StageClock stages_;
   float correction_dt_ = 0.0f;     // s since the observer's last correction
   float slow_dt_ = 0.0f;           // s since the frame-rate work (shaper included) last ran
+  uint8_t frame_work_deferred_ = 0;  // frames in a row whose frame-rate work gave way to a vision fix
   FlightMode outer_mode_ = FlightMode::kDisarmed;  // the mode of the last control(): a new one runs the position loop at once
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;
