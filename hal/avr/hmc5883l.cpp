@@ -61,7 +61,7 @@ bool read_registers(uint8_t first, uint8_t* out, uint8_t count) {
 int16_t be16(const uint8_t* p) { return static_cast<int16_t>((static_cast<uint16_t>(p[0]) << 8) | p[1]); }
 
 bool g_present = false;
-uint32_t g_last_read_us = 0;
+uint32_t g_next_read_us = 0;  // when the part's next averaged sample is due (75 Hz schedule)
 
 }  // namespace
 
@@ -72,7 +72,7 @@ bool start_mag() {
   if (!read_registers(kIdA, id, sizeof id) || id[0] != 'H' || id[1] != '4' || id[2] != '3') return false;
   g_present = write_register(kConfigA, kAverage8Rate75Hz) && write_register(kConfigB, kGain1_3Ga) &&
               write_register(kMode, kContinuous);
-  g_last_read_us = micros();
+  g_next_read_us = micros() + kPeriodUs;
   return g_present;
 }
 
@@ -81,8 +81,12 @@ bool start_mag() {
 bool mag_read(MagSample& out) {
   if (!avr::g_present) return false;
   const uint32_t now = micros();
-  if (now - avr::g_last_read_us < avr::kPeriodUs) return false;
-  avr::g_last_read_us = now;
+  if (static_cast<int32_t>(now - avr::g_next_read_us) < 0) return false;
+  // On the part's 75 Hz schedule, not one period after the last read: a loop that comes by every 10 ms
+  // (100 Hz) still reads 75 samples a second, not one per two iterations (50 Hz). A loop that fell a
+  // whole period behind (a blocking storage write) starts the schedule again from now.
+  avr::g_next_read_us += avr::kPeriodUs;
+  if (static_cast<int32_t>(now - avr::g_next_read_us) >= 0) avr::g_next_read_us = now + avr::kPeriodUs;
   uint8_t raw[6];  // X, Z, Y (the HMC5883L's register order), big-endian
   if (!avr::read_registers(avr::kDataXMsb, raw, sizeof raw)) return false;
   const int16_t x = avr::be16(raw), z = avr::be16(raw + 2), y = avr::be16(raw + 4);

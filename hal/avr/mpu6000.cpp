@@ -12,7 +12,7 @@ namespace {
 
 // Register map (MPU-6000 register map rev. 4.2).
 constexpr uint8_t kSmplrtDiv = 0x19, kConfig = 0x1A, kGyroConfig = 0x1B, kAccelConfig = 0x1C, kIntEnable = 0x38,
-                  kIntStatus = 0x3A, kUserCtrl = 0x6A, kPwrMgmt1 = 0x6B, kWhoAmI = 0x75;
+                  kIntStatus = 0x3A, kSignalPathReset = 0x68, kUserCtrl = 0x6A, kPwrMgmt1 = 0x6B, kWhoAmI = 0x75;
 constexpr uint8_t kReadFlag = 0x80, kWhoAmIValue = 0x68;
 constexpr uint8_t kDlpf20Hz = 4;         // CONFIG.DLPF_CFG = 4: accel 21 Hz, gyro 20 Hz, 1 kHz internal rate
 constexpr uint8_t kGyro2000Dps = 3 << 3;  // GYRO_CONFIG.FS_SEL = 3: 16.4 LSB per deg/s
@@ -70,6 +70,10 @@ bool start_imu() {
   DDRB |= kCs | _BV(PB1) | _BV(PB2);  // CS, SCK, MOSI out; MISO (PB3) in
   spi_slow();
   write_register(kPwrMgmt1, 0x80);  // device reset
+  wait_us(100000);
+  // Over SPI the register map (PWR_MGMT_1, DEVICE_RESET) asks for the signal paths to be reset too:
+  // GYRO_RESET, ACCEL_RESET, TEMP_RESET, then another 100 ms.
+  write_register(kSignalPathReset, 0x07);
   wait_us(100000);
   write_register(kUserCtrl, 0x10);  // I2C_IF_DIS: SPI only
   write_register(kPwrMgmt1, 0x03);  // clock from the z gyro's PLL
