@@ -36,7 +36,13 @@ bool send(uint8_t byte, uint8_t expected) {
   TWCR = _BV(TWINT) | _BV(TWEN);
   return wait_twint(expected);
 }
-void stop() { TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN); }
+// TWSTO clears itself once the STOP is on the bus; a START written before that would be lost, so the
+// next transfer waits for it (bounded like wait_twint()).
+void stop() {
+  TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN);
+  for (uint16_t spins = 0; (TWCR & _BV(TWSTO)) && spins <= 2000; ++spins) {
+  }
+}
 
 bool write_register(uint8_t reg, uint8_t value) {
   const bool ok = start(kStart) && send(static_cast<uint8_t>(kAddress << 1), kSlaWAck) && send(reg, kDataWAck) &&
