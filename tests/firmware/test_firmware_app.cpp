@@ -569,20 +569,25 @@ TEST(FirmwareApp, TakesOffInAutoLandsAndDisarms) {
   for (int i = 0; i < 4; ++i) EXPECT_EQ(b.actuators.back().controls[i], 0.0f);
 }
 
+// The bench booted at rate_hz (SYS_LOOP_HZ and the step period), in AUTO, asked to climb to 1.5 m.
+void auto_at_rate(Bench& b, float rate_hz) {
+  b.gyro_bias.setZero();
+  b.boot();
+  ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, rate_hz), nullptr);
+  b.step_us = static_cast<uint32_t>(1e6f / rate_hz + 0.5f);
+  into_auto(b, Eigen::Vector3f(0, 0, 0));
+  b.position_target(-1.5f);
+}
+
 // SYS_LOOP_HZ 400: the attitude propagation and the attitude loop in every iteration, the observer's
 // correction, the filter's prediction and the position loop each in one of four (docs/firmware.md). The
 // flight still works (take-off, hold, landing), the motors answer a body rate in the very iteration it
 // is measured, and the thrust the position loop asks for changes on one iteration in four only.
 TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneInFour) {
   Bench b;
-  b.gyro_bias.setZero();
-  b.boot();
-  ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, 400.0f), nullptr);
-  b.step_us = 2500;
+  ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, 400.0f));
   VerticalFlight flight(b);
   const VerticalVehicle& v = flight.v;
-  into_auto(b, Eigen::Vector3f(0, 0, 0));
-  b.position_target(-1.5f);
   auto collective = [&] {
     float c = 0.0f;
     for (int i = 0; i < 4; ++i) c += b.actuators.back().controls[i] * b.actuators.back().controls[i];
@@ -628,13 +633,8 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
 TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
   for (const float rate : {400.0f, 100.0f}) {
     Bench b;
-    b.gyro_bias.setZero();
-    b.boot();
-    ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, rate), nullptr);
-    b.step_us = static_cast<uint32_t>(1e6f / rate + 0.5f);
+    ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, rate));
     VerticalFlight flight(b);
-    into_auto(b, Eigen::Vector3f(0, 0, 0));
-    b.position_target(-1.5f);
     flight.fly_seconds(6.0f);
     for (int i = 0; i < 40; ++i) flight.step(i, Eigen::Vector3f::Zero(), false);  // nothing in progress
     const uint32_t fused = b.app->counters().fixes_fused;
@@ -674,13 +674,8 @@ TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
 // fixes ends disarmed.
 TEST(FirmwareApp, At400HzFastVisionFixesDoNotStarveTheFrameRateWork) {
   Bench b;
-  b.gyro_bias.setZero();
-  b.boot();
-  ASSERT_EQ(b.app->override_param(quad::fw::kLoopHz, 400.0f), nullptr);
-  b.step_us = 2500;
+  ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, 400.0f));
   VerticalFlight flight(b);
-  into_auto(b, Eigen::Vector3f(0, 0, 0));
-  b.position_target(-1.5f);
   flight.fly_seconds(6.0f);
   ASSERT_NEAR(flight.v.z, -1.5f, 0.1f);
   const uint32_t fused = b.app->counters().fixes_fused, rejected = b.app->counters().fixes_rejected;
