@@ -703,12 +703,9 @@ TEST(FirmwareApp, At400HzFastVisionFixesDoNotStarveTheFrameRateWork) {
 // each change the vehicle moves 30 cm to a new height and holds it.
 TEST(FirmwareApp, ChangingTheLoopRateInFlightKeepsThePositionLoop) {
   Bench b;
-  b.gyro_bias.setZero();
-  b.boot();
+  ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, 100.0f));
   VerticalFlight flight(b);
   const VerticalVehicle& v = flight.v;
-  into_auto(b, Eigen::Vector3f(0, 0, 0));
-  b.position_target(-1.5f);
   auto fly = [&](float seconds) { flight.fly_seconds(seconds); };
   fly(8.0f);  // at 100 Hz: climbed and settled
   ASSERT_NEAR(v.z, -1.5f, 0.05f);
