@@ -366,6 +366,15 @@ void FlightApp::on_hil_sensor(const mav::HilSensor& msg) {
   send_actuators(msg.time_usec);
 }
 
+template <class Step>
+void FlightApp::fix_step(Step step) {
+  const uint32_t resets_before = filter_.health().resets;
+  mark(hal::TracePoint::kFixBegin);
+  const est::FixResult r = step();
+  mark(hal::TracePoint::kFixEnd);
+  if (r != est::FixResult::Pending) fix_result(r, filter_.health().resets != resets_before);
+}
+
 void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
   if (!is_finite(p_ned)) {
     ++counters_.fixes_invalid;
@@ -374,26 +383,15 @@ void FlightApp::on_fix(const Vec3& p_ned, uint32_t capture_us) {
   if (stages_.per_frame() >= kStageCount || filter_.fix_in_progress()) {
     // With four or more iterations per frame (400 Hz) no iteration has room for the whole fusion beside
     // its stage: it waits for the frame-rate work's iteration, which has no other stage, and takes its
-    // gate in one frame and its update in the next (advance_fix()). With fewer, the frame-rate work
+    // gate in one frame and its update in the next (FlightApp::step). With fewer, the frame-rate work
     // shares its iteration with another stage, and the fix is fused where it arrives, as at 100 Hz.
     const est::FixResult r = filter_.queue_fix(p_ned, capture_us);
     if (r != est::FixResult::Pending) fix_result(r, false);
     return;
   }
-  const uint32_t resets_before = filter_.health().resets;
-  mark(hal::TracePoint::kFixBegin);
-  const est::FixResult r = filter_.fuse_position(p_ned, capture_us);
-  mark(hal::TracePoint::kFixEnd);
-  fix_result(r, filter_.health().resets != resets_before);
+  fix_step([&] { return filter_.fuse_position(p_ned, capture_us); });
 }
 
-void FlightApp::advance_fix() {
-  const uint32_t resets_before = filter_.health().resets;
-  mark(hal::TracePoint::kFixBegin);
-  const est::FixResult r = filter_.advance_fix();
-  mark(hal::TracePoint::kFixEnd);
-  if (r != est::FixResult::Pending) fix_result(r, filter_.health().resets != resets_before);
-}
 
 void FlightApp::fix_result(est::FixResult r, bool reset) {
   const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
@@ -593,7 +591,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   bool slow_now = stages_.runs(kStageShaper);
   if (slow_now) {
     if (filter_.fix_in_progress() && frame_work_deferred_ < kMaxFrameWorkDeferred) {
-      advance_fix();
+      fix_step([&] { return filter_.advance_fix(); });
       slow_now = false;
       ++frame_work_deferred_;
     } else {

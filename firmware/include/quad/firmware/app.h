@@ -147,7 +147,10 @@ class FlightApp {
   void on_setpoint(const mavlink::SetPositionTargetLocalNed& msg);
   void on_manual_control(const mavlink::ManualControl& msg);
   void on_fix(const Vec3& p_ned, uint32_t capture_us);
-  void advance_fix();  // the next step of a queued vision fix (four or more iterations per frame)
+  // One step of the filter's fusion (the whole of it, or a gate or an update at 400 Hz), traced, with
+  // its result counted once it is final.
+  template <class Step>
+  void fix_step(Step step);
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg);
