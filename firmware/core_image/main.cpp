@@ -47,7 +47,7 @@ int main() {
   io.storage = quad::fw::StorageIo{storage_read, storage_write};
   io.write = write_port;
   io.micros = micros;
-  g_app.init(io, /*hil=*/false);
+  g_app.init(io);
   for (;;) {
     g_clock_us += 10000u;
     quad::hal::ImuSample imu;

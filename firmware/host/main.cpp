@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
   static quad::fw::FlightApp app;  // large: keep it off the stack
   quad::fw::AppIo io = quad::fw::hal_app_io();
   io.console = console;
-  app.init(io, /*hil=*/true);
+  quad::fw::init_hil(app, io);
   for (const quad::fw::ParamOverride& o : overrides) {
     if (const char* why = app.override_param(o.index, o.value)) {
       std::fprintf(stderr, "quad_firmware: %s: %s: %s\n", options.params_path.c_str(),

@@ -30,10 +30,11 @@ bool within(uint32_t now_us, uint32_t then_us, int32_t max_age_us) {
 
 FlashText mode_name(FlightMode mode) {
   switch (mode) {
-    case FlightMode::kDisarmed: return QUAD_TEXT("DISARMED");
-    case FlightMode::kManual: return QUAD_TEXT("MANUAL");
-    case FlightMode::kAuto: return QUAD_TEXT("AUTO");
-    case FlightMode::kLanding: return QUAD_TEXT("LANDING");
+#define QUAD_FLIGHT_MODE_TEXT(e, number, name) \
+  case FlightMode::e:                           \
+    return QUAD_TEXT(name);
+    QUAD_FLIGHT_MODES(QUAD_FLIGHT_MODE_TEXT)
+#undef QUAD_FLIGHT_MODE_TEXT
   }
   return QUAD_TEXT("?");
 }

@@ -49,7 +49,7 @@ mav::SignatureCheck RadioSigning::check(const mav::Frame& frame) {
   return verifier_.check(frame);
 }
 
-RadioSigning::Provisioned RadioSigning::provision(const StorageIo& io, const SetupSigning& msg) {
+RadioSigning::Provisioned RadioSigning::provision(const StorageIo& io, const mavlink::SetupSigning& msg) {
   const bool off = all_zero(msg.secret_key, sizeof msg.secret_key) && msg.initial_timestamp == 0;
   memcpy(key_.bytes, msg.secret_key, sizeof key_.bytes);
   has_key_ = !all_zero(key_.bytes, sizeof key_.bytes);

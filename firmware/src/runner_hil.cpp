@@ -1,6 +1,7 @@
 // The HIL loop: only the clock, the serial ports and the storage of the HAL (hosts link this alone).
 #include "quad/firmware/runner.h"
 
+#include "quad/firmware/hil_bridge.h"
 #include "quad/hal/hal.h"
 
 namespace quad {
@@ -12,6 +13,8 @@ uint16_t write_port(uint8_t port, const uint8_t* data, uint16_t length) {
   return hal::serial_write(static_cast<hal::Port>(port), data, length);
 }
 
+HilBridge g_bridge;
+
 }  // namespace
 
 AppIo hal_app_io() {
@@ -21,6 +24,11 @@ AppIo hal_app_io() {
   io.micros = hal::micros;
   io.trace = hal::trace;
   return io;
+}
+
+void init_hil(FlightApp& app, AppIo io) {
+  g_bridge.connect(app, io);
+  app.init(io);
 }
 
 void poll_ports(FlightApp& app) {

@@ -70,22 +70,5 @@ bool RateDivider::tick() {
   return true;
 }
 
-void StageClock::configure(float rate_hz, float loop_hz) {
-  frame_.configure(rate_hz, loop_hz);
-  index_ = 0;
-  per_frame_ = 1;
-  if (!(rate_hz > 0.0f) || !(loop_hz > rate_hz)) return;
-  const float n = loop_hz / rate_hz;  // SYS_LOOP_HZ <= 1000: at most 20 iterations of a 50 Hz frame
-  per_frame_ = n >= 255.0f ? 255u : static_cast<uint8_t>(n);
-}
-
-void StageClock::tick() {
-  if (frame_.tick()) {
-    index_ = 0;
-  } else if (index_ < 255u) {
-    ++index_;
-  }
-}
-
 }  // namespace fw
 }  // namespace quad

@@ -127,7 +127,7 @@ int parse_mode(const Field& f) {
   std::string upper = s;
   std::transform(upper.begin(), upper.end(), upper.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
   std::string names;
-  // The names and numbers are the firmware's own (quad/firmware/modes.h).
+  // The names and numbers are the firmware's own (quad/link/dialect.h).
   for (int m = 0; m < kFlightModeCount; ++m) {
     const std::string name = flight_mode_name(m);
     if (upper == name) return m;

@@ -21,7 +21,7 @@
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
-#include "quad/firmware/scheduler.h"
+#include "quad/firmware/frame_schedule.h"
 #include "quad/math/math.h"
 
 namespace {
@@ -169,7 +169,7 @@ void tick400(const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint&
                      g_now_us);
     g_accel_count = 0;
   }
-  if (g_stages.runs(quad::fw::kStageShaper)) {
+  if (g_stages.runs(quad::fw::kStageFrameWork)) {
     // A vision fix in progress takes the shaper's place (FlightApp::step): its gate in one frame, its
     // update in the next; the shaper catches up with the frames it missed (their dt) afterwards.
     if (g_filter.fix_in_progress()) {
@@ -225,7 +225,7 @@ void tick400_frames() {
   }
   while (g_filter.fix_in_progress()) tick400(sample(g_step + k++), false, g_setpoint);
   // Up to the end of a frame, so the measured iterations below are a frame's, in stage order.
-  for (; !g_stages.runs(quad::fw::kStageShaper); ++k) tick400(sample(g_step + k), false, g_setpoint);
+  for (; !g_stages.runs(quad::fw::kStageFrameWork); ++k) tick400(sample(g_step + k), false, g_setpoint);
   // A typical frame: no magnetometer sample, no fix, hovering.
   for (uint8_t i = 0; i < 4u; ++i, ++k) {
     const Sensors s = sample(g_step + k);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "quad/firmware/app.h"
+#include "quad/firmware/hil_bridge.h"
 
 namespace quad {
 namespace fw {
@@ -58,7 +59,11 @@ class Bench {
     io.storage = quad::fw::StorageIo{&Bench::storage_read, &Bench::storage_write};
     io.write = &Bench::write;
     io.micros = &Bench::micros;
-    app->init(io, hil);
+    if (hil) {
+      bridge = std::make_unique<quad::fw::HilBridge>();
+      bridge->connect(*app, io);
+    }
+    app->init(io);
   }
 
   // One HIL step of a vehicle with attitude q, body rate w, specific force f_b (FRD).
@@ -154,6 +159,7 @@ class Bench {
   }
 
   std::unique_ptr<quad::fw::FlightApp> app;
+  std::unique_ptr<quad::fw::HilBridge> bridge;
   std::vector<uint8_t> storage;
   bool storage_fails = false;
   uint64_t t_us = 1000000;

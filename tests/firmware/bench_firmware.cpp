@@ -10,7 +10,8 @@
 #include <vector>
 
 #include "quad/firmware/app.h"
-#include "quad/firmware/setup_signing.h"
+#include "quad/firmware/hil_bridge.h"
+#include "quad/link/dialect.h"
 #include "quad/link/signing.h"
 
 namespace {
@@ -44,6 +45,7 @@ std::vector<uint8_t> frame(const Msg& msg, mav::Sender& sender) {
 
 struct Flying {
   std::unique_ptr<quad::fw::FlightApp> app = std::make_unique<quad::fw::FlightApp>();
+  quad::fw::HilBridge bridge;
   mav::Sender sim{1, 200}, gcs{255, 190}, vision{1, 197};
   mav::SigningKey key{};
   mav::SigningClock clock{400000000000ull};
@@ -56,13 +58,14 @@ struct Flying {
     io.storage = quad::fw::StorageIo{storage_read, storage_write};
     io.write = write_port;
     io.micros = micros;
-    app->init(io, true);
+    bridge.connect(*app, io);
+    app->init(io);
     mav::ParamSet set;
     set.target_system = 1;
     std::strncpy(set.param_id, "FS_RC_ENABLE", 16);
     feed(quad::hal::kUart0, frame(set, gcs));
     if (signed_radio) {
-      quad::fw::SetupSigning setup;
+      mav::SetupSigning setup;
       setup.target_system = 1;
       setup.initial_timestamp = clock.now();
       for (uint8_t i = 0; i < 32; ++i) key.bytes[i] = setup.secret_key[i] = static_cast<uint8_t>(i * 13 + 5);

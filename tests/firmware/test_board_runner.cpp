@@ -92,7 +92,7 @@ class BoardRunner : public ::testing::Test {
     g_board = &board_;
     board_.imu.accel = quad::Vec3{0.0f, 0.0f, -quad::kGravity};
     app_ = std::make_unique<quad::fw::FlightApp>();
-    app_->init(quad::fw::hal_app_io(), /*hil=*/false);
+    app_->init(quad::fw::hal_app_io());
   }
   void TearDown() override { g_board = nullptr; }
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "app_bench.h"
-#include "quad/firmware/setup_signing.h"
+#include "quad/link/dialect.h"
 #include "quad/firmware/storage_layout.h"
 #include "quad/link/sha256.h"
 
@@ -19,7 +19,7 @@ namespace {
 using quad::fw::test::Bench;
 namespace mav = quad::mavlink;
 using quad::fw::FlightMode;
-using quad::fw::SetupSigning;
+using quad::mavlink::SetupSigning;
 constexpr uint8_t kUsb = quad::hal::kUart0;
 constexpr uint8_t kRadio = quad::hal::kUart2;
 
@@ -249,7 +249,7 @@ TEST(RadioSigning, NodeMavlinkSetupSigningAndSignedCommandsAreUnderstood) {
   ASSERT_EQ(frames.size(), 3u) << "node or node-mavlink missing (make setup)";
 
   // SETUP_SIGNING: node-mavlink's id, CRC_EXTRA and layout agree with ours (the CRC would fail otherwise).
-  mav::Parser parser(quad::fw::firmware_message_info);
+  mav::Parser parser(quad::mavlink::dialect_message_info);
   SetupSigning decoded;
   int got = 0;
   parser.feed(frames["setup"].data(), frames["setup"].size(), [&](const mav::Frame& f) {

@@ -7,7 +7,7 @@
 #include <random>
 
 #include "eigen_oracle.h"
-#include "quad/firmware/scheduler.h"
+#include "quad/firmware/frame_schedule.h"
 #include "quad/firmware/vision.h"
 
 namespace {

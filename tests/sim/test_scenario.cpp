@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "quad/firmware/modes.h"
+#include "quad/link/dialect.h"
 #include "quad/sim/scenario.h"
 
 namespace quad::sim {
@@ -36,7 +36,7 @@ TEST(Scenario, HoverIsTheThesisExperiment) {
     if (c.setpoint_ned_m) setpoint = c.setpoint_ned_m->isApprox(Eigen::Vector3d(0, 0, -1.5));
     land |= c.land;
     if (c.mode) {
-      EXPECT_EQ(*c.mode, static_cast<int>(fw::FlightMode::kAuto));
+      EXPECT_EQ(*c.mode, static_cast<int>(mavlink::FlightMode::kAuto));
     }
   }
   EXPECT_TRUE(arm && setpoint && land);

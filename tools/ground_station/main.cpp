@@ -27,7 +27,7 @@
 
 #include <sys/time.h>
 
-#include "quad/firmware/setup_signing.h"
+#include "quad/link/dialect.h"
 #include "quad/hal/host.h"
 #include "quad/link/mavlink.h"
 #include "quad/link/sha256.h"
@@ -161,7 +161,7 @@ class Link {
 
 // SETUP_SIGNING carries no acknowledgement: the vehicle's STATUSTEXT says whether it took the key.
 int setup_signing(Link& link, const mav::SigningKey& key, bool off) {
-  quad::fw::SetupSigning msg;
+  quad::mavlink::SetupSigning msg;
   msg.target_system = kVehicleSystem;
   msg.target_component = kVehicleComponent;
   if (!off) {

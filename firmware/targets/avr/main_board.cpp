@@ -13,6 +13,6 @@ int main() {
   // A sensor that does not answer leaves its driver silent; the application's sensor health check
   // then refuses to arm and reports it over MAVLink, which is more useful than stopping here.
   quad::hal::avr::init_board();
-  g_app.init(quad::fw::hal_app_io(), /*hil=*/false);
+  g_app.init(quad::fw::hal_app_io());
   quad::fw::run_board(g_app);
 }

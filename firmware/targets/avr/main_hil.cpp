@@ -10,6 +10,6 @@ quad::fw::FlightApp g_app;  // static: the 8 KiB of RAM hold no room for it on t
 
 int main() {
   quad::hal::init();
-  g_app.init(quad::fw::hal_app_io(), /*hil=*/true);
+  quad::fw::init_hil(g_app, quad::fw::hal_app_io());
   quad::fw::run_hil(g_app);
 }

@@ -9,6 +9,6 @@ quad::fw::FlightApp g_app;
 
 int main() {
   quad::hal::init();
-  g_app.init(quad::fw::hal_app_io(), /*hil=*/true);
+  quad::fw::init_hil(g_app, quad::fw::hal_app_io());
   quad::fw::run_hil(g_app);
 }

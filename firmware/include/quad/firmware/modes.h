@@ -17,12 +17,13 @@
 #include <stdint.h>
 
 #include "quad/firmware/flash.h"
+#include "quad/link/dialect.h"
 
 namespace quad {
 namespace fw {
 
-// MAVLink custom_mode values (HEARTBEAT.custom_mode, MAV_CMD_DO_SET_MODE param2).
-enum class FlightMode : uint8_t { kDisarmed = 0, kManual = 1, kAuto = 2, kLanding = 3 };
+// MAVLink custom_mode values (HEARTBEAT.custom_mode, MAV_CMD_DO_SET_MODE param2): the dialect's.
+using mavlink::FlightMode;
 
 FlashText mode_name(FlightMode mode);
 
@@ -47,6 +48,17 @@ struct ModeInputs {
 };
 
 enum class Command : uint8_t { kArm, kDisarm, kForceDisarm, kManual, kAuto, kLand };
+
+// The command that selects a mode (MAV_CMD_DO_SET_MODE).
+inline Command command_for(FlightMode mode) {
+  switch (mode) {
+    case FlightMode::kDisarmed: return Command::kDisarm;
+    case FlightMode::kManual: return Command::kManual;
+    case FlightMode::kAuto: return Command::kAuto;
+    case FlightMode::kLanding: return Command::kLand;
+  }
+  return Command::kDisarm;
+}
 
 // Why the machine changed mode or refused a command; each has a STATUSTEXT (reason_text()).
 enum class Reason : uint8_t {

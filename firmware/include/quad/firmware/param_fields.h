@@ -1,5 +1,5 @@
 // The parameters that reach a float field of a configuration struct unchanged, as tables of (parameter,
-// field offset) pairs: FlightApp::apply_params() copies them in one loop (load_fields) instead of a load
+// field offset) pairs: the parts of the flight application copy them in one loop (load_fields) instead of a load
 // and a store per field, about 20 bytes of AVR flash each with the 16-bit offset arithmetic. The fields
 // computed from parameters (VEH_FRAME, the yaw coefficient, MAN_THR_MAX, ...) stay written out there.
 // In a header so the tests can check every entry (tests/firmware/test_params.cpp, "ParamFields").
@@ -35,7 +35,7 @@ constexpr char float_field(const float*) { return 1; }
   { id, sizeof(float_field(&static_cast<T*>(nullptr)->member)) * offsetof(T, member) }
 
 // Copies p.get(table[i].id) into the float at dst + table[i].offset for each of the n entries (table
-// in flash). Out of line in app.cpp.
+// in flash). Out of line in param_fields.cpp.
 void load_fields(const Params& p, void* dst, const ParamField* table, uint8_t n);
 
 template <class T, uint8_t N>

@@ -18,7 +18,7 @@
 #include <stdint.h>
 
 #include "quad/firmware/redundant_record.h"
-#include "quad/firmware/setup_signing.h"
+#include "quad/link/dialect.h"
 #include "quad/link/signing.h"
 
 namespace quad {
@@ -67,7 +67,7 @@ class RadioSigning {
   enum class Provisioned : uint8_t { kKeySet, kSigningOff, kStorageFailed };
   // A SETUP_SIGNING received on the USB port: stores the key (an all-zero key and timestamp removes it),
   // moves the clock to its initial timestamp, forgets the streams heard under the old key.
-  Provisioned provision(const StorageIo& io, const SetupSigning& msg);
+  Provisioned provision(const StorageIo& io, const mavlink::SetupSigning& msg);
   // A SETUP_SIGNING received on the radio: refused and counted.
   void refuse_provisioning() { ++provisioning_refused_; }
 

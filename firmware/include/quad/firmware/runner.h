@@ -19,6 +19,10 @@ constexpr uint8_t kRcRoll = 0, kRcPitch = 1, kRcThrottle = 2, kRcYaw = 3, kRcMot
 // The AppIo of a HAL target: storage, serial output and clock from the HAL.
 AppIo hal_app_io();
 
+// Connects the HIL bridge (hil_bridge.h: HIL_SENSOR in, HIL_ACTUATOR_CONTROLS out) and initialises the
+// application with io for hardware-in-the-loop. One application per image.
+void init_hil(FlightApp& app, AppIo io);
+
 // Hands every byte waiting on the serial ports to the application.
 void poll_ports(FlightApp& app);
 

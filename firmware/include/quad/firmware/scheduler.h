@@ -67,33 +67,5 @@ class RateDivider {
   uint16_t phase_ = 0;   // accumulated, < period_
 };
 
-// Spreads the stages of a frame at `rate_hz` (kPositionRateHz, 100 Hz) over the iterations of a faster
-// loop, so that no iteration carries all of them: with n = floor(loop_hz / rate_hz) iterations per frame,
-// stage s runs in iteration s mod n of each frame (every stage in every iteration at n = 1). On the
-// ATmega2560 at 400 Hz this is what keeps each iteration near a quarter of the 100 Hz one
-// (docs/performance.md). A loop rate that does not divide (250 Hz: frames of two and three iterations)
-// runs the stages in the first n iterations of each frame.
-// The firmware's 100 Hz stages in the order of a frame (FlightApp; the cycle bench runs the same schedule).
-enum Stage : uint8_t {
-  kStageCorrect = 0,       // the observer's correction
-  kStagePredict = 1,       // the position filter's prediction, with the correction's rotation
-  kStagePositionLoop = 2,  // eq. 8.20 to the attitude command, with the predicted state
-  kStageShaper = 3,        // the setpoint shaper and the application's frame-rate work
-  kStageCount = 4,         // from this many iterations per frame on, each stage has one of its own
-};
-
-class StageClock {
- public:
-  void configure(float rate_hz, float loop_hz);
-  void tick();  // once per loop iteration, before runs()
-  bool runs(uint8_t stage) const { return stage % per_frame_ == index_; }
-  uint8_t per_frame() const { return per_frame_; }
-
- private:
-  RateDivider frame_;     // fires on the first iteration of each frame
-  uint8_t per_frame_ = 1;
-  uint8_t index_ = 0;     // the iteration within the frame (saturates)
-};
-
 }  // namespace fw
 }  // namespace quad

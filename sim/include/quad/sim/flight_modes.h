@@ -1,18 +1,18 @@
-// The firmware's flight modes (quad/firmware/modes.h) as the simulator names them: numbers and names are
-// the firmware's own, never copied. On the host, the firmware's flash texts are ordinary memory.
+// The firmware's flight modes as the simulator names them: numbers and names are the link dialect's
+// (quad/link/dialect.h), the same list the firmware is built from.
 #pragma once
 
 #include <string>
 
-#include "quad/firmware/modes.h"
+#include "quad/link/dialect.h"
 
 namespace quad::sim {
 
-constexpr int kFlightModeCount = static_cast<int>(fw::FlightMode::kLanding) + 1;
+constexpr int kFlightModeCount = mavlink::kFlightModeCount;
 
 inline std::string flight_mode_name(int mode) {
   if (mode < 0 || mode >= kFlightModeCount) return "?";
-  return fw::mode_name(static_cast<fw::FlightMode>(mode)).p;
+  return mavlink::flight_mode_name(static_cast<mavlink::FlightMode>(mode));
 }
 
 }  // namespace quad::sim

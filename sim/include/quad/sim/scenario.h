@@ -27,7 +27,7 @@ class ScenarioError : public std::runtime_error {
 struct GcsCommand {
   double at_s = 0.0;
   std::optional<bool> arm;                 // COMMAND_LONG 400
-  std::optional<int> mode;                 // COMMAND_LONG 176, custom mode (quad/firmware/modes.h)
+  std::optional<int> mode;                 // COMMAND_LONG 176, custom mode (quad/link/dialect.h)
   std::optional<Eigen::Vector3d> setpoint_ned_m;  // SET_POSITION_TARGET_LOCAL_NED
   double yaw_rad = 0.0;                    // with the setpoint
   bool land = false;                       // COMMAND_LONG 21

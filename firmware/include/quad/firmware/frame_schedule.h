@@ -1,0 +1,88 @@
+// The multi-rate policy of the flight loop, in one place: which of the thesis' 100 Hz stages runs in
+// which iteration of a faster loop, and where a vision fix is fused.
+//
+// The thesis runs everything at 100 Hz (fig. 8.1). Above that rate only the attitude propagation and the
+// attitude loop run in every iteration; the observer's correction, the position filter's prediction, the
+// position loop and the frame-rate work (setpoint shaper, hover-bias gate, mode machine, position trim,
+// landing detection) each get one iteration of the 10 ms frame, so that no iteration carries all of them
+// (on the ATmega2560 at 400 Hz each iteration stays near a quarter of the 100 Hz one: docs/performance.md).
+//
+// A vision fix is fused where it arrives while an iteration has room for it beside its stage (fewer than
+// four iterations per frame). With four or more, the fusion waits for the frame-rate work's iteration,
+// the only one with no other stage, and takes it over two frames (the filter's gate, then its update:
+// position_filter.h). The frame-rate work then runs a frame or two later over the time it missed; it gives
+// way at most twice in a row, so however fast fixes come the failsafes and the landing detection still run
+// in one frame of three.
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/firmware/scheduler.h"
+
+namespace quad {
+namespace fw {
+
+// The 100 Hz stages in the order of a frame.
+enum Stage : uint8_t {
+  kStageCorrect = 0,       // the observer's correction
+  kStagePredict = 1,       // the position filter's prediction, with the correction's rotation
+  kStagePositionLoop = 2,  // eq. 8.20 to the attitude command, with the predicted state
+  kStageFrameWork = 3,     // the setpoint shaper and the application's frame-rate work
+  kStageCount = 4,         // from this many iterations per frame on, each stage has one of its own
+};
+
+// Spreads the stages of a frame at `rate_hz` over the iterations of a faster loop: with
+// n = floor(loop_hz / rate_hz) iterations per frame, stage s runs in iteration s mod n of each frame
+// (every stage in every iteration at n = 1). A loop rate that does not divide (250 Hz: frames of two and
+// three iterations) runs the stages in the first n iterations of each frame.
+class StageClock {
+ public:
+  void configure(float rate_hz, float loop_hz);
+  void tick();  // once per loop iteration, before runs()
+  bool runs(uint8_t stage) const { return stage % per_frame_ == index_; }
+  uint8_t per_frame() const { return per_frame_; }
+
+ private:
+  RateDivider frame_;     // fires on the first iteration of each frame
+  uint8_t per_frame_ = 1;
+  uint8_t index_ = 0;     // the iteration within the frame (saturates)
+};
+
+// What one iteration runs, besides the attitude propagation and the attitude loop.
+struct IterationPlan {
+  bool correct = false;        // the observer's correction (else the gyro alone propagates)
+  bool multi_rate = false;     // more than one iteration per frame: the observer's multi-rate form
+  bool predict = false;        // the position filter's prediction
+  bool position_loop = false;  // the position loop
+  bool frame_work = false;     // the frame-rate work
+  bool fix_step = false;       // a vision fix's gate or update, in the frame-rate work's place
+  float correction_dt = 0.0f;  // s since the last correction (with correct)
+  float frame_dt = 0.0f;       // s since the frame-rate work last ran (with frame_work)
+};
+
+class FrameSchedule {
+ public:
+  // The stages at kRateHz out of a loop at loop_hz.
+  static constexpr float kRateHz = 100.0f;
+  // Frames in a row whose frame-rate work may give its iteration to a vision fix.
+  static constexpr uint8_t kMaxFrameWorkDeferred = 2;
+
+  void configure(float loop_hz) { stages_.configure(kRateHz, loop_hz); }
+
+  // The next iteration, dt after the last; fix_in_progress: the filter holds a queued fix.
+  IterationPlan next(float dt, bool fix_in_progress);
+
+  // True when a fix that arrives is fused at once; false when it is queued for the frame-rate work's
+  // iteration.
+  bool fuses_on_arrival() const { return stages_.per_frame() < kStageCount; }
+  uint8_t iterations_per_frame() const { return stages_.per_frame(); }
+
+ private:
+  StageClock stages_;
+  float correction_dt_ = 0.0f;       // s since the observer's last correction
+  float frame_dt_ = 0.0f;            // s since the frame-rate work last ran
+  uint8_t frame_work_deferred_ = 0;  // frames in a row whose frame-rate work gave way to a fix
+};
+
+}  // namespace fw
+}  // namespace quad

@@ -1,0 +1,111 @@
+// The vehicle's state estimate from the IMU, the magnetometer and the vision fixes: the boot calibration
+// hand-off, the IMU clip guard, the conditioned observer (attitude, gyro bias; thesis ch. 4), the
+// per-axis Kalman filter (position, velocity; thesis eq. 8.7-8.12) with the fusion of delayed fixes at
+// their capture time, and the in-flight accelerometer bias learned while hovering.
+//
+// It knows no MAVLink and no time source: the application hands it samples, the iteration's plan
+// (frame_schedule.h) and the parameters, and reports what it returns. This is where another estimator
+// would be chosen: an image compiles in the estimators it can hold, and a parameter picks one of them
+// behind this interface (no virtual dispatch).
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/hover_accel_bias.h"
+#include "quad/estimation/position_filter.h"
+#include "quad/firmware/calibration.h"
+#include "quad/firmware/frame_schedule.h"
+#include "quad/firmware/imu_clip.h"
+#include "quad/firmware/params.h"
+#include "quad/firmware/vision.h"
+#include "quad/hal/hal.h"
+#include "quad/math/math.h"
+
+namespace quad {
+namespace fw {
+
+// The filter's history covers 250 ms of vision delay at the 100 Hz prediction rate.
+constexpr int kPositionHistory = est::history_length(100);
+
+// What an estimator iteration has to report to the operator.
+enum class EstimatorEvent : uint8_t {
+  kNone,
+  kCalibrationWindowRejected,  // calibration_rejection() says why
+  kCalibrated,
+  kClipBurstStarted,           // the IMU began a run of clipped samples
+};
+
+class StateEstimator {
+ public:
+  // The name of the offending parameter when p cannot be applied, else nullptr (nothing changed).
+  const char* check(const Params& p) const;
+  // Takes p (which check() accepted); loop_hz sets how far back the attitude history reaches.
+  void configure(const Params& p, float loop_hz);
+
+  // Starts the boot calibration over (keep the vehicle still).
+  void restart_calibration() { calibration_.restart(); }
+
+  // One iteration at t_us: the sample, its period dt and what the iteration runs. hovering: the vehicle
+  // hovers still in AUTO (its horizontal specific force is the accelerometer's bias), read only in the
+  // frame-rate work's iteration.
+  EstimatorEvent step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
+                      const IterationPlan& plan, bool hovering);
+
+  // Vision fixes (thesis eq. 8.5 with the errata sign): the vehicle's NED position from the star seen in
+  // body FRD at capture_us; false when the attitude at that time is no longer (or not yet) recorded.
+  bool position_from_star(const Vec3& star_body, uint32_t capture_us, Vec3* p_ned) const;
+  // The fusion at the capture time, all at once or (queue, then two advance steps) over two frames.
+  est::FixResult fuse_fix(const Vec3& p_ned, uint32_t capture_us) { return filter_.fuse_position(p_ned, capture_us); }
+  est::FixResult queue_fix(const Vec3& p_ned, uint32_t capture_us) { return filter_.queue_fix(p_ned, capture_us); }
+  est::FixResult advance_fix() { return filter_.advance_fix(); }
+  bool fix_in_progress() const { return filter_.fix_in_progress(); }
+  uint32_t filter_resets() const { return filter_.health().resets; }
+
+  bool calibrated() const { return calibration_.done(); }
+  est::CalibrationStatus calibration_rejection() const { return calibration_.rejection(); }
+  bool mag_valid() const { return bias_.mag_valid; }
+  // The sample was finite and its specific force plausible.
+  bool sensors_ok() const { return sensors_ok_; }
+  bool converged() const { return calibration_.done() && observer_.initialized(); }
+  // Converged, finite, not diverged, and not flying on held gyro rates longer than IMU_CLIP_HOLD.
+  bool healthy() const;
+  const ImuClipGuard& imu_clip() const { return imu_clip_; }
+
+  Quat attitude() const { return observer_.attitude(); }
+  Vec3 rate() const { return observer_.rate(); }
+  Vec3 position() const { return filter_.position(); }
+  Vec3 velocity() const { return filter_.velocity(); }
+  Vec3 accel_bias() const { return accel_bias_.bias(); }
+
+ private:
+  void calibrate(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, EstimatorEvent* event);
+  // accel_valid false: the accelerometer clipped (no gravity correction, the held kinematic acceleration).
+  void estimate(uint32_t t_us, const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag,
+                float dt, const IterationPlan& plan);
+  // The rotation-corrected mean specific force since the last prediction, then the prediction (eq. 8.7).
+  void predict_position(uint32_t t_us);
+
+  BootCalibration calibration_;
+  CalibrationResult bias_;
+  est::ConditionedObserver observer_;
+  est::PositionFilter<kPositionHistory> filter_;
+  AttitudeHistory history_;
+  ImuClipGuard imu_clip_;
+  est::HoverAccelBias accel_bias_;  // the accelerometer's in-flight x/y bias drift
+  Vec3 accel_sum_;                  // body specific force summed between predictions (valid samples)
+  uint8_t accel_count_ = 0;
+  Vec3 last_good_kinematic_accel_;  // stands in for a clipped accelerometer's (eq. 8.7)
+  Vec3 pending_mag_;                // a magnetometer sample that arrived between two corrections
+  bool mag_pending_ = false;
+  bool sensors_ok_ = false;
+  Vec3 star_ned_;                   // VIS_STAR_*
+  est::MagCalibration mag_cal_;     // MAG_OFS_*, MAG_SI_*
+  bool mag_cal_is_identity_ = true; // MAG_OFS zero, MAG_SI the identity: eq. 7.5 is the field itself
+  float mag_declination_ = 0.0f;    // MAG_DECL
+  Vec3 mag_ref_magnetic_;           // Earth field learned at boot, magnetic north along x
+  bool mag_ref_learned_ = false;
+};
+
+}  // namespace fw
+}  // namespace quad

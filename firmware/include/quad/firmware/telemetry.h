@@ -1,0 +1,43 @@
+// The vehicle's telemetry streams, each at its own TEL_*_HZ out of the loop rate: HEARTBEAT,
+// ATTITUDE_QUATERNION, LOCAL_POSITION_NED and SYS_STATUS, broadcast on both ports.
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/firmware/ground_link.h"
+#include "quad/firmware/params.h"
+#include "quad/firmware/scheduler.h"
+
+namespace quad {
+namespace fw {
+
+class FlightApp;
+
+class Telemetry {
+ public:
+  void configure(const Params& p, float loop_hz);
+  // Latches an IMU clip until the next SYS_STATUS, which reports the sensor unhealthy for its period.
+  void note_clipping(bool gyro, bool accel) {
+    gyro_clipped_ = gyro_clipped_ || gyro;
+    accel_clipped_ = accel_clipped_ || accel;
+  }
+  // Once per iteration: the streams that are due.
+  void send_due(const FlightApp& app, GroundLink& link);
+
+ private:
+  void send_status(const FlightApp& app, GroundLink& link);
+
+  RateDivider heartbeat_rate_;
+  RateDivider attitude_rate_;
+  RateDivider position_rate_;
+  RateDivider status_rate_;
+  bool gyro_clipped_ = false;   // since the last SYS_STATUS
+  bool accel_clipped_ = false;
+  uint32_t radio_rejected_reported_ = 0;
+};
+
+// MAVLink HEARTBEAT.base_mode of the vehicle.
+uint8_t base_mode(bool armed, bool hil);
+
+}  // namespace fw
+}  // namespace quad

@@ -1,0 +1,190 @@
+#include "quad/firmware/state_estimator.h"
+
+#include "quad/firmware/app_checks.h"
+#include "quad/firmware/param_fields.h"
+
+namespace quad {
+namespace fw {
+
+namespace {
+
+// |det W| below this is not a calibration but a broken matrix (a fitted W is near a rotation-free scale).
+constexpr float kMinSoftIronDeterminant = 0.05f;
+
+// The Earth field with magnetic north along x, expressed in true NED: turned about down by the
+// declination (east positive). Out of line: two callers, and two inlined copies of sinf, cosf and six
+// products cost AVR flash.
+__attribute__((noinline)) Vec3 turn_by_declination(const Vec3& magnetic, float declination) {
+  const float c = cosf(declination), s = sinf(declination);
+  return Vec3{c * magnetic.x - s * magnetic.y, s * magnetic.x + c * magnetic.y, magnetic.z};
+}
+
+}  // namespace
+
+const char* StateEstimator::check(const Params& p) const {
+  est::MagCalibration mag_cal;
+  load_fields(p, mag_cal, kMagFields);
+  // A (nearly) singular soft-iron matrix would flatten the field onto a line or a plane: no heading.
+  if (absf(determinant(mag_cal.soft_iron)) < kMinSoftIronDeterminant) return "MAG_SI (singular)";
+  return nullptr;
+}
+
+void StateEstimator::configure(const Params& p, float loop_hz) {
+  est::ObserverParams op;
+  load_fields(p, op, kObserverFields);
+  // The Earth field is learned from the boot calibration (magnetic north as x), then turned by the
+  // declination so the heading is relative to true north; a new MAG_DECL turns it again.
+  mag_declination_ = p.get(kMagDecl);
+  op.mag_ref_from_init = !mag_ref_learned_;
+  if (mag_ref_learned_) op.mag_ref_ned = turn_by_declination(mag_ref_magnetic_, mag_declination_);
+  observer_.set_params(op);
+  load_fields(p, mag_cal_, kMagFields);
+  mag_cal_is_identity_ = identity_calibration(p);
+
+  est::PositionFilterParams fp;
+  fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
+  load_fields(p, fp, kFilterFields);
+  fp.z_accel_bias = p.get(kKfZBias) >= 0.5f;
+  fp.xy_accel_bias = p.get(kKfXYBias) >= 0.5f;
+  filter_.set_params(fp);
+
+  load_fields(p, star_ned_, kStarFields);
+
+  CalibrationConfig cc;
+  load_fields(p, cc, kCalibrationFields);
+  calibration_.configure(cc);
+  imu_clip_.configure(p.get(kImuGyroRange), p.get(kImuAccRange), p.get(kImuClipHold));
+  accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
+  // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
+  history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
+}
+
+EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
+                                    const IterationPlan& plan, bool hovering) {
+  sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
+  // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
+  // calibration is the field itself).
+  hal::MagSample mag_calibrated;
+  const hal::MagSample* m = mag;
+  if (mag != nullptr && !mag_cal_is_identity_) {
+    mag_calibrated.field = mag_cal_.apply(mag->field);
+    m = &mag_calibrated;
+  }
+  EstimatorEvent event = EstimatorEvent::kNone;
+  if (!calibration_.done()) {
+    calibrate(t_us, imu, m, &event);
+    return event;
+  }
+  // Clipped gyro axes come back held at their last good value (imu_clip.h); the biases come off after.
+  const Vec3 gyro = imu_clip_.update(imu, dt);
+  if (imu_clip_.burst_started()) event = EstimatorEvent::kClipBurstStarted;
+  const Vec3 accel = imu.accel - bias_.bias.accel;
+  const bool accel_valid = !imu_clip_.accel_clipped();
+  if (plan.frame_work) accel_bias_.update(accel, accel_valid && hovering, plan.frame_dt);
+  // The learned bias has z = +0: accel.z - 0.0f is accel.z itself (IEEE: x - (+0) = x, -0 included).
+  const Vec3 b = accel_bias_.bias();
+  estimate(t_us, gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt, plan);
+  return event;
+}
+
+void StateEstimator::calibrate(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag,
+                               EstimatorEvent* event) {
+  switch (calibration_.add(t_us, imu.gyro, imu.accel, mag != nullptr ? &mag->field : nullptr)) {
+    case BootCalibration::Event::kCollecting:
+      return;
+    case BootCalibration::Event::kWindowRejected:
+      *event = EstimatorEvent::kCalibrationWindowRejected;
+      return;
+    case BootCalibration::Event::kDone:
+      break;
+  }
+  bias_ = calibration_.result();
+  // With the biases removed the mean specific force is -g e_z: level; the heading comes from the
+  // magnetometer (TRIAD), or is 0 without one.
+  const Vec3 down_force{0.0f, 0.0f, -kGravity};
+  if (!bias_.mag_valid || !observer_.initialize(down_force, bias_.mag_mean)) {
+    observer_.reset(Quat::identity(), Vec3{});
+  } else {
+    // initialize() learned the field with magnetic north as x: turn it by the declination and take the
+    // TRIAD attitude against the true-north reference.
+    mag_ref_magnetic_ = observer_.params().mag_ref_ned;
+    mag_ref_learned_ = true;
+    est::ObserverParams op = observer_.params();
+    op.mag_ref_from_init = false;
+    op.mag_ref_ned = turn_by_declination(mag_ref_magnetic_, mag_declination_);
+    observer_.set_params(op);
+    observer_.initialize(down_force, bias_.mag_mean);
+    observer_.reset(observer_.attitude(), Vec3{});
+  }
+  *event = EstimatorEvent::kCalibrated;
+}
+
+void StateEstimator::estimate(uint32_t t_us, const Vec3& gyro, const Vec3& accel, bool accel_valid,
+                              const hal::MagSample* mag, float dt, const IterationPlan& plan) {
+  if (plan.correct) {
+    // A magnetometer sample that arrived since the last correction counts if this iteration has none.
+    const Vec3* field = mag != nullptr ? &mag->field : (mag_pending_ ? &pending_mag_ : nullptr);
+    const Vec3 zero;
+    // Without a valid accelerometer the observer gets a zero specific force, which its norm gate refuses:
+    // no gravity correction from this sample (the gyro still propagates).
+    const Vec3& a = accel_valid ? accel : zero;
+    const Vec3& f = field != nullptr ? *field : zero;
+    if (plan.multi_rate) {
+      observer_.correct(gyro, a, f, field != nullptr, dt, plan.correction_dt);
+    } else {
+      observer_.update(gyro, a, f, field != nullptr, dt);
+    }
+    mag_pending_ = false;
+  } else {
+    // Between corrections the gyro alone carries the attitude, with the last innovation held.
+    if (mag != nullptr) {
+      pending_mag_ = mag->field;
+      mag_pending_ = true;
+    }
+    observer_.propagate(gyro, dt);
+  }
+  history_.push(t_us, observer_.attitude());
+  // A clipped accelerometer's samples are left out of the mean the prediction takes.
+  if (accel_valid) {
+    if (accel_count_ == 0) {
+      accel_sum_ = accel;  // the first term after a prediction, without three additions to zero
+    } else {
+      accel_sum_ += accel;
+    }
+    ++accel_count_;
+  }
+  if (plan.predict) predict_position(t_us);
+}
+
+void StateEstimator::predict_position(uint32_t t_us) {
+  // thesis eq. 8.7: u = g e_z + R a_B, with a_B the mean specific force over the iterations since the
+  // last prediction and R the observer's DCM: this iteration's at 100 Hz; at a faster loop the rotation
+  // the last correction started from, the middle of the four samples the mean covers.
+  // With no valid sample the last good kinematic acceleration stands in while the clip guard is healthy,
+  // then none (the filter coasts on its velocity; the estimator failsafe is already landing).
+  if (accel_count_ > 0) {
+    // One sample (a 100 Hz loop) is the sum itself, exactly, without the division and three
+    // multiplications (1 100 cycles on the AVR).
+    const Vec3 mean = accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_));
+    last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), mean);
+  }
+  filter_.predict(accel_count_ > 0 || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{}, t_us);
+  accel_count_ = 0;  // the next term replaces accel_sum_
+}
+
+bool StateEstimator::position_from_star(const Vec3& star_body, uint32_t capture_us, Vec3* p_ned) const {
+  Quat q_capture;
+  if (!history_.lookup(capture_us, q_capture)) return false;
+  // thesis eq. 8.5 with the errata sign, the attitude taken at the capture time.
+  *p_ned = vehicle_position_from_star(star_ned_, q_capture, star_body);
+  return true;
+}
+
+bool StateEstimator::healthy() const {
+  // An IMU clipping for longer than IMU_CLIP_HOLD leaves the attitude on guessed rates: unhealthy.
+  return converged() && imu_clip_.healthy() && is_finite(observer_.attitude()) && is_finite(filter_.position()) &&
+         healthy_speed(filter_.velocity());
+}
+
+}  // namespace fw
+}  // namespace quad

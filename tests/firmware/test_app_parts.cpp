@@ -1,0 +1,149 @@
+// The flight application's parts on their own, without MAVLink bytes: the frame schedule's multi-rate
+// policy, the state estimator from the boot calibration to a fused fix, and flight control from arming
+// to a landing.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "quad/firmware/flight_control.h"
+#include "quad/firmware/frame_schedule.h"
+#include "quad/firmware/params.h"
+#include "quad/firmware/state_estimator.h"
+
+namespace {
+
+using quad::Vec3;
+using quad::fw::FrameSchedule;
+using quad::fw::IterationPlan;
+
+constexpr float kG = 9.80665f;
+
+// At 100 Hz every iteration runs every stage, the frame-rate work over one period, and a fix is fused
+// where it arrives.
+TEST(FrameSchedule, AtTheThesisRateEveryIterationRunsEveryStage) {
+  FrameSchedule s;
+  s.configure(100.0f);
+  EXPECT_TRUE(s.fuses_on_arrival());
+  for (int i = 0; i < 50; ++i) {
+    const IterationPlan p = s.next(0.01f, false);
+    EXPECT_TRUE(p.correct && p.predict && p.position_loop && p.frame_work);
+    EXPECT_FALSE(p.multi_rate || p.fix_step);
+    EXPECT_FLOAT_EQ(p.correction_dt, 0.01f);
+    EXPECT_FLOAT_EQ(p.frame_dt, 0.01f);
+  }
+}
+
+// At 400 Hz each stage has an iteration of its own, once per frame, and the correction and the frame-rate
+// work are handed the whole frame's time.
+TEST(FrameSchedule, At400HzEachStageOncePerFrameWithTheFramesTime) {
+  FrameSchedule s;
+  s.configure(400.0f);
+  EXPECT_FALSE(s.fuses_on_arrival());
+  int runs[4] = {0, 0, 0, 0};
+  for (int i = 0; i < 400; ++i) {
+    const IterationPlan p = s.next(0.0025f, false);
+    EXPECT_TRUE(p.multi_rate);
+    EXPECT_LE(int(p.correct) + int(p.predict) + int(p.position_loop) + int(p.frame_work), 1) << i;
+    runs[0] += p.correct;
+    runs[1] += p.predict;
+    runs[2] += p.position_loop;
+    runs[3] += p.frame_work;
+    if (i >= 4 && p.correct) EXPECT_NEAR(p.correction_dt, 0.01f, 1e-6f);
+    if (i >= 4 && p.frame_work) EXPECT_NEAR(p.frame_dt, 0.01f, 1e-6f);
+  }
+  for (int stage = 0; stage < 4; ++stage) EXPECT_NEAR(runs[stage], 100, 1) << stage;
+}
+
+// A fix waiting takes the frame-rate work's iteration at most twice in a row; the work then runs over
+// the three frames' time.
+TEST(FrameSchedule, AFixGivesTheFrameWorkBackAfterTwoFrames) {
+  FrameSchedule s;
+  s.configure(400.0f);
+  for (int i = 0; i < 8; ++i) s.next(0.0025f, false);  // two whole frames
+  int fix_steps = 0, work = 0;
+  float work_dt = 0.0f;
+  for (int i = 0; i < 12; ++i) {  // three frames with a fix always waiting
+    const IterationPlan p = s.next(0.0025f, true);
+    fix_steps += p.fix_step;
+    if (p.frame_work) {
+      ++work;
+      work_dt = p.frame_dt;
+    }
+    EXPECT_FALSE(p.fix_step && p.frame_work);
+  }
+  EXPECT_EQ(fix_steps, 2);
+  EXPECT_EQ(work, 1);
+  EXPECT_NEAR(work_dt, 0.03f, 1e-6f);
+}
+
+// Level and still for the boot calibration, then a fix: the estimator calibrates, converges, and takes
+// the fix's position, all from samples and parameters.
+TEST(StateEstimator, CalibratesConvergesAndTakesAFix) {
+  quad::fw::Params params;
+  quad::fw::StateEstimator est;
+  ASSERT_EQ(est.check(params), nullptr);
+  est.configure(params, 100.0f);
+  est.restart_calibration();
+  FrameSchedule schedule;
+  schedule.configure(100.0f);
+  quad::hal::ImuSample imu;
+  imu.accel = Vec3{0.0f, 0.0f, -kG};
+  quad::hal::MagSample mag;
+  mag.field = Vec3{0.2f, 0.0f, 0.45f};
+  bool calibrated = false;
+  uint32_t t_us = 0;
+  for (int i = 0; i < 400 && !calibrated; ++i, t_us += 10000) {
+    const quad::fw::EstimatorEvent e = est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false);
+    calibrated = e == quad::fw::EstimatorEvent::kCalibrated;
+  }
+  ASSERT_TRUE(calibrated);
+  EXPECT_TRUE(est.converged());
+  for (int i = 0; i < 20; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false);
+  EXPECT_TRUE(est.healthy());
+  EXPECT_NEAR(std::fabs(est.attitude().w), 1.0f, 1e-4f) << "level, heading north";
+  // The star 1.5 m below, seen 30 ms ago: the vehicle 1.5 m above it.
+  Vec3 p;
+  ASSERT_TRUE(est.position_from_star(Vec3{0.0f, 0.0f, 1.5f}, t_us - 30000, &p));
+  EXPECT_NEAR(p.z, -1.5f, 1e-4f);
+  const quad::est::FixResult r = est.fuse_fix(p, t_us - 30000);
+  EXPECT_TRUE(r == quad::est::FixResult::Initialized || r == quad::est::FixResult::Fused);
+  EXPECT_NEAR(est.position().z, -1.5f, 0.01f);
+}
+
+// Flight control from its parameters: arming is refused until the estimate has converged, MANUAL spins
+// the motors with the throttle, and an armed vehicle that sits still on the ground is detected landed.
+TEST(FlightControl, ArmsFliesTheSticksAndDetectsTheGround) {
+  quad::fw::Params params;
+  params.set(quad::fw::kFsRcEnable, 0.0f);
+  quad::fw::FlightControl control;
+  ASSERT_EQ(control.check(params), nullptr);
+  ASSERT_EQ(control.configure(params), nullptr);
+  quad::fw::ModeInputs in;
+  in.sensors_healthy = true;
+  EXPECT_FALSE(control.command(quad::fw::Command::kArm, in).accepted) << "estimator not converged";
+  in.estimator_converged = in.estimator_healthy = true;
+  const quad::fw::Transition t = control.command(quad::fw::Command::kArm, in);
+  ASSERT_TRUE(t.accepted && t.changed);
+  control.enter_mode(t.from, t.to, Vec3{}, 0.0f);
+  ASSERT_EQ(control.mode(), quad::fw::FlightMode::kManual);
+
+  quad::ctrl::RcSticks sticks;
+  sticks.throttle = 1500;
+  control.set_sticks(sticks, 0);
+  FrameSchedule schedule;
+  schedule.configure(100.0f);
+  quad::ctrl::VehicleState s;
+  s.q = quad::Quat::identity();
+  control.step(s, 0.01f, schedule.next(0.01f, false));
+  for (float m : control.motors()) EXPECT_GT(m, 0.1f) << "half throttle spins every motor";
+
+  sticks.throttle = 1000;
+  control.set_sticks(sticks, 10000);
+  for (int i = 0; i < 200; ++i) {
+    control.step(s, 0.01f, schedule.next(0.01f, false));
+    control.detect_landing(0.01f, 0.0f);
+  }
+  EXPECT_TRUE(control.landed()) << "no thrust, no vertical speed";
+}
+
+}  // namespace
