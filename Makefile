@@ -54,7 +54,7 @@ fuzz: setup
 fuzz-short:
 	tools/fuzz.sh 12 1
 
-# The default flight is issue 8's closed loop (sim/scenarios/flight.yaml); SCENARIO=... picks another.
+# The default flight is the closed-loop flight (sim/scenarios/flight.yaml); SCENARIO=... picks another.
 flight: setup
 	$(MAKE) --no-print-directory build
 	tools/flight.sh $(if $(filter command line environment,$(origin SCENARIO)),$(SCENARIO),sim/scenarios/flight.yaml)

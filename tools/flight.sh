@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `make flight` (issue 8): flies one scenario headless with the simulator, the host firmware and the
+# `make flight`: flies one scenario headless with the simulator, the host firmware and the
 # vision station in the loop (default sim/scenarios/flight.yaml: take off, climb to 1.5 m above the star,
 # hold 60 s, land), then prints this run's figures beside the thesis' and Oh et al.'s.
 #   tools/flight.sh [SCENARIO] [--out DIR] [--video]      (the Makefile builds first)

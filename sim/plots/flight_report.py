@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The figures of one closed-loop flight (issue 8) beside the thesis' (sec. 8.4) and Oh et al.'s.
+"""The figures of one closed-loop flight beside the thesis' (sec. 8.4) and Oh et al.'s.
 
     python3 sim/plots/flight_report.py RUN_DIR [--markdown]
 

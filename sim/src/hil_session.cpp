@@ -547,7 +547,7 @@ void Session::physics_period(double t_end) {
     const VehicleTruth truth = vehicle_.truth();
     const FaultEffects faults = fault_effects(s_.faults, s_.radio, now);
     if (station_) {
-      // Rendered cameras and the vision station (issue 8); a vision dropout hides the star.
+      // Rendered cameras and the vision station; a vision dropout hides the star.
       const auto& decoy = faults.vision_errors.decoy_ned;
       station_->update(now, truth.position_ned, truth.q_ib, faults.vision_dropout,
                        [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); },

@@ -1,5 +1,5 @@
 // Cycle benchmark of the flight core on the ATmega2560 (run by tools/avr_cycles on simavr; the ctest
-// avr_cycle_bench checks the figures against the budget of issue 9 with check_cycle_budget.cmake).
+// avr_cycle_bench checks the figures against the budgets of docs/performance.md with check_cycle_budget.cmake).
 //
 // The figures of record are the control iterations as the firmware runs them in the automatic mode
 // (its default parameters, including the position filter's horizontal bias states), without I/O. The
@@ -12,7 +12,8 @@
 //                      velocity errors (tanh in its rational branch), tilt limited, mixer desaturating
 // At 400 Hz (tick400_frames() below) the 100 Hz stages are spread over the four iterations of each
 // 10 ms frame as the firmware spreads them; every iteration of a typical frame and of a worst frame is
-// measured (tick400_typical_*, tick400_worst_*): these are the iterations issue 9's 40 000 cycles bound.
+// measured (tick400_typical_*, tick400_worst_*): these are the iterations the 40 000-cycle budget (one 400 Hz
+// period at 16 MHz) bounds.
 // Each branch the worst case claims to take is checked; a section named "check_failed:..." makes the
 // ctest fail. Sensor inputs come from volatile memory so the compiler cannot fold them.
 #include "cycle_probe.h"

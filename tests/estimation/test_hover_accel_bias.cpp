@@ -51,7 +51,7 @@ TEST(HoverAccelBias, FollowsARandomWalkAndHoldsWhileNotHovering) {
   b.configure(10.0f, 0.15f);
   Accelerometer a;
   std::mt19937 rng(3);
-  std::normal_distribution<float> walk(0.0f, 6e-3f * std::sqrt(kDt));  // reference-facts' random walk
+  std::normal_distribution<float> walk(0.0f, 6e-3f * std::sqrt(kDt));  // the RotorS / PX4 IMU random walk
   double sq = 0;
   int n = 0;
   for (int k = 0; k < 60000; ++k) {  // 10 min

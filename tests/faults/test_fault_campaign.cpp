@@ -1,4 +1,4 @@
-// The fault campaign of issue 10 (docs/reliability.md): each scenario of sim/scenarios/faults/ flown by
+// The fault campaign (docs/reliability.md): each scenario of sim/scenarios/faults/ flown by
 // quad_sim with the real quad_firmware, lockstep, from take-off to the end. Every run must show
 //   - no non-finite estimate, ever, in the firmware's telemetry (from its first LOCAL_POSITION_NED on);
 //   - no crash, and no touchdown faster than a landing (true vertical speed at ground contact);

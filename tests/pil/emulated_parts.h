@@ -64,9 +64,9 @@ inline avr_irq_t* unfiltered(avr_irq_t* irq) {
 // Corrections to simavr 1.6's TWI master so it behaves as the ATmega2560 datasheet says for a driver that
 // polls TWINT (hal/avr/hmc5883l.cpp); without them no polled transfer completes on simavr 1.6:
 // - writing TWCR with TWINT set does not clear TWINT, so the driver's wait ends at once and it reads
-//   the previous status (simavr issue 453; TWINT is now cleared when the master starts the address,
+//   the previous status (simavr issue #453; here TWINT is cleared when the master starts the address,
 //   data or read transfer, which simavr announces on TWI_IRQ_OUTPUT, and set again with the status);
-// - after SLA+W the status is 0x28/0x30 (data byte ACK/NACK) instead of 0x18/0x20 (simavr issue 137,
+// - after SLA+W the status is 0x28/0x30 (data byte ACK/NACK) instead of 0x18/0x20 (simavr issue #137,
 //   fixed after 1.6).
 // Attach once per AVR, before it runs; harmless with or without slaves on the bus.
 class Simavr16TwiFix {

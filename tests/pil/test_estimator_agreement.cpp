@@ -1,4 +1,4 @@
-// Agreement of the estimators across builds (issue 9): the recorded sensor log (replay/recorded_log.inc,
+// Agreement of the estimators across builds: the recorded sensor log (replay/recorded_log.inc,
 // 3 s of a PIL hover's take-off at 100 Hz) runs through the attitude observer and the position filter
 // natively, on the ATmega2560 (simavr, apm25_estimator_replay) and on the Cortex-M4F (QEMU,
 // mps2_estimator_replay). Same source (replay/replay_core.h), three compilers and float libraries:

@@ -1,4 +1,4 @@
-// Simulator speed (Google Benchmark; not a test). The figure of issue 6: lockstep with the host
+// Simulator speed (Google Benchmark; not a test): lockstep with the host
 // firmware, 1 kHz physics, 100 Hz control, no rendering, as a real-time factor (counter "rtf").
 //
 //   build/<tree>/tests/bench_sim --benchmark_filter=Lockstep
@@ -40,7 +40,7 @@ void lockstep(benchmark::State& state, const std::string& firmware) {
 
 void BM_LockstepHoverWithFirmware(benchmark::State& state) { lockstep(state, QUAD_SIM_FIRMWARE); }
 
-// Issue 8: the whole closed loop of `make flight` (rendered cameras, vision station process, firmware).
+// The whole closed loop of `make flight` (rendered cameras, vision station process, firmware).
 void BM_LockstepFlightWithStation(benchmark::State& state) {
   if (access(QUAD_SIM_FIRMWARE, X_OK) != 0 || access(QUAD_VISION_STATION, X_OK) != 0) {
     state.SkipWithError("quad_firmware or vision_station not built");

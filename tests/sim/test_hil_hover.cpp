@@ -1,4 +1,4 @@
-// Issue 6's figure with the real firmware: sim/scenarios/hover.yaml (thesis sec. 8.4) flown by
+// The hover with the real firmware: sim/scenarios/hover.yaml (thesis sec. 8.4) flown by
 // quad_firmware on its own estimate, fed by the simulated vision fix over the emulated radio. The
 // vehicle must take off, hold 1.5 m above the star with a horizontal standard deviation <= 3 cm, land
 // and disarm; and the same seed must give the same log, byte for byte.

@@ -1,4 +1,4 @@
-// The rendered stereo cameras (issue 8) against the vision station that consumes them: the station,
+// The rendered stereo cameras against the vision station that consumes them: the station,
 // calibrated with the rig the views are rendered through, must find the star where the truth says, from
 // many heights and attitudes. Also the camera poses' geometry against the MJCF and the eq. 7.22 mount.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Speed of the vision station (issue 7): one 728 × 488 greyscale stereo pair from raw frames to the fix,
+// Speed of the vision station: one 728 × 488 greyscale stereo pair from raw frames to the fix,
 // on one core, full-frame search and ROI tracking; per-stage split reported as counters (µs per pair).
 #include <benchmark/benchmark.h>
 

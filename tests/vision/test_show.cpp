@@ -1,4 +1,4 @@
-// vision_station run --show end to end (issue 7, item 4): without a display it refuses before doing any
+// vision_station run --show end to end: without a display it refuses before doing any
 // work; under a virtual X server (xvfb-run, skipped without it) it opens the window, and the frame the
 // window displayed (--show-screenshot) holds both camera views, the detected contour in red around the
 // star's known location in each view, and the green fix/latency line.

@@ -1,6 +1,6 @@
-// Star detection and stereo fix on scenes rendered through the thesis camera model (issue 7 figures):
-// median 3D error ≤ 1 % of the range, 95th percentile ≤ 2 %, detection ≥ 99 % with the whole star in
-// both views; no false fix in distractor scenes.
+// Star detection and stereo fix on scenes rendered through the thesis camera model (the figures of
+// docs/vision_station.md): median 3D error ≤ 1 % of the range, 95th percentile ≤ 2 %, detection ≥ 99 %
+// with the whole star in both views; no false fix in distractor scenes.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// vision_station: stereo calibration, offline star detection and the live station (issue 7).
+// vision_station: stereo calibration, offline star detection and the live station.
 //   vision_station calibrate --images DIR | --source v4l2:/dev/A,/dev/B [--count N]
 //                            [--board 9x6] [--square 0.025] --out calib.yaml
 //   vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]

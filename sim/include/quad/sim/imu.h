@@ -4,7 +4,7 @@
 // Measurement model (thesis eqs. 7.1 and 7.3, with a drifting bias): reading = truth + b + eta, where
 // b = turn-on bias + random walk, eta = white noise, plus optional vibration noise proportional to the
 // mean rotor speed; then range clipping (the ADC), the DLPF and quantisation of the output registers.
-// The noise defaults are the RotorS / PX4 Gazebo IMU figures in reference-facts (ADIS16448), more
+// The noise defaults are the RotorS / PX4 Gazebo IMU plugin's figures (modelled on the ADIS16448), more
 // pessimistic than the MPU-6000 data sheet (0.005 deg/s/sqrt(Hz), 400 ug/sqrt(Hz)).
 #pragma once
 

@@ -77,10 +77,10 @@ struct VisionParams {
   bool enabled = true;
 };
 
-// The rendered stereo cameras (`camera:`, issue 8; quad/sim/stereo_camera.h).
+// The rendered stereo cameras (`camera:`, quad/sim/stereo_camera.h).
 struct CameraParams {
   bool enabled = false;               // true: rendered cameras and the vision station replace the simulated fix
-  double star_tip_to_tip_m = 0.40;    // the marker (issue 7 star, inner ratio 0.4)
+  double star_tip_to_tip_m = 0.40;    // the marker (the vision station's star, inner ratio 0.4)
   int distractors = 8;                // dark squares, discs and triangles scattered around the star
   double floor_grey = 205.0;          // albedo of the floor (0..255 at nominal exposure)
   double star_grey = 40.0;            // albedo of the star

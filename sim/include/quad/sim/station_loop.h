@@ -1,4 +1,4 @@
-// The vision station in the loop (issue 8): the rendered stereo pairs go to a `vision_station run
+// The vision station in the loop: the rendered stereo pairs go to a `vision_station run
 // --source sim:SOCKET` child process, its LANDING_TARGET frames come back on its radio port (a pty the
 // simulator reads) and cross the emulated radio to the firmware.
 //

@@ -1,4 +1,4 @@
-// The vehicle's two downward cameras, rendered (issue 8): the floor plane with the four-pointed star at
+// The vehicle's two downward cameras, rendered: the floor plane with the four-pointed star at
 // the NED origin and distractor shapes, seen through the thesis' stereo rig (table 7.1 intrinsics with
 // their lens distortion, eq. 7.22 mount, eq. 7.34 relative rotation) — the same OpenCV camera model the
 // vision station undistorts with (quad/vision/thesis_rig.h), so its undistortion is exercised exactly.

@@ -1,5 +1,5 @@
-// The simulated vision fix of issue 6, standing in for the vision station until issue 8 closes the loop
-// with rendered cameras: at `rate_hz`, the true position plus Gaussian noise becomes a LANDING_TARGET
+// The simulated vision fix, standing in for the vision station when the cameras are not rendered
+// (`camera.enabled: false`): at `rate_hz`, the true position plus Gaussian noise becomes a LANDING_TARGET
 // (docs/hil-protocol.md: the star, at the NED origin, relative to the vehicle in body FRD; capture time
 // on the simulator clock; sysid 1, compid 197), released to the radio `latency_s` after capture.
 #pragma once
