@@ -51,9 +51,9 @@ void FlightApp::init(const AppIo& io) {
 }
 
 bool FlightApp::apply_params(const Params& p, const char** error) {
-  // Every check before any change, so a refused set leaves every part as it was.
-  const char* bad = control_.check(p);
-  if (bad == nullptr) bad = estimator_.check(p);
+  // Every check before any change, so a refused set leaves every part as it was: the estimator's checks
+  // change nothing, and flight control takes the set only when all of its own pass.
+  const char* bad = estimator_.check(p);
   if (bad == nullptr) bad = control_.configure(p);
   if (bad != nullptr) {
     *error = bad;

@@ -8,7 +8,7 @@ namespace fw {
 
 namespace {
 
-ctrl::ManualParams manual_params(const Params& p, float max_total_thrust) {
+inline ctrl::ManualParams manual_params(const Params& p, float max_total_thrust) {
   ctrl::ManualParams mp;
   load_fields(p, mp, kManualFields);
   mp.max_thrust = p.get(kManThrMax) * max_total_thrust;
@@ -16,13 +16,13 @@ ctrl::ManualParams manual_params(const Params& p, float max_total_thrust) {
   return mp;
 }
 
-ctrl::ShaperParams shaper_params(const Params& p) {
+inline ctrl::ShaperParams shaper_params(const Params& p) {
   ctrl::ShaperParams sp;
   load_fields(p, sp, kShaperFields);
   return sp;
 }
 
-ctrl::CascadeParams cascade_params(const Params& p) {
+inline ctrl::CascadeParams cascade_params(const Params& p) {
   ctrl::CascadeParams cp;
   load_fields(p, cp, kCascadeFields);
   cp.vehicle.frame = p.get(kVehFrame) >= 0.5f ? ctrl::Frame::kX : ctrl::Frame::kPlus;
@@ -40,19 +40,18 @@ bool RcSwitchEdges::update(const RcSwitches& now, RcSwitches* before) {
   return false;
 }
 
-const char* FlightControl::check(const Params& p) const {
-  const char* bad = ctrl::validate(manual_params(p, cascade_params(p).vehicle.max_total_thrust()));
-  if (bad == nullptr) bad = ctrl::validate(shaper_params(p));
-  return bad;
-}
-
 const char* FlightControl::configure(const Params& p) {
   const ctrl::CascadeParams cp = cascade_params(p);
-  // Cascade::configure() keeps the old parameters when it refuses the new ones.
+  const ctrl::ManualParams mp = manual_params(p, cp.vehicle.max_total_thrust());
+  const ctrl::ShaperParams sp = shaper_params(p);
+  const char* bad = ctrl::validate(mp);
+  if (bad == nullptr) bad = ctrl::validate(sp);
+  if (bad != nullptr) return bad;
+  // Cascade::configure() checks the combination last and keeps the old parameters when it refuses it.
   const ctrl::ParamError e = cascade_.configure(cp);
   if (!e.ok()) return e.field;
-  manual_.set_params(manual_params(p, cp.vehicle.max_total_thrust()));
-  shaper_.set_params(shaper_params(p));
+  manual_.set_params(mp);
+  shaper_.set_params(sp);
   // Every field given (no default-initialised ModeConfig to copy from RAM on the AVR).
   const ModeConfig mc{p.get(kFsVisTimeout), p.get(kFsRcTimeout), p.get(kFsRcEnable) >= 0.5f, p.get(kArmThrMax)};
   modes_.configure(mc);

@@ -47,10 +47,6 @@ void manual_control_to_rc(const mav::ManualControl& msg, ctrl::RcSticks* sticks,
   switches->auto_mode = (msg.buttons & 0x2u) != 0;
 }
 
-GroundLink::GroundLink()
-    : senders_{mav::Sender(mav::kVehicleSystemId, mav::kVehicleComponentId),
-               mav::Sender(mav::kVehicleSystemId, mav::kVehicleComponentId)} {}
-
 void GroundLink::init(const Io& io, const Params* params) {
   io_ = io;
   params_ = params;

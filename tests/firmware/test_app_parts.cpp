@@ -116,7 +116,6 @@ TEST(FlightControl, ArmsFliesTheSticksAndDetectsTheGround) {
   quad::fw::Params params;
   params.set(quad::fw::kFsRcEnable, 0.0f);
   quad::fw::FlightControl control;
-  ASSERT_EQ(control.check(params), nullptr);
   ASSERT_EQ(control.configure(params), nullptr);
   quad::fw::ModeInputs in;
   in.sensors_healthy = true;

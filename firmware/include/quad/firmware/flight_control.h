@@ -40,10 +40,7 @@ class RcSwitchEdges {
 
 class FlightControl {
  public:
-  // The name of the offending parameter when p cannot be applied, else nullptr: check() the fields
-  // validated on their own, configure() the cascade (which refuses a bad combination and keeps its old
-  // parameters) and then, once it took them, everything else.
-  const char* check(const Params& p) const;
+  // Takes p, or returns the name of the offending parameter and keeps what it had.
   const char* configure(const Params& p);
 
   // The RC sticks at t_us (a pulse outside the receiver's range keeps the previous command).

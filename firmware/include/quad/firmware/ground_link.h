@@ -53,7 +53,6 @@ class GroundLink {
     void (*console)(uint8_t severity, const char* text, uint8_t length);
   };
 
-  GroundLink();
   // params: the table in force, read by the parameter protocol.
   void init(const Io& io, const Params* params);
   // False when the key store is corrupt.
@@ -108,7 +107,9 @@ class GroundLink {
   const Params* params_ = nullptr;
   DialectParser parsers_[hal::kPortCount];
   RadioSigning radio_;
-  mavlink::Sender senders_[hal::kPortCount];
+  mavlink::Sender senders_[hal::kPortCount] = {
+      mavlink::Sender(mavlink::kVehicleSystemId, mavlink::kVehicleComponentId),
+      mavlink::Sender(mavlink::kVehicleSystemId, mavlink::kVehicleComponentId)};
   int16_t param_stream_next_ = -1;  // next index of a PARAM_REQUEST_LIST being answered, -1 when idle
   uint8_t param_stream_port_ = 0;
   LinkCounters counters_;
