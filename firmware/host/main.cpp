@@ -129,6 +129,11 @@ int main(int argc, char** argv) {
     quad::fw::poll_ports(app);
     quad::hal::led_write(app.led(quad::hal::micros()));
   }
+  // The loop's own timing (LoopTimer, on the host's wall clock), for the flight report.
+  const quad::fw::LoopTimer& loop = app.loop_timer();
+  std::fprintf(stderr, "quad_firmware: loop: %u iterations, %u overruns, longest %u us of a %u us period\n",
+               static_cast<unsigned>(loop.iterations()), static_cast<unsigned>(loop.overruns()),
+               static_cast<unsigned>(loop.max_exec_us()), static_cast<unsigned>(loop.period_us()));
   quad::hal::host::close();
   return 0;
 }

@@ -132,6 +132,23 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   link_.stream_params();
   loop_timer_.end(io_.micros());
   mark(hal::TracePoint::kStepEnd);
+  report_overrun();
+}
+
+void FlightApp::report_overrun() {
+  // Once per flight, after the measured iteration: the operator hears that the loop missed its period
+  // while flying (boot and calibration are allowed to); SYS_STATUS keeps counting (errors_count1, load).
+  if (!control_.armed()) {
+    overrun_reported_ = false;
+    return;
+  }
+  if (overrun_reported_ || loop_timer_.last_exec_us() <= loop_timer_.period_us()) return;
+  overrun_reported_ = true;
+  const Decimal took(loop_timer_.last_exec_us());
+  const Decimal period(loop_timer_.period_us());
+  link_.send_statustext((StatusLine(mav::kSeverityWarning) << QUAD_TEXT("loop overrun: ") << took.c_str()
+                         << QUAD_TEXT(" us of a ") << period.c_str() << QUAD_TEXT(" us period"))
+                            .message());
 }
 
 void FlightApp::report(EstimatorEvent event) {

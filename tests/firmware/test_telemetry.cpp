@@ -94,6 +94,59 @@ TEST(Telemetry, SysStatusCarriesTheLoopLoadAndTheOverruns) {
   EXPECT_EQ(b.statuses.back().errors_count1, 7);
 }
 
+// The loop's budget is its period: the first iteration in flight that takes longer is reported once
+// (WARNING, with its time and the period), while boot and the ground may overrun unannounced; the
+// longest iteration is kept beside the count.
+TEST(Telemetry, TheFirstOverrunInFlightIsReportedOnceWithItsTime) {
+  Bench b;
+  b.boot();
+  Feed f(b);
+  calibrate(f);
+  const auto overrun_texts = [&] {
+    std::vector<std::pair<uint8_t, std::string>> out;
+    for (const auto& t : b.statustexts) {
+      if (t.second.find("overrun") != std::string::npos) out.push_back(t);
+    }
+    return out;
+  };
+  b.exec_us = 15000;  // on the ground: counted, not announced
+  f.steps(2);
+  EXPECT_EQ(b.app->loop_timer().overruns(), 2u);
+  EXPECT_TRUE(overrun_texts().empty());
+
+  b.exec_us = 2000;
+  f.sticks();
+  ASSERT_EQ(b.arm(), mav::kResultAccepted);
+  f.steps(20);
+  ASSERT_TRUE(b.app->armed());
+  b.exec_us = 10000;  // the whole period is within budget
+  f.steps(5);
+  EXPECT_TRUE(overrun_texts().empty());
+  b.exec_us = 10400;
+  f.step();
+  b.exec_us = 13000;
+  f.steps(4);
+  b.exec_us = 2000;
+  f.steps(150);
+  ASSERT_EQ(overrun_texts().size(), 1u) << "once per flight";
+  EXPECT_EQ(overrun_texts()[0].first, mav::kSeverityWarning);
+  EXPECT_EQ(overrun_texts()[0].second, "loop overrun: 10400 us of a 10000 us period");
+  EXPECT_EQ(b.app->loop_timer().overruns(), 7u);
+  EXPECT_EQ(b.app->loop_timer().max_exec_us(), 15000u);
+  EXPECT_EQ(b.statuses.back().errors_count1, 7);
+
+  // Disarmed and armed again: a second flight is told of its own first overrun.
+  ASSERT_EQ(b.command(mav::kCmdComponentArmDisarm, 0.0f), mav::kResultAccepted);
+  f.steps(5);
+  f.sticks();
+  ASSERT_EQ(b.arm(), mav::kResultAccepted);
+  f.steps(5);
+  b.exec_us = 20000;
+  f.step();
+  ASSERT_EQ(overrun_texts().size(), 2u);
+  EXPECT_EQ(overrun_texts()[1].second, "loop overrun: 20000 us of a 10000 us period");
+}
+
 TEST(Telemetry, SysStatusCountsBadFramesAndTheSequenceGapsTheyLeave) {
   Bench b;
   b.boot();

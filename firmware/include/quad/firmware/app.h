@@ -138,6 +138,8 @@ class FlightApp {
   // Configures every part from p; false (and nothing changed) when a part refuses it, with the name of
   // the offending field in *error.
   bool apply_params(const Params& p, const char** error);
+  // A STATUSTEXT the first time an iteration in flight takes longer than the period.
+  void report_overrun();
   // Tells the operator what the estimator reported.
   void report(EstimatorEvent event);
   // One step of the fusion (the whole of it, or a gate or an update above 300 Hz), traced, with its
@@ -168,6 +170,7 @@ class FlightApp {
   uint64_t hil_time_usec_ = 0;
   bool clock_started_ = false;
   bool vision_seen_ = false;
+  bool overrun_reported_ = false;  // in this flight (cleared while disarmed)
   uint32_t vision_time_us_ = 0;   // when the last fix was taken, on the vehicle clock
   uint8_t fixes_rejected_in_a_row_ = 0;  // vision fixes the filter refused since it last took one
   uint32_t iterations_ = 0;
