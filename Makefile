@@ -1,5 +1,5 @@
 # Front door: thin wrappers around the CMake presets (the PX4 / Crazyflie convention).
-#   make flight     set up, build and fly the default HIL flight
+#   make flight     set up, build and fly the default HIL flight (TARGET=avr|cortex-m4: the board's image)
 #   make test       set up, build (host and both cross targets) and run every test through ctest
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 SCENARIO ?= sim/scenarios/hover.yaml
@@ -55,9 +55,11 @@ fuzz-short:
 	tools/fuzz.sh 12 1
 
 # The default flight is the closed-loop flight (sim/scenarios/flight.yaml); SCENARIO=... picks another.
+# TARGET=avr or TARGET=cortex-m4 builds that image and flies it on its emulated processor instead.
 flight: setup
 	$(MAKE) --no-print-directory build
-	tools/flight.sh $(if $(filter command line environment,$(origin SCENARIO)),$(SCENARIO),sim/scenarios/flight.yaml)
+	$(if $(TARGET),$(MAKE) --no-print-directory $(filter avr cortex-m4,$(TARGET)))
+	tools/flight.sh $(if $(TARGET),--target $(TARGET) )$(if $(filter command line environment,$(origin SCENARIO)),$(SCENARIO),sim/scenarios/flight.yaml)
 
 clean:
 	rm -rf build
