@@ -116,9 +116,11 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
   const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
   report(event);
+  mark(hal::TracePoint::kEstimated);
 
   if (plan.frame_work) report_transition(control_.update_mode(mode_inputs()));
   if (!control_.armed()) link_.persist_signing_clock(now_us_, false);
+  mark(hal::TracePoint::kModesDone);
   ctrl::VehicleState s;
   s.p = estimator_.position();
   s.v = estimator_.velocity();
@@ -129,6 +131,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.frame_work) control_.detect_landing(plan.frame_dt, estimator_.velocity().z);
 
   telemetry_.send_due(*this, link_);
+  mark(hal::TracePoint::kTelemetryDone);
   link_.stream_params();
   loop_timer_.end(io_.micros());
   mark(hal::TracePoint::kStepEnd);

@@ -1,28 +1,24 @@
-// Cycle benchmark of the flight core on the ATmega2560 (run by tools/avr_cycles on simavr; the ctest
-// avr_cycle_bench checks the figures against the budgets of docs/performance.md with check_cycle_budget.cmake).
+// Cycle benchmark of the flight core's parts on the ATmega2560 (run by tools/avr_cycles on simavr; the
+// table of docs/performance.md, "Flight core parts"). The firmware's own iterations are measured in
+// flight, on the flight image (avr_pil's profile, docs/performance.md); this bench gives the parts.
 //
-// The figures of record are the control iterations as the firmware runs them in the automatic mode
-// (its default parameters, including the position filter's horizontal bias states), without I/O. The
-// state is warmed up by a simulated flight segment first, so every section runs on realistic numbers.
-// At 100 Hz one iteration holds every stage: observer step, kinematic acceleration, position-filter
-// predict (and a vision fix when one arrives), setpoint shaper, position control, thrust and attitude,
-// attitude PD, mixer:
+// The figures are the control stages as the firmware runs them in the automatic mode (its default
+// parameters, including the position filter's horizontal bias states), without I/O. The state is warmed
+// up by a simulated flight segment first, so every section runs on realistic numbers. The single-rate
+// iteration holds every stage: observer step, kinematic acceleration, position-filter predict (and a
+// vision fix when one arrives), setpoint shaper, position control, thrust and attitude, attitude PD,
+// mixer:
 //   iteration_typical  no magnetometer sample, no fix, hovering near the setpoint
 //   iteration_worst    magnetometer sample, vision fix fused, shaper moving, large position and
 //                      velocity errors (tanh in its rational branch), tilt limited, mixer desaturating
-// At 400 Hz (tick400_frames() below) the 100 Hz stages are spread over the four iterations of each
-// 10 ms frame as the firmware spreads them; every iteration of a typical frame and of a worst frame is
-// measured (tick400_typical_*, tick400_worst_*): these are the iterations the 40 000-cycle budget (one 400 Hz
-// period at 16 MHz) bounds.
-// Each branch the worst case claims to take is checked; a section named "check_failed:..." makes the
-// ctest fail. Sensor inputs come from volatile memory so the compiler cannot fold them.
+// Each branch the worst case claims to take is checked; a failed check shows as a section named
+// "check_failed:...". Sensor inputs come from volatile memory so the compiler cannot fold them.
 #include "cycle_probe.h"
 #include "quad/control/approx.h"
 #include "quad/control/cascade.h"
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
-#include "quad/firmware/frame_schedule.h"
 #include "quad/math/math.h"
 
 namespace {
@@ -130,134 +126,6 @@ void warm_up() {
     g_shaper.update(kDt, g_setpoint);
     g_cascade.step(vehicle_state(), g_setpoint);
   }
-}
-
-// The firmware's loop at 400 Hz, on the firmware's own StageClock: every iteration propagates the attitude with
-// the gyro and runs the attitude loop and mixer; one iteration in four each corrects the observer (over
-// the 10 ms since the last correction), predicts the position filter (with the mean specific force of
-// the four iterations and the rotation of the correction), runs the position loop (eq. 8.20, thrust and
-// attitude; the iterations in between fly its command), and steps the setpoint shaper.
-constexpr float kDt400 = 0.25f * kDt;
-Vec3 g_accel_sum;
-uint8_t g_accel_count = 0;
-quad::fw::StageClock g_stages;  // configured for 100 Hz stages in a 400 Hz loop by tick400_frames()
-
-quad::est::FixResult g_fix_result = quad::est::FixResult::RejectedInvalid;  // of the last advance_fix()
-float g_shaper_missed = 0.0f;  // s of shaper frames given to a vision fix
-
-// A vision fix as it reaches the firmware above 100 Hz: queued, fused by the frames' shaper iterations.
-void queue_fix() {
-  g_filter.queue_fix(kHoverPoint + Vec3{noise(0.03f), noise(0.03f), noise(0.03f)}, g_now_us - kFixDelayUs);
-}
-
-// One iteration; the stage clock ticks first, as in FlightApp::step.
-void tick400(const Sensors& s, bool mag_new, const quad::ctrl::PositionSetpoint& sp) {
-  g_stages.tick();
-  if (g_stages.runs(quad::fw::kStageCorrect)) {
-    g_observer.correct(s.gyro, s.accel, s.mag, mag_new, kDt400, kDt);
-  } else {
-    g_observer.propagate(s.gyro, kDt400);
-  }
-  if (g_accel_count == 0) {
-    g_accel_sum = s.accel;
-  } else {
-    g_accel_sum += s.accel;
-  }
-  ++g_accel_count;
-  if (g_stages.runs(quad::fw::kStagePredict)) {
-    g_now_us += kPeriodUs;
-    g_filter.predict(quad::est::kinematic_acceleration(g_observer.dcm(), g_accel_sum * (1.0f / static_cast<float>(g_accel_count))),
-                     g_now_us);
-    g_accel_count = 0;
-  }
-  if (g_stages.runs(quad::fw::kStageFrameWork)) {
-    // A vision fix in progress takes the shaper's place (FlightApp::step): its gate in one frame, its
-    // update in the next; the shaper catches up with the frames it missed (their dt) afterwards.
-    if (g_filter.fix_in_progress()) {
-      g_fix_result = g_filter.advance_fix();
-      g_shaper_missed += kDt;
-    } else {
-      g_shaper.update(kDt + g_shaper_missed, g_setpoint);
-      g_shaper_missed = 0.0f;
-    }
-  }
-  if (g_stages.runs(quad::fw::kStagePositionLoop)) {
-    quad_probe::keep(g_cascade.step(vehicle_state(), sp));
-  } else {
-    quad_probe::keep(g_cascade.step_held(vehicle_state()));
-  }
-}
-
-// Names of the measured 400 Hz iterations, by stage (check_cycle_budget.cmake takes the largest of each set).
-const char* const kTypicalTick[4] = {"tick400_typical_correct", "tick400_typical_predict",
-                                     "tick400_typical_position_loop", "tick400_typical_shaper"};
-const char* const kWorstTick[4] = {"tick400_worst_correct_mag", "tick400_worst_predict", "tick400_worst_position_loop",
-                                   "tick400_worst_shaper_moving"};
-
-// Two frames from the start of a frame, a vision fix queued before them: the shaper iteration (3) of the
-// first is measured as `gate` and must gate it, that of the second as `update` and must fuse it.
-void fix_frames(uint32_t& k, bool mag_new, const quad::ctrl::PositionSetpoint& sp, const char* gate, const char* update) {
-  queue_fix();
-  for (uint8_t f = 0; f < 2u; ++f) {
-    for (uint8_t i = 0; i < 4u; ++i, ++k) {
-      const Sensors s = sample(g_step + k);
-      if (i < 3u) {
-        tick400(s, mag_new, sp);
-        continue;
-      }
-      measure(f == 0 ? gate : update, [&] { tick400(s, mag_new, sp); });
-      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_fix_steps");
-    }
-  }
-}
-
-void tick400_frames() {
-  g_stages.configure(100.0f, 400.0f);  // the firmware's kPositionRateHz stages at SYS_LOOP_HZ 400
-  g_shaper.reset(kHoverPoint);
-  g_setpoint = quad::ctrl::PositionSetpoint{};
-  g_setpoint.p_d = kHoverPoint;
-  // Warm-up at 400 Hz: one simulated second, so the observer's step caches, the filter's step and the
-  // held command are the 400 Hz loop's (a magnetometer sample at three corrections of four, a fix every
-  // fourth frame).
-  uint32_t k = 0;
-  for (; k < 400u; ++k) {
-    tick400(sample(g_step + k), (k / 4u) % 4u != 3u, g_setpoint);
-    if (k % 16u == 3u) queue_fix();
-  }
-  while (g_filter.fix_in_progress()) tick400(sample(g_step + k++), false, g_setpoint);
-  // Up to the end of a frame, so the measured iterations below are a frame's, in stage order.
-  for (; !g_stages.runs(quad::fw::kStageFrameWork); ++k) tick400(sample(g_step + k), false, g_setpoint);
-  // A typical frame: no magnetometer sample, no fix, hovering.
-  for (uint8_t i = 0; i < 4u; ++i, ++k) {
-    const Sensors s = sample(g_step + k);
-    measure(kTypicalTick[i], [&] { tick400(s, false, g_setpoint); });
-    check(g_stages.runs(i), "tick400_stage_order");
-  }
-  check(!g_cascade.output().motors.yaw_limited && !g_cascade.output().attitude.limited, "tick400_typical_saturated");
-  // Two typical frames with a vision fix (the Kalman update): its gate in the first frame's shaper
-  // iteration, its update in the second's (the other iterations are those above).
-  fix_frames(k, false, g_setpoint, "tick400_typical_fix_gate", "tick400_typical_fix_update");
-  // The worst frame: a magnetometer sample at the correction, the shaper moving towards a far target,
-  // large tracking errors at the position loop (tilt limited, mixer giving up yaw), and the iterations
-  // before and after it flying that saturated command. A frame without measurement first, so the held
-  // command is already the large-error one.
-  g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
-  quad::ctrl::PositionSetpoint far = g_setpoint;
-  far.p_d += Vec3{1.5f, -1.2f, 0.8f};
-  far.v_d.x -= 1.0f;
-  far.yaw_d = 0.7f;
-  for (uint32_t i = 0; i < 4u; ++i, ++k) tick400(sample(g_step + k), false, far);
-  for (uint8_t i = 0; i < 4u; ++i, ++k) {
-    const Sensors s = sample(g_step + k);
-    measure(kWorstTick[i], [&] { tick400(s, true, far); });
-    check(g_stages.runs(i), "tick400_stage_order");
-    check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
-  }
-  check(g_cascade.output().attitude.limited, "tick400_worst_tilt_not_limited");
-  // The worst frames with a vision fix: the same state (magnetometer at the corrections, large errors,
-  // saturated), the gate and the update in the shaper's iterations.
-  fix_frames(k, true, far, "tick400_worst_fix_gate", "tick400_worst_fix_update");
-  check(g_cascade.output().motors.yaw_limited, "tick400_worst_yaw_not_limited");
 }
 
 }  // namespace
@@ -417,7 +285,6 @@ int main() {
     check(g_cascade.output().motors.yaw_limited, "worst_yaw_not_limited");
   }
 
-  tick400_frames();
   quad_probe::done();
   for (;;) {
   }

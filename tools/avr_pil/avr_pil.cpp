@@ -18,10 +18,14 @@
 // the EEPROM starts erased: defaults.
 //
 // It also times the firmware's own work to the cycle: the flight application marks the phases of each
-// iteration on GPIOR1 (hal::TracePoint), and at exit this prints the cycles of the control part
-// (estimation, modes, control, mixing: no I/O) of the iterations flown and of those on the ground, of
-// the whole iteration with telemetry (all, and flown only), and of each vision fix fused (median, 99th
-// percentile, maximum, and which iteration had the maximum).
+// iteration on GPIOR1 (hal::TracePoint), and at exit this prints, each as median, 99th percentile,
+// maximum and the iteration of the maximum: the control part (estimation, modes, control, mixing: no
+// I/O) flown and on the ground, the whole iteration (all, and flown only), each vision fix, each stage
+// of FlightApp::step (estimator, mode machine, control, landing and telemetry, parameter stream, a fix
+// step inside an iteration, a fix fused on arrival), and the busy cycles of each period (from one
+// iteration's start to the next, sleep left out: interrupts, the link and fixes on arrival included).
+// Against the period (SYS_LOOP_HZ from --params, else its default, at 16 MHz) it counts the overruns
+// of the whole iteration and of the busy period.
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -30,6 +34,7 @@
 #include <unistd.h>
 
 #include "param_file.h"    // fw::build_param_storage: the EEPROM image of a --params file
+#include "quad/firmware/params.h"  // SYS_LOOP_HZ: the period the iterations are measured against
 #include "quad/hal/hal.h"  // hal::TracePoint: the phase numbers the firmware writes to GPIOR1
 
 #include <simavr/avr_eeprom.h>
@@ -133,20 +138,44 @@ int open_port(const std::string& path, char uart) {
   return master;
 }
 
-// Cycle counts of the phases the firmware marks on GPIOR1 (quad/hal/hal.h, hal::TracePoint).
+// Cycle counts of the phases the firmware marks on GPIOR1 (quad/hal/hal.h, hal::TracePoint). Every
+// figure is measured on the AVR's cycle counter, so interrupts taken inside a phase count in it.
 constexpr avr_io_addr_t kGpior1 = 0x4A;
 struct PhaseProfile {
-  uint64_t step_begin = 0, fix_begin = 0;
-  bool in_step = false, in_fix = false;
   struct Sample {
     uint32_t cycles;
     uint32_t iteration;  // which iteration (0 the first), the simulator's step at its rate
   };
-  std::vector<Sample> control_flown, control_idle, step, step_flown, fix;
+  using Samples = std::vector<Sample>;
+  // The stages of FlightApp::step, each from the mark before it (hal.h), and the fix steps.
+  enum Stage { kEstimator, kModes, kControl, kTelemetry, kParamStream, kFixInIteration, kFixOnArrival, kStageCount };
+  static constexpr const char* kStageNames[kStageCount] = {
+      "stage estimator", "stage mode machine", "stage control", "stage landing and telemetry",
+      "stage parameter stream", "stage fix step in an iteration", "stage fix on arrival"};
+
+  uint32_t period_cycles = 160000;  // SYS_LOOP_HZ at 16 MHz (set from --params)
+  uint64_t sleep_cycles = 0;        // cycles the AVR slept (the run loop adds them)
+  uint64_t step_begin = 0, fix_begin = 0, last_mark = 0;
+  uint64_t period_begin = 0, period_sleep = 0;  // the last iteration's start, for its period's busy cycles
+  bool in_step = false, in_fix = false, period_open = false, period_flown = false;
+  Samples control_flown, control_idle, step, step_flown, fix, busy, busy_flown;
+  Samples stages[kStageCount];
   bool flown = false;  // the current iteration computed motor commands
   uint32_t iterations = 0;
   Sample sample(const avr_t* avr, uint64_t since) const {
     return {static_cast<uint32_t>(avr->cycle - since), iterations == 0 ? 0 : iterations - 1};
+  }
+  void stage(const avr_t* avr, Stage s) {
+    if (in_step) stages[s].push_back(sample(avr, last_mark));
+    last_mark = avr->cycle;
+  }
+  // Everything the CPU did from one iteration's start to the next one's, sleep left out: the iteration,
+  // the fixes fused on arrival, the link's parsing and the interrupts in between.
+  void close_period(const avr_t* avr) {
+    if (!period_open) return;
+    const Sample b{static_cast<uint32_t>(avr->cycle - period_begin - (sleep_cycles - period_sleep)), iterations - 1};
+    busy.push_back(b);
+    if (period_flown) busy_flown.push_back(b);
   }
 
   static void on_write(avr_t* avr, avr_io_addr_t, uint8_t v, void* param) {
@@ -154,31 +183,63 @@ struct PhaseProfile {
     const uint64_t now = avr->cycle;
     using Point = quad::hal::TracePoint;
     switch (static_cast<Point>(v)) {
-      case Point::kStepBegin: p->step_begin = now; p->in_step = true; p->flown = false; ++p->iterations; break;
-      case Point::kControlIdle: if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin)); break;
+      case Point::kStepBegin:
+        p->close_period(avr);
+        p->period_open = true;
+        p->period_begin = now;
+        p->period_sleep = p->sleep_cycles;
+        p->step_begin = p->last_mark = now;
+        p->in_step = true;
+        p->flown = false;
+        ++p->iterations;
+        break;
+      case Point::kEstimated: p->stage(avr, kEstimator); break;
+      case Point::kModesDone: p->stage(avr, kModes); break;
+      case Point::kControlIdle:
+        if (p->in_step) p->control_idle.push_back(p->sample(avr, p->step_begin));
+        p->stage(avr, kControl);
+        break;
       case Point::kControlFlown:
         if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin));
+        p->stage(avr, kControl);
         p->flown = true;
         break;
+      case Point::kTelemetryDone: p->stage(avr, kTelemetry); break;
       case Point::kStepEnd:
         if (p->in_step) {
+          p->stage(avr, kParamStream);
           p->step.push_back(p->sample(avr, p->step_begin));
           if (p->flown) p->step_flown.push_back(p->step.back());
+          p->period_flown = p->flown;
         }
         p->in_step = false;
         break;
       case Point::kFixBegin: p->fix_begin = now; p->in_fix = true; break;
-      case Point::kFixEnd: if (p->in_fix) p->fix.push_back(p->sample(avr, p->fix_begin)); p->in_fix = false; break;
+      case Point::kFixEnd:
+        if (p->in_fix) {
+          p->fix.push_back(p->sample(avr, p->fix_begin));
+          p->stages[p->in_step ? kFixInIteration : kFixOnArrival].push_back(p->fix.back());
+          // The fix's cycles are its own stage, not the next one's.
+          if (p->in_step) p->last_mark = now;
+        }
+        p->in_fix = false;
+        break;
       default: break;
     }
   }
 
-  static void report(const char* what, std::vector<Sample> v) {
+  static void report(const char* what, Samples v) {
     if (v.empty()) return;
     std::sort(v.begin(), v.end(), [](const Sample& a, const Sample& b) { return a.cycles < b.cycles; });
     std::fprintf(stderr, "avr_pil: cycles of %s: %zu samples, median %u, p99 %u, max %u (iteration %u)\n", what,
                  v.size(), v[v.size() / 2].cycles, v[std::min(v.size() - 1, v.size() * 99 / 100)].cycles,
                  v.back().cycles, v.back().iteration);
+  }
+  void overruns(const char* what, const Samples& v) const {
+    if (v.empty()) return;
+    const size_t over = static_cast<size_t>(std::count_if(v.begin(), v.end(), [&](const Sample& s) { return s.cycles > period_cycles; }));
+    std::fprintf(stderr, "avr_pil: overruns of %s: %zu of %zu (%.2f %%) over the %u-cycle period\n", what, over,
+                 v.size(), 100.0 * static_cast<double>(over) / static_cast<double>(v.size()), period_cycles);
   }
   void report() const {
     report("control flown", control_flown);
@@ -186,8 +247,30 @@ struct PhaseProfile {
     report("whole iteration", step);
     report("whole iteration flown", step_flown);
     report("vision fix", fix);
+    report("busy period", busy);
+    report("busy period flown", busy_flown);
+    for (int s = 0; s < kStageCount; ++s) report(kStageNames[s], stages[s]);
+    overruns("whole iteration", step);
+    overruns("whole iteration flown", step_flown);
+    overruns("busy period", busy);
+    overruns("busy period flown", busy_flown);
   }
 };
+constexpr const char* PhaseProfile::kStageNames[];
+
+// The control period in cycles at 16 MHz: SYS_LOOP_HZ from the --params file, else its default.
+bool period_cycles(const std::string& params, uint32_t* cycles, std::string* error) {
+  float hz = quad::fw::param_info(quad::fw::kLoopHz).default_value;
+  if (!params.empty()) {
+    std::vector<quad::fw::ParamOverride> values;
+    if (!quad::fw::read_param_file(params, &values, error)) return false;
+    for (const quad::fw::ParamOverride& o : values) {
+      if (o.index == quad::fw::kLoopHz) hz = o.value;
+    }
+  }
+  *cycles = static_cast<uint32_t>(16e6 / static_cast<double>(hz) + 0.5);
+  return true;
+}
 
 void attach(avr_t* avr, UartBridge& u) {
   u.avr = avr;
@@ -327,6 +410,13 @@ int main(int argc, char** argv) {
   attach(avr, u2);
 
   PhaseProfile profile;
+  {
+    std::string error;
+    if (!period_cycles(params, &profile.period_cycles, &error)) {
+      std::fprintf(stderr, "avr_pil: --params: %s\n", error.c_str());
+      return 1;
+    }
+  }
   avr_register_io_write(avr, kGpior1, &PhaseProfile::on_write, &profile);
 
   signal(SIGINT, on_signal);
@@ -339,7 +429,13 @@ int main(int argc, char** argv) {
   uint16_t lowest_sp = static_cast<uint16_t>(avr->ramend);
   while (!g_stop) {
     for (int i = 0; i < kSlice; ++i) {
+      // A call that starts or ends asleep is sleep (simavr adds the time to the next timer event in the
+      // call that executes SLEEP, and wakes in the call that takes the interrupt): one instruction per
+      // sleep is miscounted at most.
+      const bool was_sleeping = avr->state == cpu_Sleeping;
+      const avr_cycle_count_t before = avr->cycle;
       state = avr_run(avr);
+      if (was_sleeping || state == cpu_Sleeping) profile.sleep_cycles += avr->cycle - before;
       // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
       const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
       if (sp < lowest_sp) lowest_sp = sp;

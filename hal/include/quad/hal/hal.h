@@ -71,6 +71,13 @@ enum class TracePoint : uint8_t {
   kStepEnd = 4,       // landing detection, telemetry and parameter streaming done
   kFixBegin = 5,      // a vision fix is about to be fused
   kFixEnd = 6,
+  // Stage boundaries inside an iteration (FlightApp::step), each the end of the stage before it: the
+  // estimator (kStepBegin or a fix step to kEstimated), the mode machine (to kModesDone), control (to
+  // kControlIdle/kControlFlown), landing detection and telemetry (to kTelemetryDone), the parameter
+  // stream (to kStepEnd).
+  kEstimated = 7,
+  kModesDone = 8,
+  kTelemetryDone = 9,
 };
 void trace(TracePoint point);
 
