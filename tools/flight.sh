@@ -10,7 +10,7 @@
 # --target flies the cross image on its emulated processor (avr: apm25_hil.elf on simavr through avr_pil;
 # cortex-m4: mps2_hil.elf on QEMU through qemu_pil), run folder runs/<scenario>-<target>-<UTC time>, and
 # reports it beside a host flight of the same scenario and seed: --host-run DIR, else the latest complete
-# runs/<scenario>-<UTC time> of that seed, else one flown now into <run folder>/host.
+# host flight of that seed under runs/, else one flown now into <run folder>/host.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -64,9 +64,10 @@ if [ "$video" = 1 ]; then
 fi
 
 if [ -n "$target" ] && [ -z "$host_run" ]; then
-  # The latest complete host flight of this scenario and seed (runs/<name>-<UTC time>, newest last).
+  # The latest complete host flight of this scenario and seed: runs/<name>-<UTC time>, or one flown for
+  # an earlier board flight (runs/<name>-<target>-<UTC time>/host); newest first.
   seed=$(sed -n 's/^seed: *\([0-9]*\).*/\1/p' "$scenario" | head -n 1)
-  for dir in $(ls -d runs/"${name:-flight}"-[0-9]*Z 2>/dev/null | sort -r); do
+  for dir in $(ls -dt runs/"${name:-flight}"-[0-9]*Z runs/"${name:-flight}"-*-[0-9]*Z/host 2>/dev/null); do
     if python3 -c 'import json,sys; s=json.load(open(sys.argv[1])); sys.exit(0 if s.get("complete") and str(s.get("seed"))==sys.argv[2] and s.get("scenario_file","").endswith(sys.argv[3]) else 1)' \
         "$dir/summary.json" "${seed:-1}" "$scenario" 2>/dev/null; then
       host_run="$dir"

@@ -134,12 +134,12 @@ def loop_timing(run, host_run, target, image):
         ("iteration median / p99 / max", cycles(profiles["whole iteration"]) if "whole iteration" in profiles else no_cycles, host_longest),
         ("iteration flown median / p99 / max",
          cycles(profiles["whole iteration flown"]) if "whole iteration flown" in profiles else no_cycles, "-"),
-        ("busy period flown median / p99 / max (iteration, link, fixes, interrupts)",
-         cycles(profiles["busy period flown"]) if "busy period flown" in profiles else no_cycles, "-"),
+        ("iteration + fixes fused after it, flown: median / p99 / max",
+         cycles(profiles["iteration and fixes after it flown"]) if "iteration and fixes after it flown" in profiles else no_cycles, "-"),
         ("iterations over the period (all)", over(overruns["whole iteration"]) if "whole iteration" in overruns else "-",
          f"{host.group(2)} overruns" if host else "-"),
         ("iterations over the period (flown)", over(overruns["whole iteration flown"]) if "whole iteration flown" in overruns else "-", "-"),
-        ("busy periods over the period (flown)", over(overruns["busy period flown"]) if "busy period flown" in overruns else "-", "-"),
+        ("periods whose iteration + fixes overran (flown)", over(overruns["iteration and fixes after it flown"]) if "iteration and fixes after it flown" in overruns else "-", "-"),
         ("firmware's overrun STATUSTEXT", overrun_report(run), overrun_report(host_run)),
     ]
     stack = re.search(r"avr_pil: peak stack (\d+) bytes", log)

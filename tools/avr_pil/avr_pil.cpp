@@ -22,10 +22,9 @@
 // maximum and the iteration of the maximum: the control part (estimation, modes, control, mixing: no
 // I/O) flown and on the ground, the whole iteration (all, and flown only), each vision fix, each stage
 // of FlightApp::step (estimator, mode machine, control, landing and telemetry, parameter stream, a fix
-// step inside an iteration, a fix fused on arrival), and the busy cycles of each period (from one
-// iteration's start to the next, sleep left out: interrupts, the link and fixes on arrival included).
-// Against the period (SYS_LOOP_HZ from --params, else its default, at 16 MHz) it counts the overruns
-// of the whole iteration and of the busy period.
+// step inside an iteration, a fix fused on arrival), and each period's work (the iteration and the fixes
+// fused on arrival before the next one). Against the period (SYS_LOOP_HZ from --params, else its
+// default, at 16 MHz) it counts the overruns of the whole iteration and of the period's work.
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -154,11 +153,10 @@ struct PhaseProfile {
       "stage parameter stream", "stage fix step in an iteration", "stage fix on arrival"};
 
   uint32_t period_cycles = 160000;  // SYS_LOOP_HZ at 16 MHz (set from --params)
-  uint64_t sleep_cycles = 0;        // cycles the AVR slept (the run loop adds them)
   uint64_t step_begin = 0, fix_begin = 0, last_mark = 0;
-  uint64_t period_begin = 0, period_sleep = 0;  // the last iteration's start, for its period's busy cycles
+  Sample period_work{0, 0};  // the last iteration and the fixes fused on arrival after it
   bool in_step = false, in_fix = false, period_open = false, period_flown = false;
-  Samples control_flown, control_idle, step, step_flown, fix, busy, busy_flown;
+  Samples control_flown, control_idle, step, step_flown, fix, work, work_flown;
   Samples stages[kStageCount];
   bool flown = false;  // the current iteration computed motor commands
   uint32_t iterations = 0;
@@ -169,13 +167,14 @@ struct PhaseProfile {
     if (in_step) stages[s].push_back(sample(avr, last_mark));
     last_mark = avr->cycle;
   }
-  // Everything the CPU did from one iteration's start to the next one's, sleep left out: the iteration,
-  // the fixes fused on arrival, the link's parsing and the interrupts in between.
-  void close_period(const avr_t* avr) {
+  // The work of one period: the iteration and the vision fixes fused on arrival before the next one (in
+  // lockstep the emulated time between iterations follows the simulator, so the idle loop's wake-ups in
+  // it are not the period's).
+  void close_period() {
     if (!period_open) return;
-    const Sample b{static_cast<uint32_t>(avr->cycle - period_begin - (sleep_cycles - period_sleep)), iterations - 1};
-    busy.push_back(b);
-    if (period_flown) busy_flown.push_back(b);
+    work.push_back(period_work);
+    if (period_flown) work_flown.push_back(period_work);
+    period_open = false;
   }
 
   static void on_write(avr_t* avr, avr_io_addr_t, uint8_t v, void* param) {
@@ -184,10 +183,7 @@ struct PhaseProfile {
     using Point = quad::hal::TracePoint;
     switch (static_cast<Point>(v)) {
       case Point::kStepBegin:
-        p->close_period(avr);
-        p->period_open = true;
-        p->period_begin = now;
-        p->period_sleep = p->sleep_cycles;
+        p->close_period();
         p->step_begin = p->last_mark = now;
         p->in_step = true;
         p->flown = false;
@@ -211,6 +207,8 @@ struct PhaseProfile {
           p->step.push_back(p->sample(avr, p->step_begin));
           if (p->flown) p->step_flown.push_back(p->step.back());
           p->period_flown = p->flown;
+          p->period_work = p->step.back();
+          p->period_open = true;
         }
         p->in_step = false;
         break;
@@ -219,6 +217,7 @@ struct PhaseProfile {
         if (p->in_fix) {
           p->fix.push_back(p->sample(avr, p->fix_begin));
           p->stages[p->in_step ? kFixInIteration : kFixOnArrival].push_back(p->fix.back());
+          if (!p->in_step && p->period_open) p->period_work.cycles += p->fix.back().cycles;
           // The fix's cycles are its own stage, not the next one's.
           if (p->in_step) p->last_mark = now;
         }
@@ -247,13 +246,13 @@ struct PhaseProfile {
     report("whole iteration", step);
     report("whole iteration flown", step_flown);
     report("vision fix", fix);
-    report("busy period", busy);
-    report("busy period flown", busy_flown);
+    report("iteration and fixes after it", work);
+    report("iteration and fixes after it flown", work_flown);
     for (int s = 0; s < kStageCount; ++s) report(kStageNames[s], stages[s]);
     overruns("whole iteration", step);
     overruns("whole iteration flown", step_flown);
-    overruns("busy period", busy);
-    overruns("busy period flown", busy_flown);
+    overruns("iteration and fixes after it", work);
+    overruns("iteration and fixes after it flown", work_flown);
   }
 };
 constexpr const char* PhaseProfile::kStageNames[];
@@ -429,13 +428,7 @@ int main(int argc, char** argv) {
   uint16_t lowest_sp = static_cast<uint16_t>(avr->ramend);
   while (!g_stop) {
     for (int i = 0; i < kSlice; ++i) {
-      // A call that starts or ends asleep is sleep (simavr adds the time to the next timer event in the
-      // call that executes SLEEP, and wakes in the call that takes the interrupt): one instruction per
-      // sleep is miscounted at most.
-      const bool was_sleeping = avr->state == cpu_Sleeping;
-      const avr_cycle_count_t before = avr->cycle;
       state = avr_run(avr);
-      if (was_sleeping || state == cpu_Sleeping) profile.sleep_cycles += avr->cycle - before;
       // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
       const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
       if (sp < lowest_sp) lowest_sp = sp;
