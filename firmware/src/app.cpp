@@ -110,7 +110,9 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   now_us_ = t_us;
   ++iterations_;
 
-  const IterationPlan plan = schedule_.next(dt, estimator_.fix_in_progress());
+  // A mode entered between iterations (a command) runs the position loop in this one: a waiting fix's
+  // step would share it, so the frame-rate work runs and the fix waits a frame.
+  const IterationPlan plan = schedule_.next(dt, estimator_.fix_in_progress() && !control_.mode_entered());
   if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
@@ -126,13 +128,19 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   s.v = estimator_.velocity();
   s.q = estimator_.attitude();
   s.omega = estimator_.rate();
+  // A mode entered (by a command, or by the mode machine just now) runs the position loop in this
+  // iteration whatever its stage: above 100 Hz its telemetry waits for the next one.
+  const bool position_loop_forced = plan.multi_rate && control_.mode_entered();
   control_.step(s, dt, plan);
   mark(control_.mode() == FlightMode::kDisarmed ? hal::TracePoint::kControlIdle : hal::TracePoint::kControlFlown);
   if (plan.frame_work) control_.detect_landing(plan.frame_dt, estimator_.velocity().z);
 
-  telemetry_.send_due(*this, link_);
+  // The application's own output, spread: one telemetry stream or one streamed parameter per iteration,
+  // neither beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
+  const bool room = !plan.fix_step && !position_loop_forced;
+  const bool sent = telemetry_.send_due(*this, link_, room);
   mark(hal::TracePoint::kTelemetryDone);
-  link_.stream_params();
+  if (room && !sent) link_.stream_params();
   loop_timer_.end(io_.micros());
   mark(hal::TracePoint::kStepEnd);
   report_overrun();

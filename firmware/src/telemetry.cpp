@@ -35,16 +35,32 @@ uint8_t base_mode(bool armed, bool hil) {
 }
 
 void Telemetry::configure(const Params& p, float loop_hz) {
-  // One telemetry stream per iteration at the default rates (scheduler.h: an iteration that sent all
-  // four took 45 000 more cycles on the AVR than one that sent none).
+  // One telemetry stream per iteration (scheduler.h: an iteration that sent all four took 45 000 more
+  // cycles on the AVR than one that sent none): the slots keep the default rates apart, send_due()
+  // spreads any others, so rates that add up to more than the loop rate share it.
+  due_ = 0;
   heartbeat_rate_.configure(p.get(kTelHbHz), loop_hz, 1);
   attitude_rate_.configure(p.get(kTelAttHz), loop_hz, 0);
   position_rate_.configure(p.get(kTelPosHz), loop_hz, 5);
   status_rate_.configure(p.get(kTelSysHz), loop_hz, 3);
 }
 
-void Telemetry::send_due(const FlightApp& app, GroundLink& link) {
-  if (heartbeat_rate_.tick()) {
+bool Telemetry::send_due(const FlightApp& app, GroundLink& link, bool room) {
+  if (heartbeat_rate_.tick()) due_ |= kHeartbeat;
+  if (attitude_rate_.tick()) due_ |= kAttitude;
+  if (position_rate_.tick()) due_ |= kPosition;
+  if (status_rate_.tick()) due_ |= kStatus;
+  if (!room || due_ == 0) return false;
+  // The lowest bit: a stream that waited is sent before one that came due later only in this order,
+  // and at the default rates streams never fall due in the same iteration (their slots).
+  const Stream stream = static_cast<Stream>(due_ & static_cast<uint8_t>(-due_));
+  due_ = static_cast<uint8_t>(due_ & ~stream);
+  send(stream, app, link);
+  return true;
+}
+
+void Telemetry::send(Stream stream, const FlightApp& app, GroundLink& link) {
+  if (stream == kHeartbeat) {
     mav::Heartbeat hb;
     hb.custom_mode = static_cast<uint32_t>(app.mode());
     hb.type = mav::kMavTypeQuadrotor;
@@ -52,9 +68,8 @@ void Telemetry::send_due(const FlightApp& app, GroundLink& link) {
     hb.base_mode = base_mode(app.armed(), app.hil());
     hb.system_status = system_status(app);
     link.broadcast(hb);
-  }
-  // The 32-bit division (about 600 cycles on the AVR) only for the messages that carry the time.
-  if (attitude_rate_.tick()) {
+  } else if (stream == kAttitude) {
+    // The 32-bit division (about 600 cycles on the AVR) only for the messages that carry the time.
     mav::AttitudeQuaternion att;
     att.time_boot_ms = app.now_us() / 1000u;
     const Quat q = app.attitude();
@@ -67,8 +82,7 @@ void Telemetry::send_due(const FlightApp& app, GroundLink& link) {
     att.pitchspeed = w.y;
     att.yawspeed = w.z;
     link.broadcast(att);
-  }
-  if (position_rate_.tick()) {
+  } else if (stream == kPosition) {
     mav::LocalPositionNed pos;
     pos.time_boot_ms = app.now_us() / 1000u;
     const Vec3 p = app.position();
@@ -80,8 +94,9 @@ void Telemetry::send_due(const FlightApp& app, GroundLink& link) {
     pos.vy = v.y;
     pos.vz = v.z;
     link.broadcast(pos);
+  } else {
+    send_status(app, link);
   }
-  if (status_rate_.tick()) send_status(app, link);
 }
 
 void Telemetry::send_status(const FlightApp& app, GroundLink& link) {

@@ -33,6 +33,20 @@ TEST(FrameSchedule, AtTheThesisRateEveryIterationRunsEveryStage) {
   }
 }
 
+// A fix is fused where it arrives only when one iteration holds every stage; with two or more per frame
+// it is queued for the frame-rate work's iteration.
+TEST(FrameSchedule, AFixIsFusedOnArrivalOnlyAtOneIterationPerFrame) {
+  FrameSchedule s;
+  for (const float hz : {50.0f, 100.0f, 150.0f, 199.0f}) {
+    s.configure(hz);
+    EXPECT_TRUE(s.fuses_on_arrival()) << hz;
+  }
+  for (const float hz : {200.0f, 250.0f, 300.0f, 400.0f, 1000.0f}) {
+    s.configure(hz);
+    EXPECT_FALSE(s.fuses_on_arrival()) << hz;
+  }
+}
+
 // At 400 Hz each stage has an iteration of its own, once per frame, and the correction and the frame-rate
 // work are handed the whole frame's time.
 TEST(FrameSchedule, At400HzEachStageOncePerFrameWithTheFramesTime) {

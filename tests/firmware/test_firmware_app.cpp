@@ -360,7 +360,8 @@ TEST(FirmwareApp, ParameterProtocolListReadSetAndPersist) {
   mav::ParamRequestList list;
   list.target_system = 1;
   b.send(quad::hal::kUart2, list, b.gcs);
-  for (int i = 0; i < quad::fw::kParamCount + 5; ++i) b.still_step();
+  // One parameter in each iteration that sends no telemetry stream (22 of every 100 at the default rates).
+  for (int i = 0; i < quad::fw::kParamCount * 100 / 78 + 5; ++i) b.still_step();
   ASSERT_EQ(b.params.size(), static_cast<size_t>(quad::fw::kParamCount)) << "one PARAM_VALUE per parameter";
   for (size_t i = 0; i < b.params.size(); ++i) {
     EXPECT_EQ(b.params[i].param_index, i);
@@ -630,8 +631,8 @@ TEST(FirmwareApp, At400HzTheAttitudeLoopRunsEveryIterationAndThePositionLoopOneI
 // Above 100 Hz a vision fix is not fused where it arrives: the frame-rate work's iteration takes its
 // gate in the next frame and its update in the one after (docs/performance.md, "The 400 Hz frame"), so
 // the estimate moves to it 5 to 8 iterations after its arrival, all at once; at 100 Hz at once.
-TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
-  for (const float rate : {400.0f, 100.0f}) {
+TEST(FirmwareApp, AboveTheThesisRateAVisionFixIsFusedOverTheNextTwoFrames) {
+  for (const float rate : {400.0f, 200.0f, 100.0f}) {
     Bench b;
     ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, rate));
     VerticalFlight flight(b);
@@ -657,15 +658,55 @@ TEST(FirmwareApp, At400HzAVisionFixIsFusedOverTheNextTwoFrames) {
     }
     EXPECT_EQ(b.app->counters().fixes_fused, fused + 1) << rate;
     if (rate > 100.0f) {
-      // Iterations 0..7 after the arrival: the gate in the first frame-rate iteration (0..3), the update four later.
-      EXPECT_GE(fused_after, 4) << "the gate in the next frame-rate iteration, the update four later";
-      EXPECT_LE(fused_after, 7);
+      // n iterations per frame: the gate in the first frame-rate iteration (0..n-1 after the arrival), the
+      // update n later.
+      const int n = static_cast<int>(rate / 100.0f);
+      EXPECT_GE(fused_after, n) << rate << ": the gate in the next frame-rate iteration, the update a frame later";
+      EXPECT_LE(fused_after, 2 * n - 1) << rate;
     } else {
       EXPECT_EQ(fused_after, -1) << "fused where it arrives";
     }
     EXPECT_GT(step_at_fusion, 0.02f) << rate;  // NED: down is +z
     EXPECT_LT(largest_other_step, 0.25f * step_at_fusion) << rate;
   }
+}
+
+// The application's own output is spread: at 200 Hz, hovering with 30 Hz fixes while a parameter list
+// streams, no iteration sends more than one telemetry stream or streamed parameter, and the iteration
+// that fuses a fix (its update step) sends neither; the list and the streams' rates still complete.
+TEST(FirmwareApp, OneStreamOrParameterPerIterationAndNoneBesideAFixStep) {
+  Bench b;
+  ASSERT_NO_FATAL_FAILURE(auto_at_rate(b, 200.0f));
+  VerticalFlight flight(b);
+  flight.fly_seconds(4.0f);
+  mav::ParamRequestList list;
+  list.target_system = 1;
+  b.send(quad::hal::kUart0, list, b.gcs);
+  const uint32_t ids[5] = {mav::Heartbeat::kId, mav::AttitudeQuaternion::kId, mav::LocalPositionNed::kId,
+                           mav::SysStatus::kId, mav::ParamValue::kId};
+  auto sent = [&] {
+    int n = 0;
+    for (const uint32_t id : ids) n += b.count_on(quad::hal::kUart0, id);
+    return n;
+  };
+  const size_t params_before = b.params.size();
+  const int attitude_before = b.count_on(quad::hal::kUart0, mav::AttitudeQuaternion::kId);
+  int fix_steps = 0, busiest = 0;
+  for (int i = 0; i < 400; ++i) {  // 2 s
+    const int before = sent();
+    const uint32_t fused = b.app->counters().fixes_fused;
+    flight.step(i);
+    const int frames = sent() - before;
+    busiest = std::max(busiest, frames);
+    if (b.app->counters().fixes_fused != fused) {
+      ++fix_steps;
+      EXPECT_EQ(frames, 0) << "iteration " << i << " fused a fix and sent " << frames << " frames";
+    }
+  }
+  EXPECT_EQ(busiest, 1) << "at most one stream or parameter per iteration";
+  EXPECT_GE(fix_steps, 50) << "fixes fused in the frame-rate iterations (30 Hz for 2 s)";
+  EXPECT_EQ(b.params.size() - params_before, static_cast<size_t>(quad::fw::kParamCount)) << "the whole list";
+  EXPECT_NEAR(b.count_on(quad::hal::kUart0, mav::AttitudeQuaternion::kId) - attitude_before, 20, 1) << "10 Hz";
 }
 
 // A fix waiting whenever the last one is done (a camera faster than the station's 30 Hz) would keep the

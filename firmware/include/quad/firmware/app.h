@@ -16,9 +16,9 @@
 //   frame schedule -> estimator (calibration until the vehicle was still for CAL_TIME, then the observer,
 //   the attitude history and the Kalman prediction with u = g e_z + R a_B, eq. 8.7) -> mode machine and
 //   failsafes -> control (position / manual / landing, eq. 8.20-8.40, mixer) -> landing detection ->
-//   telemetry and the parameter stream.
-// Vision fixes are fused at their capture time (eq. 8.5 with the errata sign), where they arrive or, above
-// 300 Hz, over the next two frames (frame_schedule.h).
+//   one telemetry stream or one streamed parameter (none beside a fix step).
+// Vision fixes are fused at their capture time (eq. 8.5 with the errata sign), where they arrive at 100 Hz
+// or, faster, over the next two frames (frame_schedule.h).
 #pragma once
 
 #include <stdint.h>
@@ -142,7 +142,7 @@ class FlightApp {
   void report_overrun();
   // Tells the operator what the estimator reported.
   void report(EstimatorEvent event);
-  // One step of the fusion (the whole of it, or a gate or an update above 300 Hz), traced, with its
+  // One step of the fusion (the whole of it at 100 Hz, else a gate or an update), traced, with its
   // result counted once it is final.
   template <class Step>
   void fix_step(Step step);

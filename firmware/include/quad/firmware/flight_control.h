@@ -68,6 +68,8 @@ class FlightControl {
   bool hovering(const Vec3& v) const;
 
   FlightMode mode() const { return modes_.mode(); }
+  // The mode changed since the last iteration: the next one runs the position loop whatever its stage.
+  bool mode_entered() const { return modes_.mode() != last_mode_; }
   bool armed() const { return modes_.armed(); }
   bool land_level() const { return modes_.land_level(); }
   bool vision_fresh(const ModeInputs& in) const { return modes_.vision_fresh(in); }

@@ -7,12 +7,14 @@
 // landing detection) each get one iteration of the 10 ms frame, so that no iteration carries all of them
 // (on the ATmega2560 at 400 Hz each iteration stays near a quarter of the 100 Hz one: docs/performance.md).
 //
-// A vision fix is fused where it arrives while an iteration has room for it beside its stage (fewer than
-// four iterations per frame). With four or more, the fusion waits for the frame-rate work's iteration,
-// the only one with no other stage, and takes it over two frames (the filter's gate, then its update:
-// position_filter.h). The frame-rate work then runs a frame or two later over the time it missed; it gives
-// way at most twice in a row, so however fast fixes come the failsafes and the landing detection still run
-// in one frame of three.
+// A vision fix is fused where it arrives only at the thesis' rate (one iteration per frame, every stage in
+// it). Above it the fusion waits for the frame-rate work's iteration and takes it over two frames (the
+// filter's gate, then its update: position_filter.h), so that no period holds an iteration and a whole
+// fusion (on the ATmega2560 at 200 Hz the longest flown iteration and the longest fix were 132 % of the
+// period together: docs/performance.md); the application sends no telemetry or parameter in that
+// iteration (FlightApp::step). The frame-rate work then runs a frame or two later over the time it missed;
+// it gives way at most twice in a row, so however fast fixes come the failsafes and the landing detection
+// still run in one frame of three.
 #pragma once
 
 #include <stdint.h>
@@ -74,7 +76,7 @@ class FrameSchedule {
 
   // True when a fix that arrives is fused at once; false when it is queued for the frame-rate work's
   // iteration.
-  bool fuses_on_arrival() const { return stages_.per_frame() < kStageCount; }
+  bool fuses_on_arrival() const { return stages_.per_frame() == 1; }
   uint8_t iterations_per_frame() const { return stages_.per_frame(); }
 
  private:

@@ -21,16 +21,21 @@ class Telemetry {
     gyro_clipped_ = gyro_clipped_ || gyro;
     accel_clipped_ = accel_clipped_ || accel;
   }
-  // Once per iteration: the streams that are due.
-  void send_due(const FlightApp& app, GroundLink& link);
+  // Once per iteration: counts the streams' rates and sends at most one stream that is due (the first in
+  // the order heartbeat, attitude, position, status; the others wait for the next iterations), none when
+  // the iteration has no room (`room` false: a vision fix's step took it). Returns whether it sent one.
+  bool send_due(const FlightApp& app, GroundLink& link, bool room);
 
  private:
+  enum Stream : uint8_t { kHeartbeat = 1, kAttitude = 2, kPosition = 4, kStatus = 8 };
+  void send(Stream stream, const FlightApp& app, GroundLink& link);
   void send_status(const FlightApp& app, GroundLink& link);
 
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;
   RateDivider position_rate_;
   RateDivider status_rate_;
+  uint8_t due_ = 0;             // streams due and not sent yet (Stream bits)
   bool gyro_clipped_ = false;   // since the last SYS_STATUS
   bool accel_clipped_ = false;
   uint32_t radio_rejected_reported_ = 0;
