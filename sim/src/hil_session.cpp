@@ -276,6 +276,14 @@ void Session::send_due_commands(double t) {
       event(t, e.str());
       continue;
     }
+    if (c.param_list) {
+      mav::ParamRequestList list;
+      list.target_system = kVehicleSys;
+      list.target_component = mav::kCompIdAutopilot1;
+      send_gcs(list, t);
+      event(t, "gcs: parameter list");
+      continue;
+    }
     mav::CommandLong cmd;
     cmd.target_system = kVehicleSys;
     cmd.target_component = mav::kCompIdAutopilot1;

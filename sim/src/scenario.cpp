@@ -329,7 +329,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   if (const Field f = top["commands"]; f.defined()) {
     for (size_t i = 0; i < f.size(); ++i) {
       const Field e = f.at(i);
-      e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land"});
+      e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land", "param_list"});
       GcsCommand c;
       c.at_s = e["at_s"].number(0.0, s.duration_s);
       int actions = 0;
@@ -344,7 +344,11 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
         if (!e["land"].boolean()) e["land"].fail("can only be true");
         c.land = true, ++actions;
       }
-      if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land");
+      if (e["param_list"].defined()) {
+        if (!e["param_list"].boolean()) e["param_list"].fail("can only be true");
+        c.param_list = true, ++actions;
+      }
+      if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land, param_list");
       s.commands.push_back(c);
     }
   }

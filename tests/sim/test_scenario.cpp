@@ -56,6 +56,18 @@ TEST(Scenario, FaultsAndWindAreParsed) {
   EXPECT_TRUE(g.wind_at(25.0).isApprox(Eigen::Vector3d(-1.4, -1.4, 0.0)));
 }
 
+TEST(Scenario, AParameterListIsACommandOfItsOwn) {
+  const Scenario s = parse_scenario("name: x\nduration_s: 10\ncommands:\n  - {at_s: 2, param_list: true}\n", "p.yaml", ".");
+  ASSERT_EQ(s.commands.size(), 1u);
+  EXPECT_TRUE(s.commands[0].param_list);
+  EXPECT_FALSE(s.commands[0].arm || s.commands[0].mode || s.commands[0].setpoint_ned_m || s.commands[0].land);
+  const std::string head = "name: x\nduration_s: 10\ncommands:\n";
+  EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: false}\n").find("'commands[0].param_list' can only be true"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: true, land: true}\n").find("'commands[0]' must hold exactly one"),
+            std::string::npos);
+}
+
 TEST(Scenario, ErrorsNameTheFileLineAndKey) {
   const std::string head = "name: x\nduration_s: 10\n";
   EXPECT_EQ(error_of(head + "vision:\n  rate_hz: fast\n"), "bad.yaml:4: 'vision.rate_hz' must be a number, not 'fast'");

@@ -31,6 +31,7 @@ struct GcsCommand {
   std::optional<Eigen::Vector3d> setpoint_ned_m;  // SET_POSITION_TARGET_LOCAL_NED
   double yaw_rad = 0.0;                    // with the setpoint
   bool land = false;                       // COMMAND_LONG 21
+  bool param_list = false;                 // PARAM_REQUEST_LIST: the vehicle streams every parameter
 };
 
 // RC sticks from at_s on (MANUAL_CONTROL units: -1000..1000, throttle 0..1000).
