@@ -10,7 +10,7 @@
 # --target flies the cross image on its emulated processor (avr: apm25_hil.elf on simavr through avr_pil;
 # cortex-m4: mps2_hil.elf on QEMU through qemu_pil), run folder runs/<scenario>-<target>-<UTC time>, and
 # reports it beside a host flight of the same scenario and seed: --host-run DIR, else the latest complete
-# host flight of that seed under runs/, else one flown now into <run folder>/host.
+# host flight of that seed under runs/, else one flown first into <run folder>/host.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -128,7 +128,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   s.v = estimator_.velocity();
   s.q = estimator_.attitude();
   s.omega = estimator_.rate();
-  // A mode entered (by a command, or by the mode machine just now) runs the position loop in this
+  // A mode entered (by a command, or by the mode machine in this iteration) runs the position loop in this
   // iteration whatever its stage: above 100 Hz its telemetry waits for the next one.
   const bool position_loop_forced = plan.multi_rate && control_.mode_entered();
   control_.step(s, dt, plan);
