@@ -117,7 +117,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
   report(event);
 
-  if (plan.frame_work) report_transition(control_.update_mode(mode_inputs()));
+  if (plan.frame_work) report_transition(control_.update_mode(mode_inputs(false)));
   if (!control_.armed()) link_.persist_signing_clock(now_us_, false);
   ctrl::VehicleState s;
   s.p = estimator_.position();
@@ -156,7 +156,7 @@ void FlightApp::report(EstimatorEvent event) {
                             .message());
 }
 
-ModeInputs FlightApp::mode_inputs() const {
+ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   ModeInputs in;
   in.now_us = now_us_;
   in.estimator_converged = estimator_.converged();
@@ -164,7 +164,7 @@ ModeInputs FlightApp::mode_inputs() const {
   in.sensors_healthy = estimator_.sensors_ok();
   in.rc_seen = control_.rc_seen();
   in.rc_time_us = control_.rc_time_us();
-  in.rc_throttle = control_.rc_throttle();
+  if (with_throttle) in.rc_throttle = control_.rc_throttle();
   in.vision_seen = vision_seen_;
   in.vision_time_us = vision_time_us_;
   in.landed = control_.landed();
