@@ -1,6 +1,7 @@
 // vision_station: stereo calibration, offline star detection and the live station (issue 7).
 //   vision_station calibrate --images DIR | --source v4l2:/dev/A,/dev/B [--count N]
 //                            [--board 9x6] [--square 0.025] --out calib.yaml
+//   (--calib takes one calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml)
 //   vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]
 //   vision_station run --calib FILE --source SPEC [--out /dev/ttyUSB0 --baud 57600] [--show]
 //                      [--show-screenshot FILE.png] [--settings FILE] [--timeout-ms 500] [--status-s 1]
@@ -92,8 +93,17 @@ void check_size(const cv::Mat& image, const std::string& path, const StereoCalib
   }
 }
 
+StereoCalibration calibration_from(const std::map<std::string, std::string>& options) {
+  const std::string spec = require(options, "--calib");
+  StereoCalibration calibration = load_calibration(spec);
+  if (calibration.rectification_computed) {
+    std::cerr << "vision_station: " << spec << " has no R1 R2 P1 P2 Q: rectification computed with cv::stereoRectify\n";
+  }
+  return calibration;
+}
+
 int detect(const std::map<std::string, std::string>& options) {
-  const StereoCalibration calibration = load_calibration(require(options, "--calib"));
+  const StereoCalibration calibration = calibration_from(options);
   const StationSettings settings = settings_from(options);
   std::vector<ImagePair> pairs;
   if (options.count("--pairs")) {
@@ -236,7 +246,7 @@ int run(const std::map<std::string, std::string>& options) {
   }
   const std::string screenshot = options.count("--show-screenshot") ? options.at("--show-screenshot") : "";
   if (!screenshot.empty() && !display) throw UsageError("--show-screenshot needs --show");
-  const StereoCalibration calibration = load_calibration(require(options, "--calib"));
+  const StereoCalibration calibration = calibration_from(options);
   const StationSettings settings = settings_from(options);
   std::unique_ptr<FrameSource> source = make_frame_source(require(options, "--source"));
   std::unique_ptr<SerialPort> port;
