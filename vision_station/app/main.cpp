@@ -253,7 +253,7 @@ int run(const std::map<std::string, std::string>& options) {
   std::unique_ptr<FixLink> link;
   if (options.count("--out")) {
     port = std::make_unique<SerialPort>(options.at("--out"), static_cast<int>(number(options, "--baud", 57600)));
-    link = std::make_unique<FixLink>(*port, !source->vehicle_clock());
+    link = std::make_unique<FixLink>(*port, !source->vehicle_clock(), settings.send_covariance);
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(number(options, "--timeout-ms", 500)));
   const double status_period_s = number(options, "--status-s", 1.0);

@@ -119,6 +119,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       const double s2 = settings_.centroid_sigma_px * settings_.centroid_sigma_px;
       const cv::Matx33d cov = R1t * (s2 * J * J.t()) * R1t.t();
       fix.sigma_left = cv::Vec3d(std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)));
+      fix.cov_left = cov;
       fix.left_rectified = pl;
       fix.right_rectified = pr;
       fix.disparity_px = d;
@@ -127,6 +128,8 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.right_contour = r.candidates[best_j].contour;
       fix.used_roi = l.used_roi && r.used_roi;
       fix.found = true;
+      best_left_rectified_ = l.candidates[best_i].rectified;
+      best_right_rectified_ = r.candidates[best_j].rectified;
       last_left_box_ = l.candidates[best_i].box;
       last_right_box_ = r.candidates[best_j].box;
     }
@@ -142,6 +145,13 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();
+  if (fix.found && settings_.estimate_pose) {
+    StarPoseSettings pose_settings = settings_.pose;
+    pose_settings.inner_ratio = settings_.detector.inner_ratio;
+    const Clock::time_point t0 = Clock::now();
+    fix.pose = estimate_star_pose(best_left_rectified_, best_right_rectified_, calibration_, pose_settings);
+    fix.times.pose_us = microseconds(t0, Clock::now());
+  }
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;
   fix.times.rectify_points_us = left_times.rectify_points_us + right_times.rectify_points_us;
