@@ -31,7 +31,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"max_range_m", &l.max_range_m}, {"centroid_sigma_px", &l.centroid_sigma_px}, {"track_roi", &l.track_roi},
       {"roi_growth", &l.roi_growth}, {"roi_margin_px", &l.roi_margin_px},
       {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
-      {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_sigma_px", &l.pose.min_vertex_sigma_px},
+      {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
       {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms}};
   for (const cv::FileNode& node : fs.root()) {
     const std::string key = node.name();

@@ -140,6 +140,90 @@ bool find_outline(const std::vector<cv::Point2f>& contour, StarOutline& outline)
 
 }  // namespace
 
+namespace {
+
+// Bilinear grey value, or −1 outside the image.
+double grey_at(const cv::Mat& gray, cv::Point2d p) {
+  const int x = static_cast<int>(std::floor(p.x)), y = static_cast<int>(std::floor(p.y));
+  if (x < 0 || y < 0 || x + 1 >= gray.cols || y + 1 >= gray.rows) return -1.0;
+  const double fx = p.x - x, fy = p.y - y;
+  const uint8_t* r0 = gray.ptr<uint8_t>(y);
+  const uint8_t* r1 = gray.ptr<uint8_t>(y + 1);
+  return (1 - fy) * ((1 - fx) * r0[x] + fx * r0[x + 1]) + fy * ((1 - fx) * r1[x] + fx * r1[x + 1]);
+}
+
+}  // namespace
+
+std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour) {
+  constexpr int kHalf = 6;         // samples each side, ...
+  constexpr double kStep = 0.5;    // ... this far apart (±3 px)
+  const int n = static_cast<int>(contour.size());
+  std::vector<cv::Point2f> out;
+  out.reserve(contour.size());
+  double profile[2 * kHalf + 1];
+  for (int i = 0; i < n; ++i) {
+    const cv::Point2d p = contour[i];
+    const cv::Point2d t = cv::Point2d(contour[(i + 2) % n] - contour[(i + n - 2) % n]);
+    const double length = cv::norm(t);
+    cv::Point2d best = p;
+    if (length > 0.0) {
+      const cv::Point2d normal(t.y / length, -t.x / length);
+      double lo = 255.0, hi = 0.0;
+      bool inside = true;
+      for (int k = -kHalf; k <= kHalf && inside; ++k) {
+        profile[k + kHalf] = grey_at(gray, p + k * kStep * normal);
+        inside = profile[k + kHalf] >= 0.0;
+        lo = std::min(lo, profile[k + kHalf]);
+        hi = std::max(hi, profile[k + kHalf]);
+      }
+      // The edge is where the profile crosses the middle between star and floor; the crossing nearest
+      // the contour pixel (which lies just inside the star).
+      const double mid = 0.5 * (lo + hi);
+      double nearest = 1e9;
+      for (int k = 0; inside && hi - lo > 10.0 && k < 2 * kHalf; ++k) {
+        const double a = profile[k] - mid, b = profile[k + 1] - mid;
+        if (a * b > 0.0 || a == b) continue;
+        const double s = (k - kHalf + a / (a - b)) * kStep;
+        if (std::fabs(s) < std::fabs(nearest)) nearest = s;
+      }
+      if (std::fabs(nearest) <= 2.0) best = p + nearest * normal;
+    }
+    out.emplace_back(static_cast<float>(best.x), static_cast<float>(best.y));
+  }
+  return out;
+}
+
+NearRectifier::NearRectifier(const StereoCalibration& c, int camera)
+    : K_(camera == 0 ? c.rig.left.K : c.rig.right.K), D_(camera == 0 ? c.rig.left.D : c.rig.right.D) {
+  const cv::Matx34d& P = camera == 0 ? c.P1 : c.P2;
+  const cv::Matx33d P33(P(0, 0), P(0, 1), P(0, 2), P(1, 0), P(1, 1), P(1, 2), P(2, 0), P(2, 1), P(2, 2));
+  back_ = (camera == 0 ? c.R1 : c.R2).t() * P33.inv();
+}
+
+cv::Point2d NearRectifier::raw(const cv::Point2d& q) const {
+  const cv::Vec3d ray = back_ * cv::Vec3d(q.x, q.y, 1.0);
+  const double x = ray[0] / ray[2], y = ray[1] / ray[2];
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (D_[0] + r2 * (D_[1] + r2 * D_[4]));
+  const double xd = x * radial + 2.0 * D_[2] * x * y + D_[3] * (r2 + 2.0 * x * x);
+  const double yd = y * radial + D_[2] * (r2 + 2.0 * y * y) + 2.0 * D_[3] * x * y;
+  return cv::Point2d(K_(0, 0) * xd + K_(0, 1) * yd + K_(0, 2), K_(1, 1) * yd + K_(1, 2));
+}
+
+cv::Point2d NearRectifier::rectified(const cv::Point2d& target, cv::Point2d q) const {
+  constexpr double h = 1e-3;  // pixels, for the forward map's Jacobian
+  for (int iteration = 0; iteration < 4; ++iteration) {
+    const cv::Point2d f = raw(q);
+    const cv::Point2d e = target - f;
+    if (e.dot(e) < 1e-12) break;
+    const cv::Point2d du = (raw(q + cv::Point2d(h, 0)) - f) / h, dv = (raw(q + cv::Point2d(0, h)) - f) / h;
+    const double det = du.x * dv.y - dv.x * du.y;
+    if (std::fabs(det) < 1e-12) break;
+    q += cv::Point2d((dv.y * e.x - dv.x * e.y) / det, (-du.y * e.x + du.x * e.y) / det);
+  }
+  return q;
+}
+
 bool find_star_vertices(const std::vector<cv::Point2f>& contour, std::array<cv::Point2d, 8>& vertices) {
   StarOutline outline;
   if (!find_outline(contour, outline)) return false;
@@ -220,52 +304,120 @@ bool initial_placement(const StarOutline& l, const StarOutline& r, const StereoC
   return true;
 }
 
-// Residuals of a placement: the vertices' rectified (u, v) in both views (32), or, with `edges`, the
-// distance of every edge point to the projected model edge it lies on (one per point).
-void residuals(const Placement& p, const StarOutline& l, const StarOutline& r, const StereoCalibration& c,
-               const std::array<cv::Point3d, 8>& model, bool edges, std::vector<double>& out) {
-  out.clear();
-  for (int view = 0; view < 2; ++view) {
-    const cv::Matx34d& P = view == 0 ? c.P1 : c.P2;
-    const StarOutline& o = view == 0 ? l : r;
-    std::array<cv::Point2d, 8> v;
-    for (int k = 0; k < 8; ++k) v[k] = project(P, p.place(model[k]));
-    for (int k = 0; k < 8; ++k) {
-      if (!edges) {
-        out.push_back(o.vertices[k].x - v[k].x);
-        out.push_back(o.vertices[k].y - v[k].y);
-        continue;
-      }
-      const cv::Point2d a = v[k], d = v[(k + 1) % 8] - v[k];
-      const cv::Point2d n = cv::Point2d(-d.y, d.x) / std::max(cv::norm(d), 1e-9);
-      for (const cv::Point2f& q : o.edges[k]) out.push_back(n.dot(cv::Point2d(q) - a));
-    }
+// The 16 projected star corners (view-major) of a placement.
+std::array<cv::Point2d, 16> corners(const Placement& p, const StereoCalibration& c, const std::array<cv::Point3d, 8>& model) {
+  std::array<cv::Point2d, 16> v;
+  for (int k = 0; k < 8; ++k) {
+    const cv::Vec3d X = p.place(model[k]);
+    v[k] = project(c.P1, X);
+    v[8 + k] = project(c.P2, X);
   }
+  return v;
 }
 
-// Gauss-Newton with a forward-difference Jacobian; returns the Jacobian and residual sum of squares at
-// the solution.
-bool gauss_newton(Placement& p, const std::function<void(const Placement&, std::vector<double>&)>& f, cv::Mat& J,
-                  double& rss) {
-  std::vector<double> r0, r1;
-  for (int iteration = 0; iteration < 12; ++iteration) {
-    f(p, r0);
-    const int n = static_cast<int>(r0.size());
-    J.create(n, 7, CV_64F);
-    for (int j = 0; j < 7; ++j) {
-      cv::Vec<double, 7> d = cv::Vec<double, 7>::all(0.0);
-      d[j] = j >= 3 && j < 6 ? 1e-7 * p.t[2] : 1e-7;
-      f(p.moved(d), r1);
-      for (int i = 0; i < n; ++i) J.at<double>(i, j) = (r1[i] - r0[i]) / d[j];
-    }
-    cv::Mat step;
-    if (!cv::solve(J.t() * J, -J.t() * cv::Mat(r0), step, cv::DECOMP_CHOLESKY)) return false;
-    p = p.moved(cv::Vec<double, 7>(step));
-    if (cv::norm(step) < 1e-10) break;
+// The 16 projected star edges as lines (nx, ny, d): distance of q = nx·qx + ny·qy − d.
+std::array<cv::Vec3d, 16> edge_lines(const std::array<cv::Point2d, 16>& v) {
+  std::array<cv::Vec3d, 16> lines;
+  for (int i = 0; i < 16; ++i) {
+    const cv::Point2d a = v[i], b = v[(i / 8) * 8 + (i % 8 + 1) % 8];
+    const cv::Point2d d = b - a;
+    const cv::Point2d n = cv::Point2d(-d.y, d.x) / std::max(cv::norm(d), 1e-9);
+    lines[i] = cv::Vec3d(n.x, n.y, n.dot(a));
   }
-  f(p, r0);
-  rss = 0.0;
-  for (double v : r0) rss += v * v;
+  return lines;
+}
+
+// The step a fit's parameter j is perturbed by for its numerical derivative.
+double derivative_step(const Placement& p, int j) { return j >= 3 && j < 6 ? 1e-7 * p.t[2] : 1e-7; }
+
+cv::Vec<double, 7> unit(int j, double h) {
+  cv::Vec<double, 7> d = cv::Vec<double, 7>::all(0.0);
+  d[j] = h;
+  return d;
+}
+
+// A fit's normal equations: JᵀJ, Jᵀr and the residual sum of squares (r = observed − predicted).
+struct Normal {
+  cv::Matx<double, 7, 7> JtJ = cv::Matx<double, 7, 7>::zeros();
+  cv::Vec<double, 7> Jtr = cv::Vec<double, 7>::all(0.0);
+  double rss = 0.0;
+  int rows = 0;
+  void add(double r, const double* j) {
+    for (int a = 0; a < 7; ++a) {
+      Jtr[a] += j[a] * r;
+      for (int b = a; b < 7; ++b) JtJ(a, b) += j[a] * j[b];
+    }
+    rss += r * r;
+    ++rows;
+  }
+  void symmetrise() {
+    for (int a = 0; a < 7; ++a)
+      for (int b = 0; b < a; ++b) JtJ(a, b) = JtJ(b, a);
+  }
+};
+
+// The vertex fit: the 32 rectified vertex coordinates.
+Normal linearise_vertices(const Placement& p, const StarOutline& l, const StarOutline& r, const StereoCalibration& c,
+                          const std::array<cv::Point3d, 8>& model) {
+  auto values = [&](const Placement& q, double* out) {
+    const std::array<cv::Point2d, 16> v = corners(q, c, model);
+    for (int i = 0; i < 16; ++i) {
+      const cv::Point2d& o = i < 8 ? l.vertices[i] : r.vertices[i - 8];
+      out[2 * i] = o.x - v[i].x;
+      out[2 * i + 1] = o.y - v[i].y;
+    }
+  };
+  double res[32], moved[32], jac[32][7];
+  values(p, res);
+  for (int j = 0; j < 7; ++j) {
+    const double h = derivative_step(p, j);
+    values(p.moved(unit(j, h)), moved);
+    for (int i = 0; i < 32; ++i) jac[i][j] = -(moved[i] - res[i]) / h;  // of the prediction
+  }
+  Normal n;
+  for (int i = 0; i < 32; ++i) n.add(res[i], jac[i]);
+  n.symmetrise();
+  return n;
+}
+
+// The edge fit: each edge point's distance to its projected star edge. The distances are linear in the
+// point, so the derivatives of the 16 lines give every row.
+Normal linearise_edges(const Placement& p, const StarOutline& l, const StarOutline& r, const StereoCalibration& c,
+                       const std::array<cv::Point3d, 8>& model) {
+  const std::array<cv::Vec3d, 16> lines = edge_lines(corners(p, c, model));
+  std::array<std::array<cv::Vec3d, 16>, 7> slopes;
+  for (int j = 0; j < 7; ++j) {
+    const double h = derivative_step(p, j);
+    const std::array<cv::Vec3d, 16> moved = edge_lines(corners(p.moved(unit(j, h)), c, model));
+    for (int i = 0; i < 16; ++i) slopes[j][i] = (moved[i] - lines[i]) / h;
+  }
+  Normal n;
+  double jac[7];
+  for (int i = 0; i < 16; ++i) {
+    for (const cv::Point2f& q : (i < 8 ? l : r).edges[i % 8]) {
+      const cv::Vec3d h(q.x, q.y, -1.0);
+      // The distance is the residual (the edge point should lie on the line); its derivative is minus
+      // that of a prediction.
+      for (int j = 0; j < 7; ++j) jac[j] = -slopes[j][i].dot(h);
+      n.add(lines[i].dot(h), jac);
+    }
+  }
+  n.symmetrise();
+  return n;
+}
+
+using Linearise = std::function<Normal(const Placement&)>;
+
+// Gauss-Newton on the normal equations; returns them at the solution.
+bool gauss_newton(Placement& p, const Linearise& linearise, Normal& n) {
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    n = linearise(p);
+    cv::Vec<double, 7> step;
+    if (!cv::solve(n.JtJ, n.Jtr, step, cv::DECOMP_CHOLESKY)) return false;
+    p = p.moved(step);
+    if (cv::norm(step) < 1e-8) break;  // radians, metres, log scale: far below the noise
+  }
+  n = linearise(p);
   return true;
 }
 
@@ -278,26 +430,26 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
   const std::array<cv::Point3d, 8> model = star_model(settings);
   Placement p;
   if (!matched_outlines(left, right, l, r) || !initial_placement(l, r, calibration, model, p)) return pose;
-  cv::Mat J;
-  double rss = 0.0;
+  Normal n;
   // Vertices first (a good start from the triangulation), then every edge point.
-  auto vertices = [&](const Placement& q, std::vector<double>& out) { residuals(q, l, r, calibration, model, false, out); };
-  if (!gauss_newton(p, vertices, J, rss)) return pose;
-  pose.rms_px = std::sqrt(rss / 32.0);
+  auto vertices = [&](const Placement& q) { return linearise_vertices(q, l, r, calibration, model); };
+  if (!gauss_newton(p, vertices, n)) return pose;
+  pose.rms_px = std::sqrt(n.rss / 32.0);
   if (!(pose.rms_px <= settings.max_rms_px) || !(p.t[2] > 0.0)) return pose;
-  auto edges = [&](const Placement& q, std::vector<double>& out) { residuals(q, l, r, calibration, model, true, out); };
-  if (!gauss_newton(p, edges, J, rss) || J.rows <= 7 || !(p.t[2] > 0.0)) return pose;
-  // Covariance: the edge points' noise from the residuals, floored.
-  pose.vertex_sigma_px = std::max(std::sqrt(rss / (J.rows - 7.0)), settings.min_vertex_sigma_px);
-  cv::Mat normal_inverse;
-  if (cv::invert(J.t() * J, normal_inverse, cv::DECOMP_CHOLESKY) == 0.0) return pose;
-  const cv::Mat cov = pose.vertex_sigma_px * pose.vertex_sigma_px * normal_inverse;
+  auto edges = [&](const Placement& q) { return linearise_edges(q, l, r, calibration, model); };
+  if (!gauss_newton(p, edges, n) || n.rows <= 7 || !(p.t[2] > 0.0)) return pose;
+  // Covariance: the edge points' error from the residuals, floored.
+  pose.edge_sigma_px = std::max(std::sqrt(n.rss / (n.rows - 7.0)), settings.min_edge_sigma_px);
+  cv::Matx<double, 7, 7> normal_inverse;
+  if (cv::invert(n.JtJ, normal_inverse, cv::DECOMP_CHOLESKY) == 0.0) return pose;
+  const cv::Matx<double, 7, 7> cov = pose.edge_sigma_px * pose.edge_sigma_px * normal_inverse;
+  const cv::Matx33d attitude = cov.get_minor<3, 3>(0, 0), position = cov.get_minor<3, 3>(3, 3);
   // The rectified left frame is the left camera frame rotated by R1.
   const cv::Matx33d R1t = calibration.R1.t();
   pose.R_CS = R1t * p.R;
   pose.t_C = R1t * p.t;
-  pose.attitude_cov_C = R1t * cv::Matx33d(cv::Mat(cov(cv::Rect(0, 0, 3, 3)))) * R1t.t();
-  pose.position_cov_C = R1t * cv::Matx33d(cv::Mat(cov(cv::Rect(3, 3, 3, 3)))) * R1t.t();
+  pose.attitude_cov_C = R1t * attitude * R1t.t();
+  pose.position_cov_C = R1t * position * R1t.t();
   pose.size_ratio = p.scale;
   pose.valid = true;
   return pose;

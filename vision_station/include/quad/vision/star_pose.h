@@ -22,7 +22,10 @@ namespace quad::vision {
 struct StarPoseSettings {
   double inner_ratio = 0.4;           // inner vertex radius / tip radius of the star model
   double tip_radius_m = 0.20;         // start value only: the fit estimates the size
-  double min_vertex_sigma_px = 0.05;  // floor of the residual-based vertex noise used for the covariance
+  // Floor of the edge-point error the covariance assumes. The residual scatter (~0.06 px on clean
+  // images) misses the mid-level crossing's bias, which depends on the edge's sub-pixel phase and is
+  // the same for neighbouring points: ~0.15 px.
+  double min_edge_sigma_px = 0.15;
   double max_rms_px = 1.5;            // a fit worse than this (8 vertices, both views) is no pose
 };
 
@@ -34,7 +37,27 @@ struct StarPose {
   cv::Matx33d position_cov_C = cv::Matx33d::zeros();  // m²
   double size_ratio = 1.0;                     // fitted tip radius / tip_radius_m
   double rms_px = 0.0;                         // vertex reprojection RMS after the fit
-  double vertex_sigma_px = 0.0;                // the vertex noise the covariance assumes
+  double edge_sigma_px = 0.0;                  // the edge-point error the covariance assumes
+};
+
+// The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile
+// crosses the middle between its darkest and brightest values within ±3 px (sub-pixel, raw pixels).
+std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour);
+
+// One camera's map between raw and rectified pixels, for points already known to within a pixel or so:
+// Newton steps on the forward map (rectified → raw: the rectifying rotation undone, then OpenCV's lens
+// model), far cheaper than cv::undistortPoints' fixed-point iterations from scratch.
+class NearRectifier {
+ public:
+  NearRectifier(const StereoCalibration& calibration, int camera);
+  cv::Point2d raw(const cv::Point2d& rectified) const;
+  // The rectified point whose raw pixel is `raw`, starting from `guess`.
+  cv::Point2d rectified(const cv::Point2d& raw, cv::Point2d guess) const;
+
+ private:
+  cv::Matx33d K_;
+  cv::Vec<double, 5> D_;
+  cv::Matx33d back_;  // rectified pixel → ray in the camera frame: Rᵀ·(P's left 3x3)⁻¹
 };
 
 // The eight vertices of a star contour (rectified pixels, in contour order, a tip first), each the

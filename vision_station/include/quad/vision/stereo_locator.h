@@ -84,13 +84,18 @@ class StereoStarLocator {
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
                          DetectorTimes* times);
 
+  // A candidate's sub-pixel edge points, rectified.
+  std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,
+                                           const NearRectifier& rectifier) const;
+
   StereoCalibration calibration_;
   LocatorSettings settings_;
   StarDetector left_detector_;
   StarDetector right_detector_;
   cv::Rect last_left_box_;
   cv::Rect last_right_box_;
-  std::vector<cv::Point2f> best_left_rectified_, best_right_rectified_;  // the paired contours, for the pose
+  NearRectifier left_near_, right_near_;
+  StarCandidate best_left_, best_right_;  // the paired candidates of the last frame, for the pose
 };
 
 }  // namespace quad::vision
