@@ -5,13 +5,23 @@
 // range), and the reported attitude sigma consistent with the errors.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <array>
+#include <filesystem>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <map>
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "quad/link/dialect_pose.h"
+#include "quad/link/parser.h"
 
 #include "quad/vision/fix_output.h"
 #include "quad/vision/star_pose.h"
@@ -73,14 +83,35 @@ cv::Mat draw(const cv::Matx33d& K, const cv::Vec<double, 5>& D, const cv::Matx33
 
 double degrees(double rad) { return rad * 180.0 / CV_PI; }
 
-TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
-  const TestRig rig;
+// The test rig in the station's terms (the numbers only; the station rectifies it itself).
+StereoRig station_rig_of(const TestRig& rig) {
   StereoRig station_rig;
   station_rig.image_size = rig.size;
   station_rig.left = CameraIntrinsics{rig.K1, rig.D1};
   station_rig.right = CameraIntrinsics{rig.K2, rig.D2};
   cv::Rodrigues(rig.r_rel, station_rig.R);
   station_rig.T = rig.T;
+  return station_rig;
+}
+
+// A level star straight below a level vehicle (thesis mount), yawed by `yaw` about the vertical.
+struct LevelScene {
+  cv::Mat left, right;
+  cv::Matx33d R_LS;
+};
+LevelScene level_scene(const TestRig& rig, double yaw, double range, cv::RNG& rng) {
+  const StereoRig station_rig = station_rig_of(rig);
+  LevelScene scene;
+  cv::Rodrigues(cv::Vec3d(0, 0, yaw), scene.R_LS);
+  const cv::Vec3d t_L(0.06, 0.0, range);
+  scene.left = draw(rig.K1, rig.D1, scene.R_LS, t_L, rig.size, rng);
+  scene.right = draw(rig.K2, rig.D2, station_rig.R * scene.R_LS, station_rig.R * t_L + rig.T, rig.size, rng);
+  return scene;
+}
+
+TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
+  const TestRig rig;
+  const StereoRig station_rig = station_rig_of(rig);
   const StereoCalibration calibration = rectify(station_rig);
   LocatorSettings settings;
   settings.track_roi = false;
@@ -173,6 +204,87 @@ TEST(StarPose, AttitudeInBodyPicksTheTipNearestForwardAndQuaternionMatches) {
   const double sign = qr[0] >= 0 ? 1.0 : -1.0;
   EXPECT_NEAR(qr[0], sign * std::cos(angle / 2), 1e-9);
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(qr[i + 1], sign * std::sin(angle / 2) * w[i] / angle, 1e-9);
+}
+
+TEST(StarPose, LandingTargetCarriesTheAttitudeAndItsCovarianceMessage) {
+  const TestRig rig;
+  cv::RNG rng(5);
+  // Camera frame: the star's x axis at 30 deg from the image's x (towards its y). With the thesis mount
+  // (camera x = body y, camera y = body −x) the star's tips lie at 30 + 90 k deg from body y, i.e. at
+  // −60, 30, 120, 210 deg from body x: the tip nearest forward is at +30 deg.
+  const LevelScene scene = level_scene(rig, 30.0 * CV_PI / 180.0, 1.2, rng);
+  LocatorSettings settings;
+  StereoStarLocator locator(rectify(station_rig_of(rig)), settings);
+  const StarFix fix = locator.locate(scene.left, scene.right);
+  ASSERT_TRUE(fix.found);
+  ASSERT_TRUE(fix.pose.valid);
+  const CameraMount mount = thesis_camera_mount();
+  const mavlink::LandingTarget target = landing_target(fix, mount, 123456);
+  EXPECT_EQ(target.position_valid, 1);
+  EXPECT_EQ(target.type, mavlink::kLandingTargetTypeVisionFiducial);
+  // Level star, level vehicle: q is a yaw of +30 deg about body z (w first).
+  EXPECT_NEAR(target.q[0], std::cos(15.0 * CV_PI / 180.0), 2e-3);
+  EXPECT_NEAR(target.q[3], std::sin(15.0 * CV_PI / 180.0), 2e-3);
+  EXPECT_NEAR(target.q[1], 0.0, 3e-3);
+  EXPECT_NEAR(target.q[2], 0.0, 3e-3);
+  // The covariance message, through the codec and a parser that knows the dialect.
+  const mavlink::LandingTargetCovariance cov = landing_target_covariance(fix, mount, target.time_usec);
+  mavlink::Sender sender(1, mavlink::kCompIdVisualInertialOdometry);
+  uint8_t out[mavlink::max_frame_length<mavlink::LandingTargetCovariance>()];
+  const size_t n = sender.encode(cov, out, sizeof out);
+  ASSERT_GT(n, 0u);
+  mavlink::Parser parser(mavlink::pose_message_info);
+  bool decoded = false;
+  parser.feed(out, n, [&](const mavlink::Frame& frame) {
+    mavlink::LandingTargetCovariance back;
+    ASSERT_TRUE(mavlink::decode(frame, back));
+    decoded = true;
+    EXPECT_EQ(back.time_usec, 123456u);
+    EXPECT_EQ(back.attitude_valid, 1);
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_EQ(back.attitude_covariance[i], cov.attitude_covariance[i]);
+      EXPECT_EQ(back.position_covariance[i], cov.position_covariance[i]);
+    }
+  });
+  EXPECT_TRUE(decoded);
+  // Diagonals positive: variances about body x, y, z and of x, y, z.
+  for (int i : {0, 3, 5}) {
+    EXPECT_GT(cov.attitude_covariance[i], 0.0f);
+    EXPECT_GT(cov.position_covariance[i], 0.0f);
+  }
+  // The attitude sigma is far below the 0.5 deg the tilt is checked to elsewhere, and not zero.
+  EXPECT_LT(std::sqrt(cov.attitude_covariance[0]), 0.01);
+  // The wire layout mavlink-mappings-gen computed from link/mavlink/quad_pose.xml: time_usec at 0,
+  // position_covariance at 8, attitude_covariance at 32, target_num at 56, attitude_valid at 57.
+  const uint8_t* payload = out + mavlink::kHeaderLength;
+  float first_attitude = 0.0f;
+  std::memcpy(&first_attitude, payload + 32, 4);
+  EXPECT_EQ(first_attitude, cov.attitude_covariance[0]);
+}
+
+TEST(StarPose, DetectPrintsTheAttitude) {
+  const TestRig rig;
+  cv::RNG rng(6);
+  const LevelScene scene = level_scene(rig, 0.3, 1.4, rng);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("quad_pose_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  save_calibration(rectify(station_rig_of(rig)), (dir / "calib.yaml").string());
+  cv::imwrite((dir / "l.png").string(), scene.left);
+  cv::imwrite((dir / "r.png").string(), scene.right);
+  const std::string command = std::string(VISION_STATION_EXE) + " detect --calib " + (dir / "calib.yaml").string() +
+                              " --left " + (dir / "l.png").string() + " --right " + (dir / "r.png").string() + " > " +
+                              (dir / "out.json").string();
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream in(dir / "out.json");
+  std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::filesystem::remove_all(dir);
+  std::printf("[vision] detect: %s", json.c_str());
+  EXPECT_NE(json.find("\"q\":["), std::string::npos) << json;
+  EXPECT_NE(json.find("\"attitude_sigma_rad\":["), std::string::npos) << json;
+  // A level star below a level vehicle: tilt near zero.
+  const size_t at = json.find("\"tilt_deg\":");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_LT(std::stod(json.substr(at + 11)), 0.3) << json;
 }
 
 }  // namespace
