@@ -254,6 +254,20 @@ TEST_F(RecordedPair, RunWritesSkewAndDroppedFramesToStats) {
   log_text << log_in.rdbuf();
   EXPECT_NE(log_text.str().find("skew ms mean"), std::string::npos) << log_text.str();
   EXPECT_NE(log_text.str().find("missing L"), std::string::npos) << log_text.str();
+
+  // The limit as a setting: 5 ms refuses every pair of clocks 9 ms apart.
+  {
+    std::ofstream settings(dir_ / "settings.yaml");
+    settings << "%YAML:1.0\nmax_pair_skew_ms: 5\n";
+  }
+  const std::string strict = std::string(VISION_STATION_EXE) + " run --calib '" + (dir_ / "calib.yaml").string() +
+                             "' --source '" + spec() + "' --settings '" + (dir_ / "settings.yaml").string() +
+                             "' --stats '" + stats.string() + "' 2> /dev/null";
+  ASSERT_EQ(std::system(strict.c_str()), 0) << strict;
+  std::ifstream strict_in(stats);
+  const std::string strict_json((std::istreambuf_iterator<char>(strict_in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(strict_json.find("\"pairs\":0,"), std::string::npos) << strict_json;
+  EXPECT_NE(strict_json.find("\"limit\":5.000"), std::string::npos) << strict_json;
 }
 
 }  // namespace

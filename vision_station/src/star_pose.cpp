@@ -101,7 +101,7 @@ struct StarOutline {
   // Vertex k becomes vertex −k (the tip stays first): the contour read the other way round.
   void reverse() {
     std::reverse(vertices.begin() + 1, vertices.end());
-    std::reverse(edges.begin(), edges.end());  // edge k joined k, k+1; it now joins 8−k−1, 8−k
+    std::reverse(edges.begin(), edges.end());  // edge k joined vertices k, k+1; after reversal it joins 8−k−1, 8−k
   }
   // Vertex k becomes vertex k − s.
   void rotate(int s) {
