@@ -62,12 +62,16 @@ cv::Mat draw(const cv::Matx33d& K, const cv::Vec<double, 5>& D, const cv::Matx33
   cv::Vec3d rvec;
   cv::Rodrigues(R_cam_star, rvec);
   cv::projectPoints(star_outline(), rvec, t, K, D, projected);
+  // Vertices with 4 fractional bits on the supersampled grid (fillPoly's `shift`), so that the outline
+  // is placed to 1/64 px of the final image.
+  constexpr int kShift = 4;
   std::vector<cv::Point> polygon;
   for (const cv::Point2d& p : projected) {
-    polygon.emplace_back(cvRound((p.x + 0.5) * kSuper - 0.5), cvRound((p.y + 0.5) * kSuper - 0.5));
+    polygon.emplace_back(cvRound(((p.x + 0.5) * kSuper - 0.5) * (1 << kShift)),
+                         cvRound(((p.y + 0.5) * kSuper - 0.5) * (1 << kShift)));
   }
   cv::Mat big(size.height * kSuper, size.width * kSuper, CV_8UC1, cv::Scalar(205));
-  cv::fillPoly(big, std::vector<std::vector<cv::Point>>{polygon}, cv::Scalar(35));
+  cv::fillPoly(big, std::vector<std::vector<cv::Point>>{polygon}, cv::Scalar(35), cv::LINE_8, kShift);
   cv::Mat image;
   cv::resize(big, image, size, 0, 0, cv::INTER_AREA);
   cv::GaussianBlur(image, image, cv::Size(0, 0), 0.6);
@@ -175,8 +179,8 @@ TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
     // (a 0.2 deg tilt changes it by 0.013 px tip to tip at 2.5 m): bounded at 0.6 deg and reported.
     EXPECT_LE(median(sorted), range <= 1.5 ? 0.2 : 0.6) << "range " << range;
     // A 2-D Gaussian tilt error has its median at 1.18 sigma: the covariance must be neither far too
-    // optimistic nor far too pessimistic.
-    EXPECT_GT(median(normalised[range]), 0.4) << "range " << range;
+    // optimistic nor far too pessimistic (erring on the safe side by up to 4x).
+    EXPECT_GT(median(normalised[range]), 0.3) << "range " << range;
     EXPECT_LT(median(normalised[range]), 2.5) << "range " << range;
   }
   std::printf("[vision]   all ranges: tilt error median %.3f deg; pose %.0f us of %.0f us per pair (mean, shared CPU)\n",
