@@ -43,7 +43,8 @@ const char* kUsage =
     "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L[@MS],R[@MS] | sim:SOCKET)\n"
     "                     [--out PATH]"
     " [--baud 57600] [--show [--show-screenshot FILE.png]] [--settings FILE]\n"
-    "                     [--timeout-ms 500] [--status-s 1] [--stats FILE.json]\n";
+    "                     [--timeout-ms 500] [--status-s 1] [--stats FILE.json]\n"
+    "  --calib takes the station's calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml\n";
 
 // --key value options; flags listed in `flags` take no value.
 std::map<std::string, std::string> parse_options(int argc, char** argv, const std::vector<std::string>& flags) {
