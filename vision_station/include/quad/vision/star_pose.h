@@ -1,8 +1,9 @@
-// The star's full pose from its eight vertices in both rectified views: the vertices as intersections
-// of lines fitted to the contour's edges, matched left to right, triangulated; a rigid fit (Kabsch) of
-// the star model to them starts a Gauss-Newton fit of rotation, position and size to the 32 rectified
-// vertex coordinates (u, v in each view), whose inverse normal matrix scaled by the residual variance is
-// the covariance.
+// The star's full pose from its outline in both rectified views: the contour moved onto the grey-level
+// edge (sub-pixel) and split into its eight edges, whose intersections are the vertices; the vertices
+// matched left to right and triangulated; a rigid fit (Kabsch) of the star model to them starts a
+// Gauss-Newton fit of rotation, position and size, first to the 32 rectified vertex coordinates (u, v in
+// each view), then to the distances of the edge points from the projected star edges. The inverse normal
+// matrix times the edge points' error variance is the covariance.
 //
 // Star axes (docs/mavlink.md, "Star pose"): origin at the centre, z normal to the star pointing away
 // from the cameras (into the floor), x through a tip, y = z × x through the next tip. The star is
