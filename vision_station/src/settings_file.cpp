@@ -30,7 +30,9 @@ StationSettings load_station_settings(const std::string& path) {
       {"max_row_difference_px", &l.max_row_difference_px}, {"min_range_m", &l.min_range_m},
       {"max_range_m", &l.max_range_m}, {"centroid_sigma_px", &l.centroid_sigma_px}, {"track_roi", &l.track_roi},
       {"roi_growth", &l.roi_growth}, {"roi_margin_px", &l.roi_margin_px},
-      {"undistort_iterations", &l.undistort_iterations}};
+      {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
+      {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
+      {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms}};
   for (const cv::FileNode& node : fs.root()) {
     const std::string key = node.name();
     if (key == "camera_to_body_R" || key == "camera_to_body_t") {
