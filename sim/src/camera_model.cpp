@@ -35,19 +35,22 @@ double lens_fold_radius(const LensParams& l) {
 
 std::optional<Eigen::Vector2d> project_lens(const LensParams& lens, double valid_radius, const Eigen::Vector3d& p) {
   if (p.z() <= 1e-4) return std::nullopt;
-  double x = p.x() / p.z(), y = p.y() / p.z();
+  const double x = p.x() / p.z(), y = p.y() / p.z();
   const double r = std::hypot(x, y), limit = kValidFraction * valid_radius;
-  if (r > limit) {
-    x *= limit / r;
-    y *= limit / r;
-  }
-  return to_pixel(lens, distort(lens, x, y));
+  if (r <= limit) return to_pixel(lens, distort(lens, x, y));
+  // Beyond the limit the polynomial is no lens (it folds back): continue it linearly through the
+  // origin, so that the image periphery still shows the floor further out, in order.
+  return to_pixel(lens, distort(lens, x * limit / r, y * limit / r) * (r / limit));
 }
 
 std::optional<Eigen::Vector2d> unproject_lens(const LensParams& lens, double valid_radius, const Eigen::Vector2d& uv) {
   const Eigen::Vector2d target((uv.x() - lens.cx) / lens.fx, (uv.y() - lens.cy) / lens.fy);
-  Eigen::Vector2d x = target;
   const double limit = kValidFraction * valid_radius;
+  // On the linear continuation (project_lens) when the target lies beyond the limit's image.
+  const double angle = std::atan2(target.y(), target.x());
+  const Eigen::Vector2d at_limit = distort(lens, limit * std::cos(angle), limit * std::sin(angle));
+  if (target.norm() > at_limit.norm()) return Eigen::Vector2d(std::cos(angle), std::sin(angle)) * limit * target.norm() / at_limit.norm();
+  Eigen::Vector2d x = target;
   for (int i = 0; i < 50; ++i) {
     const Eigen::Vector2d f = distort(lens, x.x(), x.y()) - target;
     if (f.norm() < 1e-12) break;

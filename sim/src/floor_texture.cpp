@@ -28,15 +28,23 @@ FloorTexture::FloorTexture(const std::string& path, double side_m, double mean_g
   cv::hconcat(flipped_y, flipped_xy, bottom);
   cv::vconcat(top, bottom, tile);
   texel_m_ = side_m / std::max(grey.cols, grey.rows);
-  levels_.push_back(tile);
-  while (levels_.size() < 8 && levels_.back().cols >= 16 && levels_.back().rows >= 16) {
+  // 8-bit levels (OpenCV's fixed-point bilinear remap is several times faster than the float one),
+  // each with one wrapped column and row appended so that coordinates wrapped into [0, size) never need
+  // a border mode.
+  cv::Mat level = tile;
+  for (int k = 0; k < 8 && level.cols >= 16 && level.rows >= 16; ++k) {
+    cv::Mat bytes, padded;
+    level.convertTo(bytes, CV_8U);
+    cv::copyMakeBorder(bytes, padded, 0, 1, 0, 1, cv::BORDER_WRAP);
+    levels_.push_back(padded);
+    sizes_.push_back(level.size());
     cv::Mat down;
-    cv::pyrDown(levels_.back(), down);
-    levels_.push_back(down);
+    cv::pyrDown(level, down);
+    level = down;
   }
 }
 
-void FloorTexture::fill(const cv::Mat& rays, const CameraPose& pose, double focal_px, cv::Mat& albedo) {
+void FloorTexture::fill(const cv::Mat& rays, const CameraPose& pose, double focal_px, int first_row, int row_step, cv::Mat& albedo) {
   const Eigen::Matrix3d Rt = pose.R.transpose();
   const Eigen::Vector3d c = -Rt * pose.t;  // camera centre, NED
   const double height = std::max(-c.z(), 1e-3);
@@ -45,37 +53,42 @@ void FloorTexture::fill(const cv::Mat& rays, const CameraPose& pose, double foca
   const int level = std::clamp(static_cast<int>(std::floor(std::log2(std::max(footprint / texel_m_, 1.0)))), 0,
                                static_cast<int>(levels_.size()) - 1);
   const cv::Mat& tex = levels_[static_cast<size_t>(level)];
+  const cv::Size tile = sizes_[static_cast<size_t>(level)];
   const double texel = texel_m_ * std::ldexp(1.0, level);
-  const float cols = static_cast<float>(tex.cols), rows = static_cast<float>(tex.rows);
-  map_x_.create(rays.size(), CV_32F);
-  map_y_.create(rays.size(), CV_32F);
-  const Eigen::Matrix3f Rf = Rt.cast<float>();
-  const Eigen::Vector3f cf = c.cast<float>();
-  for (int v = 0; v < rays.rows; ++v) {
-    const cv::Vec2f* ray = rays.ptr<cv::Vec2f>(v);
-    float* mx = map_x_.ptr<float>(v);
-    float* my = map_y_.ptr<float>(v);
+  const float cols = static_cast<float>(tile.width), rows = static_cast<float>(tile.height);
+  const int out_rows = (rays.rows - first_row + row_step - 1) / row_step;
+  map_x_.create(out_rows, rays.cols, CV_32F);
+  map_y_.create(out_rows, rays.cols, CV_32F);
+  const float r00 = static_cast<float>(Rt(0, 0)), r01 = static_cast<float>(Rt(0, 1)), r02 = static_cast<float>(Rt(0, 2));
+  const float r10 = static_cast<float>(Rt(1, 0)), r11 = static_cast<float>(Rt(1, 1)), r12 = static_cast<float>(Rt(1, 2));
+  const float r20 = static_cast<float>(Rt(2, 0)), r21 = static_cast<float>(Rt(2, 1)), r22 = static_cast<float>(Rt(2, 2));
+  const float cx = static_cast<float>(c.x() / texel), cy = static_cast<float>(c.y() / texel), cz = static_cast<float>(-c.z());
+  for (int i = 0; i < out_rows; ++i) {
+    const cv::Vec2f* ray = rays.ptr<cv::Vec2f>(first_row + i * row_step);
+    float* mx = map_x_.ptr<float>(i);
+    float* my = map_y_.ptr<float>(i);
     for (int u = 0; u < rays.cols; ++u) {
-      const Eigen::Vector3f d = Rf * Eigen::Vector3f(ray[u][0], ray[u][1], 1.0f);
-      if (!(d.z() > 1e-6f)) {  // NaN ray or looking above the horizon
-        mx[u] = my[u] = -1e6f;
+      const float x = ray[u][0], y = ray[u][1];
+      const float dz = r20 * x + r21 * y + r22;
+      if (!(dz > 1e-6f)) {  // NaN ray or looking above the horizon: the mean grey below
+        mx[u] = my[u] = -1.0f;
         continue;
       }
-      const float s = -cf.z() / d.z();
+      const float s = cz / (dz * static_cast<float>(texel));
       // Image column along east, row along north, wrapped into the tile.
-      const float east = static_cast<float>((cf.y() + s * d.y()) / texel);
-      const float north = static_cast<float>((cf.x() + s * d.x()) / texel);
+      const float east = cy + s * (r10 * x + r11 * y + r12);
+      const float north = cx + s * (r00 * x + r01 * y + r02);
       mx[u] = east - cols * std::floor(east / cols);
       my[u] = north - rows * std::floor(north / rows);
     }
   }
-  cv::remap(tex, albedo, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_WRAP);
-  // Rays off the floor (the wrap would have sampled somewhere): the mean grey.
-  for (int v = 0; v < rays.rows; ++v) {
-    const float* mx = map_x_.ptr<float>(v);
-    float* a = albedo.ptr<float>(v);
-    for (int u = 0; u < rays.cols; ++u)
-      if (mx[u] < -1e5f) a[u] = static_cast<float>(mean_);
+  cv::remap(tex, sampled_, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(mean_));
+  albedo.create(rays.size(), CV_32F);
+  for (int i = 0; i < out_rows; ++i) {
+    const uint8_t* in = sampled_.ptr<uint8_t>(i);
+    const float* mx = map_x_.ptr<float>(i);
+    float* a = albedo.ptr<float>(first_row + i * row_step);
+    for (int u = 0; u < rays.cols; ++u) a[u] = mx[u] < 0.0f ? static_cast<float>(mean_) : static_cast<float>(in[u]);
   }
 }
 

@@ -131,7 +131,13 @@ std::vector<std::string> calibrate_command_for(const std::vector<std::string>& s
 std::string station_calibration_file(const SimStereoRig& rig, const CameraParams& params, const std::vector<std::string>& calibrate_argv,
                                      const std::string& cache_dir, const std::function<void(const std::string&)>& progress) {
   const ChessboardTarget board;
-  const std::string key = fnv1a_hex(key_text(rig, params, board));
+  // The calibrating executable is part of the key: a rebuilt station calibrates again.
+  std::string tool;
+  std::error_code error;
+  const auto tool_time = fs::last_write_time(calibrate_argv.at(0), error);
+  if (!error) tool = calibrate_argv[0] + " " + std::to_string(tool_time.time_since_epoch().count()) + " " +
+                     std::to_string(fs::file_size(calibrate_argv[0], error));
+  const std::string key = fnv1a_hex(key_text(rig, params, board) + " " + tool);
   const std::string file = cache_dir + "/station_calib-" + key + ".yaml";
   if (fs::exists(file)) {
     progress("station calibration: " + file + " (cached)");
@@ -161,10 +167,12 @@ std::string station_calibration_file(const SimStereoRig& rig, const CameraParams
   const std::string log = cache_dir + "/station_calib-" + key + ".log";
   progress("station calibration: " + argv[0] + " calibrate (output in " + log + ")");
   std::string status;
-  {
+  try {
     FirmwareProcess calibrate(argv, log);
     while (calibrate.running()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     status = calibrate.status();
+  } catch (const std::runtime_error& e) {
+    throw CalibrationError(std::string("vision station calibration: ") + e.what());
   }
   if (status != "exited with status 0" || !fs::exists(partial))
     throw CalibrationError("vision station calibration " + status + " (see " + log + ")");

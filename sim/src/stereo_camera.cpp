@@ -196,11 +196,12 @@ void StereoCameraRenderer::render(const PoseAtTime& pose_at, double t, bool hide
   render_view(right_, pose_at, t, hide_star, exposure, right);
 }
 
-void StereoCameraRenderer::floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, cv::Mat& albedo) {
+void StereoCameraRenderer::floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, int first_row, int row_step,
+                                        cv::Mat& albedo) {
   const CameraPose camera = camera_pose_over_floor(view.mount, pose.p_ned, pose.q_ib);
   albedo.create(rig_.height, rig_.width, CV_32F);
   if (texture_) {
-    texture_->fill(view.rays, camera, view.lens.fy, albedo);
+    texture_->fill(view.rays, camera, view.lens.fy, first_row, row_step, albedo);
   } else {
     albedo.setTo(cv::Scalar(p_.floor_grey));
   }
@@ -230,10 +231,11 @@ void StereoCameraRenderer::render_view(const View& view, const PoseAtTime& pose_
     const VehiclePose start = p_.exposure_s > 0.0 ? pose_at(end_t - p_.exposure_s) : end;
     const int samples = p_.exposure_s > 0.0 ? blur_samples(view, start, end) : 1;
     last_blur_samples_ = samples;
+    const int first_row = field;  // even rows: the first field
     for (int k = 0; k < samples; ++k) {
       // Sub-exposures at the middles of equal slices of the shutter time.
-      floor_albedo(view, samples == 1 ? end : interpolate(start, end, (k + 0.5) / samples), hide_star, albedo_);
-      for (int v = field == 0 || fields == 1 ? 0 : 1; v < rig_.height; v += fields) {
+      floor_albedo(view, samples == 1 ? end : interpolate(start, end, (k + 0.5) / samples), hide_star, first_row, fields, albedo_);
+      for (int v = first_row; v < rig_.height; v += fields) {
         const float* a = albedo_.ptr<float>(v);
         float* s = sum_.ptr<float>(v);
         const float w = 1.0f / static_cast<float>(samples);

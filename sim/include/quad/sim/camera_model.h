@@ -19,8 +19,9 @@
 namespace quad::sim {
 
 // One camera's projection of a point in its own frame (OpenCV axes: x right, y down, z along the view).
-// Points beyond the radius where the lens polynomial folds back are pulled in radially onto 0.97 of it
-// (they lie outside the image anyway); nullopt behind the camera.
+// Beyond 0.97 of the radius where the lens polynomial folds back (the image corners of a strongly
+// distorting lens), the polynomial is continued linearly through the origin so the periphery stays in
+// order; inside, it is OpenCV's model exactly. nullopt behind the camera.
 std::optional<Eigen::Vector2d> project_lens(const LensParams& lens, double valid_radius, const Eigen::Vector3d& p);
 
 // The undistorted normalised radius at which r·(1 + k1 r² + k2 r⁴ + k3 r⁶) stops growing (3 when it
@@ -28,7 +29,8 @@ std::optional<Eigen::Vector2d> project_lens(const LensParams& lens, double valid
 double lens_fold_radius(const LensParams& lens);
 
 // Inverse of the lens: the normalised undistorted (x, y) whose projection is the pixel (u, v), by
-// Newton's method on the forward model; nullopt when it does not converge inside the fold radius.
+// Newton's method on the forward model (the linear continuation beyond the fold); nullopt when it does
+// not converge.
 std::optional<Eigen::Vector2d> unproject_lens(const LensParams& lens, double valid_radius, const Eigen::Vector2d& uv);
 
 // A camera on the airframe: p_B = R_BC p_C + t_BC (body FRD; thesis eq. 7.22 form).

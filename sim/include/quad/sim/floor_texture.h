@@ -18,16 +18,18 @@ class FloorTexture {
   // Throws std::runtime_error naming `path` when it is not a readable image.
   FloorTexture(const std::string& path, double side_m, double mean_grey, double contrast);
 
-  // Fills `albedo` (CV_32F, the size of `rays`) with the floor seen along each pixel's ray (`rays`:
-  // CV_32FC2 normalised undistorted x, y; NaN: not on the floor) from a camera at `pose` (NED floor to
-  // camera). `focal_px` sets the mipmap level. Rays that miss the floor get the mean grey.
-  void fill(const cv::Mat& rays, const CameraPose& pose, double focal_px, cv::Mat& albedo);
+  // Fills rows first_row, first_row + row_step, ... of `albedo` (CV_32F, the size of `rays`) with the
+  // floor seen along each pixel's ray (`rays`: CV_32FC2 normalised undistorted x, y; NaN: not on the
+  // floor) from a camera at `pose` (NED floor to camera). `focal_px` sets the mipmap level. Rays that
+  // miss the floor get the mean grey.
+  void fill(const cv::Mat& rays, const CameraPose& pose, double focal_px, int first_row, int row_step, cv::Mat& albedo);
 
  private:
-  std::vector<cv::Mat> levels_;  // CV_32F albedo, level k has 2^k times larger texels
+  std::vector<cv::Mat> levels_;  // CV_8U albedo plus a wrapped last row and column; level k: 2^k larger texels
+  std::vector<cv::Size> sizes_;  // each level's tile without the wrapped row and column
   double texel_m_;               // texel side at level 0
   double mean_;
-  cv::Mat map_x_, map_y_;        // work buffers
+  cv::Mat map_x_, map_y_, sampled_;  // work buffers
 };
 
 }  // namespace quad::sim

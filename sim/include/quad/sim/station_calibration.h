@@ -3,7 +3,7 @@
 // (through its own camera model, quad/sim/camera_model.h), runs `vision_station calibrate` on those
 // images, and hands the station the calibration file that command wrote. The file is cached under a key
 // of everything that shapes the chessboard images, so a flight recalibrates only when the cameras
-// change. The camera-to-body mount, which chessboards cannot give, goes to the station's settings file
+// change (or the calibrating executable is rebuilt). The camera-to-body mount, which chessboards cannot give, goes to the station's settings file
 // (camera_to_body_R, camera_to_body_t) as the value a builder would measure on the airframe.
 #pragma once
 
@@ -43,7 +43,8 @@ struct CalibrationError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// The station's calibration for this rig: CACHE_DIR/station_calib-KEY.yaml, made on a cache miss by
+// The station's calibration for this rig: CACHE_DIR/station_calib-KEY.yaml (KEY: the cameras, the
+// chessboard set and the calibrating executable's path, time and size), made on a cache miss by
 // rendering the chessboard views and running `calibrate_argv --images DIR --board 9x6 --square S
 // --out FILE` (its output in CACHE_DIR/station_calib-KEY.log). `progress` gets one line per step.
 // Throws CalibrationError when the command fails.

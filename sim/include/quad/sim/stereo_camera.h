@@ -89,7 +89,8 @@ class StereoCameraRenderer {
     cv::Mat rays;      // CV_32FC2 normalised undistorted (x, y) per pixel, NaN beyond the lens' fold
   };
   View make_view(const LensParams& lens, const CameraMountModel& mount) const;
-  void floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, cv::Mat& albedo);
+  // The floor's rows first_row, first_row + row_step, ... (the shapes are painted whole).
+  void floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, int first_row, int row_step, cv::Mat& albedo);
   int blur_samples(const View& view, const VehiclePose& start, const VehiclePose& end) const;
   void render_view(const View& view, const PoseAtTime& pose_at, double t, bool hide_star, double exposure, cv::Mat& out);
   void expose(const View& view, const cv::Mat& albedo, double exposure, cv::Mat& out);
