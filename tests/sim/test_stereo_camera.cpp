@@ -17,6 +17,7 @@
 #include "quad/sim/stereo_camera.h"
 #include "quad/sim/vehicle.h"
 #include "quad/sim/vision_fix.h"
+#include "quad/vision/settings_file.h"
 #include "quad/vision/stereo_calibration.h"
 #include "quad/vision/stereo_locator.h"
 
@@ -130,6 +131,19 @@ TEST_F(StereoCamera, HiddenStarIsNotFound) {
   EXPECT_TRUE(locator.locate(left, right).found);
   renderer.render(Eigen::Vector3d(0, 0, -1.5), attitude(0, 0, 0), true, left, right);
   EXPECT_FALSE(locator.locate(left, right).found);
+}
+
+TEST(StereoCameraScene, StationReadsTheMountTheSimulatorWrites) {
+  const SimStereoRig rig = shipped_rig(CameraParams());
+  const std::string path = ::testing::TempDir() + "/settings_" + std::to_string(getpid()) + ".yaml";
+  write_station_settings(path, rig.left_mount, {{"min_area_px", "123"}});
+  const vis::StationSettings settings = vis::load_station_settings(path);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(settings.mount.t_BC[i], rig.left_mount.t_BC(i));
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(settings.mount.R_BC(i, j), rig.left_mount.R_BC(i, j));
+  }
+  EXPECT_EQ(settings.locator.detector.min_area_px, 123);
+  std::filesystem::remove(path);
 }
 
 TEST(StereoCameraScene, SameSeedSameImages) {
