@@ -47,8 +47,6 @@ void send_all(int fd, const void* data, size_t length) {
   }
 }
 
-}  // namespace
-
 std::string default_calibration_cache(const std::vector<std::string>& station_argv, const std::string& out_dir) {
   // Beside the station executable (e.g. build/host/bin/station_calibration): shared by every run of that
   // build; a station found through PATH calibrates into the run folder.
@@ -56,6 +54,8 @@ std::string default_calibration_cache(const std::vector<std::string>& station_ar
   const size_t slash = exe.rfind('/');
   return slash == std::string::npos ? out_dir + "/station_calibration" : exe.substr(0, slash) + "/station_calibration";
 }
+
+}  // namespace
 
 StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, const std::string& out_dir,
                          const std::vector<std::string>& station_argv, const StationLoopOptions& options)
