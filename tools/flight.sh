@@ -5,7 +5,9 @@
 #   tools/flight.sh [SCENARIO] [--out DIR] [--video]      (the Makefile builds first)
 #   FLIGHT_VIDEO=1 make flight                            also renders a chase-camera MP4 (slower)
 # The run folder (default runs/<scenario>-<UTC time>) holds log.csv, events.log, summary.json, the PNG
-# plots, firmware.log, station.log, report.txt and, with --video, flight.mp4.
+# plots, firmware.log, station.log, report.txt and, with --video, flight.mp4. The station learns the
+# cameras from chessboards the simulator renders (`vision_station calibrate`, cached in
+# build/host/bin/station_calibration/ until the cameras or the station change; docs/simulator.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -739,7 +739,15 @@ SessionResult Session::run() {
   }
   if (s_.camera.enabled) {
     if (o_.station_argv.empty()) throw std::runtime_error(s_.path + ": camera.enabled needs the vision station command");
-    station_ = std::make_unique<StationLoop>(s_, o_.out_dir, o_.station_argv);
+    StationLoopOptions station;
+    station.calibration_file = o_.station_calibration;
+    station.calibration_cache = o_.station_calibration_cache;
+    station.progress = [this](const std::string& line) {
+      event(0.0, line);
+      if (o_.progress) std::fprintf(stderr, "%s\n", line.c_str());
+    };
+    station_ = std::make_unique<StationLoop>(s_, stereo_rig_from_model(vehicle_.model(), s_.camera, s_.model_path), o_.out_dir,
+                                             o_.station_argv, station);
     event(0.0, "vision station: rendered cameras in the loop (station.log)");
   }
   firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");

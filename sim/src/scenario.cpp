@@ -53,6 +53,14 @@ class Field {
     }
   }
 
+  // The keys of a mapping, in file order.
+  std::vector<std::string> keys() const {
+    if (!node_.IsMap()) fail("must be a mapping");
+    std::vector<std::string> out;
+    for (const auto& kv : node_) out.push_back(key_name(kv.first));
+    return out;
+  }
+
   Field operator[](const char* k) const {
     return Field(node_[k], key_.empty() ? std::string(k) : key_ + "." + k, file_);
   }
@@ -144,6 +152,55 @@ void parse_axis(const Field& f, ImuAxisParams& a) {
   f["vibration_at_full_speed"].get(a.vibration_at_full_speed, 0.0, 100.0);
 }
 
+std::string resolve(const std::string& base_dir, const std::string& p) {
+  if (p.empty() || p[0] == '/') return p;
+  return base_dir.empty() ? p : base_dir + "/" + p;
+}
+
+void parse_lens(const Field& f, LensParams& l) {
+  f.expect_map({"fx", "fy", "cx", "cy", "distortion"});
+  f["fx"].get(l.fx, 10.0, 1e5);
+  f["fy"].get(l.fy, 10.0, 1e5);
+  f["cx"].get(l.cx, -1e4, 1e4);
+  f["cy"].get(l.cy, -1e4, 1e4);
+  if (const Field d = f["distortion"]; d.defined()) {
+    if (d.size() != 5) d.fail("must be a list of five numbers (k1, k2, p1, p2, k3)");
+    double* k[] = {&l.k1, &l.k2, &l.p1, &l.p2, &l.k3};
+    for (size_t i = 0; i < 5; ++i) *k[i] = d.at(i).number(-10.0, 10.0);
+  }
+}
+
+void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) {
+  f.expect_map({"enabled", "image_size", "left", "right", "star_tip_to_tip_m", "star_inner_ratio", "distractors",
+                "floor_grey", "floor_texture", "floor_texture_m", "floor_texture_contrast", "star_grey", "noise_grey",
+                "exposure_variation", "vignetting", "exposure_s", "interlaced", "jpeg_quality", "frame_loss",
+                "calibration_focal_error"});
+  f["enabled"].get(c.enabled);
+  if (const Field size = f["image_size"]; size.defined()) {
+    if (size.size() != 2) size.fail("must be [width, height] in pixels");
+    c.image_width = size.at(0).integer(16, 8192);
+    c.image_height = size.at(1).integer(16, 8192);
+  }
+  if (f["left"].defined()) parse_lens(f["left"], c.left);
+  if (f["right"].defined()) parse_lens(f["right"], c.right);
+  f["star_tip_to_tip_m"].get(c.star_tip_to_tip_m, 0.05, 5.0);
+  f["star_inner_ratio"].get(c.star_inner_ratio, 0.1, 0.9);
+  if (f["distractors"].defined()) c.distractors = f["distractors"].integer(0, 50);
+  f["floor_grey"].get(c.floor_grey, 1.0, 255.0);
+  if (f["floor_texture"].defined()) c.floor_texture = resolve(base_dir, f["floor_texture"].text());
+  f["floor_texture_m"].get(c.floor_texture_m, 0.05, 100.0);
+  f["floor_texture_contrast"].get(c.floor_texture_contrast, 0.0, 1.0);
+  f["star_grey"].get(c.star_grey, 0.0, 255.0);
+  f["noise_grey"].get(c.noise_grey, 0.0, 40.0);
+  f["exposure_variation"].get(c.exposure_variation, 0.0, 0.5);
+  f["vignetting"].get(c.vignetting, 0.0, 0.9);
+  f["exposure_s"].get(c.exposure_s, 0.0, 0.0165);  // within one field period
+  f["interlaced"].get(c.interlaced);
+  if (f["jpeg_quality"].defined()) c.jpeg_quality = f["jpeg_quality"].integer(0, 100);
+  f["frame_loss"].get(c.frame_loss, 0.0, 1.0);
+  f["calibration_focal_error"].get(c.calibration_focal_error, -0.5, 0.5);
+}
+
 void parse_radio(const Field& f, RadioConditions& r) {
   f["latency_s"].get(r.latency_s, 0.0, 10.0);
   f["jitter_s"].get(r.jitter_s, 0.0, 10.0);
@@ -207,11 +264,6 @@ Fault parse_fault(const Field& f, double duration) {
   return fault;
 }
 
-std::string resolve(const std::string& base_dir, const std::string& p) {
-  if (p.empty() || p[0] == '/') return p;
-  return base_dir.empty() ? p : base_dir + "/" + p;
-}
-
 }  // namespace
 
 Eigen::Vector3d Scenario::wind_at(double t) const {
@@ -232,7 +284,7 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   s.path = name;
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "camera", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "vision", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
                   "rc", "faults", "metrics", "firmware_params"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);
@@ -270,19 +322,21 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
     f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
     f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
   }
-  if (const Field f = top["camera"]; f.defined()) {
-    f.expect_map({"enabled", "star_tip_to_tip_m", "distractors", "floor_grey", "star_grey", "noise_grey",
-                  "exposure_variation", "vignetting", "frame_loss", "calibration_focal_error"});
-    f["enabled"].get(s.camera.enabled);
-    f["star_tip_to_tip_m"].get(s.camera.star_tip_to_tip_m, 0.05, 5.0);
-    if (f["distractors"].defined()) s.camera.distractors = f["distractors"].integer(0, 50);
-    f["floor_grey"].get(s.camera.floor_grey, 1.0, 255.0);
-    f["star_grey"].get(s.camera.star_grey, 0.0, 255.0);
-    f["noise_grey"].get(s.camera.noise_grey, 0.0, 40.0);
-    f["exposure_variation"].get(s.camera.exposure_variation, 0.0, 0.5);
-    f["vignetting"].get(s.camera.vignetting, 0.0, 0.9);
-    f["frame_loss"].get(s.camera.frame_loss, 0.0, 1.0);
-    f["calibration_focal_error"].get(s.camera.calibration_focal_error, -0.5, 0.5);
+  if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
+  if (const Field f = top["station_settings"]; f.defined()) {
+    for (const std::string& k : f.keys()) {
+      const Field v = f[k.c_str()];
+      const std::string value = v.text();
+      const bool word = std::all_of(value.begin(), value.end(), [](unsigned char ch) { return std::isalnum(ch) || ch == '_'; });
+      bool numeric = true;
+      try {
+        (void)v.number();
+      } catch (const ScenarioError&) {
+        numeric = false;
+      }
+      if (!numeric && !word) v.fail("must be a number or a single word");
+      s.station_settings.emplace_back(k, value);
+    }
   }
   if (const Field f = top["motors"]; f.defined()) {
     f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});

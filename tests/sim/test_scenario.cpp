@@ -19,7 +19,7 @@ std::string error_of(const std::string& yaml) {
 }
 
 TEST(Scenario, EveryShippedScenarioLoads) {
-  for (const char* name : {"hover", "steps", "square", "gusts", "faults"}) {
+  for (const char* name : {"hover", "steps", "square", "gusts", "faults", "flight", "flight_plain"}) {
     const Scenario s = load_scenario(std::string(QUAD_SIM_SOURCE_DIR) + "/scenarios/" + name + ".yaml");
     EXPECT_EQ(s.name, name);
     EXPECT_GT(s.duration_s, 10.0);
@@ -54,6 +54,35 @@ TEST(Scenario, FaultsAndWindAreParsed) {
   const Scenario g = load_scenario(QUAD_SIM_SOURCE_DIR "/scenarios/gusts.yaml");
   EXPECT_TRUE(g.wind_at(21.0).isApprox(Eigen::Vector3d(-4.4, -1.4, 0.0)));
   EXPECT_TRUE(g.wind_at(25.0).isApprox(Eigen::Vector3d(-1.4, -1.4, 0.0)));
+}
+
+TEST(Scenario, CameraKeysAndStationSettingsAreParsed) {
+  const Scenario s = parse_scenario(
+      "name: x\nduration_s: 10\n"
+      "camera: {enabled: true, image_size: [640, 480], left: {fx: 500, fy: 490, cx: 320, cy: 240,\n"
+      "         distortion: [-0.3, 0.1, 0.001, -0.002, 0.0]}, floor_texture: floor.png, interlaced: true,\n"
+      "         exposure_s: 0.004, jpeg_quality: 80, star_inner_ratio: 0.35}\n"
+      "station_settings: {deinterlace: field, min_area_px: 120}\n",
+      "x.yaml", "/scenarios");
+  EXPECT_EQ(s.camera.image_width, 640);
+  EXPECT_EQ(s.camera.image_height, 480);
+  EXPECT_EQ(s.camera.left.fx, 500.0);
+  EXPECT_EQ(s.camera.left.p2, -0.002);
+  EXPECT_EQ(s.camera.right.fx, CameraParams().right.fx);  // untouched: the default
+  EXPECT_EQ(s.camera.floor_texture, "/scenarios/floor.png");
+  EXPECT_TRUE(s.camera.interlaced);
+  EXPECT_EQ(s.camera.exposure_s, 0.004);
+  EXPECT_EQ(s.camera.jpeg_quality, 80);
+  EXPECT_EQ(s.camera.star_inner_ratio, 0.35);
+  ASSERT_EQ(s.station_settings.size(), 2u);
+  EXPECT_EQ(s.station_settings[0], (std::pair<std::string, std::string>("deinterlace", "field")));
+  EXPECT_EQ(s.station_settings[1], (std::pair<std::string, std::string>("min_area_px", "120")));
+  const std::string head = "name: x\nduration_s: 10\n";
+  EXPECT_NE(error_of(head + "camera: {left: {fx: 500, distortion: [0.1, 0.2]}}\n").find("'camera.left.distortion' must be a list of five"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "camera: {jpeg_quality: 101}\n").find("'camera.jpeg_quality' must be in [0, 100]"), std::string::npos);
+  EXPECT_NE(error_of(head + "station_settings: {deinterlace: 'a b'}\n").find("'station_settings.deinterlace' must be a number or a single word"),
+            std::string::npos);
 }
 
 TEST(Scenario, ErrorsNameTheFileLineAndKey) {
