@@ -61,7 +61,7 @@ void ConditionedObserver::cache_reference() {
   accel_hi2_ = hi * hi;
   if (!(accel_hi2_ >= 0.0f)) accel_hi2_ = 0.0f;  // a NaN tolerance accepts nothing (update() compares bits)
   const Vec3& m = params_.mag_ref_ned;
-  if (params_.innovation == Innovation::Conditioned) {
+  if (params_.innovation == Innovation::kConditioned) {
     // thesis eq. 4.7: v_I = pi_{e3} m_I / ||pi_{e3} m_I||; pi_{e3} m = (m_N, m_E, 0).
     const Vec3 h{m.x, m.y, 0.0f};
     const float n = norm(h);
@@ -157,7 +157,7 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
   if (propagations_since_correction_ < 255u) ++propagations_since_correction_;
   const bool renormalise = propagations_since_correction_ == kRenormalisingPropagation ||
                            unnormalised_steps_ >= kMaxUnnormalisedSteps;
-  const Quat q_next = params_.propagator == Propagator::Exact
+  const Quat q_next = params_.propagator == Propagator::kExact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
   if (!commit(q_next, bias_, rate)) return;
@@ -221,7 +221,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
     if (float_bits(v_ref_.x) << 1) v_hat = float_bits(v_ref_.x) == kFloatOneBits ? r_.row(0) : r_.row(0) * v_ref_.x;
     if (float_bits(v_ref_.y) << 1) v_hat += r_.row(1) * v_ref_.y;
     if (float_bits(v_ref_.z) << 1) v_hat += u_hat * v_ref_.z;
-    if (k.innovation == Innovation::Conditioned) {
+    if (k.innovation == Innovation::kConditioned) {
       // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
       // vertical stands in for u_B so the heading is still held.
       // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_dt_) instead of the vector.
@@ -236,7 +236,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
       if (m2 > 0.0f) sigma_r += cross(mag, v_hat) * (k.k2 / sqrtf(m2));
     }
   }
-  if (k.innovation == Innovation::Unconditioned) db = sigma_r * -k_i_dt_;  // eq. 4.4: b' = -k_I sigma_R
+  if (k.innovation == Innovation::kUnconditioned) db = sigma_r * -k_i_dt_;  // eq. 4.4: b' = -k_I sigma_R
 
   // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
   const Vec3 rate = gyro - bias_;
@@ -244,7 +244,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   // Single-rate, every step renormalises; multi-rate, the fourth unnormalised step in a row does (the
   // propagation before the next correction, at 400 Hz: the correction's iteration is the heaviest).
   const bool renormalise = !multi_rate || unnormalised_steps_ >= kMaxUnnormalisedSteps;
-  const Quat q_next = k.propagator == Propagator::Exact
+  const Quat q_next = k.propagator == Propagator::kExact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
   // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
@@ -252,7 +252,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   // sat_Delta(b) - b = b (Delta/|b| - 1).
   // Inside the cube |b_i| <= Delta/sqrt(3) the norm cannot exceed Delta: three comparisons decide the
   // usual case without the squared norm.
-  if (k.innovation == Innovation::Conditioned && !(abs_at_most(bias_.x, inner_delta_) && abs_at_most(bias_.y, inner_delta_) &&
+  if (k.innovation == Innovation::kConditioned && !(abs_at_most(bias_.x, inner_delta_) && abs_at_most(bias_.y, inner_delta_) &&
                                                    abs_at_most(bias_.z, inner_delta_))) {
     const float b2 = norm_sq(bias_);
     if (b2 > k.delta * k.delta) db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));

@@ -423,30 +423,30 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
 
 FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) {
   const FixResult accepted = accept_fix(y);
-  if (accepted != FixResult::Pending) return accepted;
+  if (accepted != FixResult::kPending) return accepted;
   const FixResult gated = gate_fix(y, capture_us);
-  return gated == FixResult::Pending ? update_fix() : gated;
+  return gated == FixResult::kPending ? update_fix() : gated;
 }
 
 FixResult PositionFilterCore::accept_fix(const Vec3& y) {
   if (fix_stage_ != kFixIdle) {
     ++health_.rejected_busy;
-    return FixResult::RejectedBusy;
+    return FixResult::kRejectedBusy;
   }
   if (!is_finite(y) || !clock_started_) {
     ++health_.rejected_invalid;
-    return FixResult::RejectedInvalid;
+    return FixResult::kRejectedInvalid;
   }
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 FixResult PositionFilterCore::queue_fix(const Vec3& y, uint32_t capture_us) {
   const FixResult accepted = accept_fix(y);
-  if (accepted != FixResult::Pending) return accepted;
+  if (accepted != FixResult::kPending) return accepted;
   for (int i = 0; i < 3; ++i) fix_[i] = y[i];
   fix_us_ = capture_us;
   fix_stage_ = kFixQueued;
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 FixResult PositionFilterCore::advance_fix() {
@@ -455,7 +455,7 @@ FixResult PositionFilterCore::advance_fix() {
     return gate_fix(Vec3{fix_[0], fix_[1], fix_[2]}, fix_us_);
   }
   if (fix_stage_ == kFixGated) return update_fix();
-  return FixResult::RejectedInvalid;  // nothing in progress (nothing counted)
+  return FixResult::kRejectedInvalid;  // nothing in progress (nothing counted)
 }
 
 // The first step: the lookup at capture time, D h, S and the gate. A fix that passes leaves its D h in
@@ -468,7 +468,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
       params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
   if (!initialized_ || diverged || rejected_too_often) {
     initialize_from_fix(y, capture_us);
-    return FixResult::Initialized;
+    return FixResult::kInitialized;
   }
   // A fix stamped after "now" (clock offset) is taken as current.
   int32_t tau_us = micros_between(t_us_, capture_us);
@@ -480,7 +480,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
   if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
     ++health_.rejected_out_of_order;
-    return FixResult::RejectedOutOfOrder;
+    return FixResult::kRejectedOutOfOrder;
   }
   // Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
   // -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
@@ -498,7 +498,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   float p_s[3];
   if (!predicted_position_at(capture_us, p_s, h1, h2)) {
     ++health_.rejected_too_old;
-    return FixResult::RejectedTooOld;
+    return FixResult::kRejectedTooOld;
   }
   float w[2][3];
   float* const inv_s = fix_inv_s_;
@@ -540,7 +540,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   if (!pass) {
     ++health_.rejected_gate;
     ++consecutive_rejections_;
-    return FixResult::RejectedGate;
+    return FixResult::kRejectedGate;
   }
 
   gain_tau_ = tau;
@@ -552,7 +552,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   last_fix_us_ = capture_us;
   have_fix_ = true;
   fix_stage_ = kFixGated;
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 // The second step: the gated fix's correction, carried by Phi(T) from the time it was gated to now,
@@ -617,7 +617,7 @@ FixResult PositionFilterCore::update_fix() {
   if (fold) fold_correction();
   consecutive_rejections_ = 0;
   ++health_.fused;
-  return FixResult::Fused;
+  return FixResult::kFused;
 }
 
 }  // namespace est

@@ -63,12 +63,12 @@ Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd);
 Vec3 kinematic_acceleration(const Mat3& r_ib, const Vec3& specific_force_frd);
 
 enum class ProcessNoise : uint8_t {
-  ThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
-  WhiteAcceleration,  // continuous white acceleration of spectral density q_accel (q_p = 0)
+  kThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
+  kWhiteAcceleration,  // continuous white acceleration of spectral density q_accel (q_p = 0)
 };
 
 struct PositionFilterParams {
-  ProcessNoise process_noise = ProcessNoise::ThesisDiagonal;
+  ProcessNoise process_noise = ProcessNoise::kThesisDiagonal;
   float q_pos = 1.0f;        // sigma^2_{q,p}, m^2/s            (ThesisDiagonal)
   float q_vel = 1.0f;        // sigma^2_{q,v}, (m/s)^2/s        (ThesisDiagonal)
   float q_accel = 1.0f;      // sigma_a^2, (m/s^2)^2/Hz         (WhiteAcceleration)
@@ -91,14 +91,14 @@ struct PositionFilterParams {
 };
 
 enum class FixResult : uint8_t {
-  Fused,          // used at its capture time
-  Initialized,    // first fix, or a reset (repeated rejections, or lost after an outage): position set to the fix
-  RejectedGate,   // innovation outside the Mahalanobis gate
-  RejectedTooOld, // captured before the oldest history entry or before the last reset
-  RejectedOutOfOrder,  // captured before the last fused fix
-  RejectedInvalid,     // non-finite, or fused before the first predict
-  RejectedBusy,        // queue_fix() while another fix is still in progress
-  Pending,             // queued, or gated and waiting for its update (queue_fix() / advance_fix())
+  kFused,               // used at its capture time
+  kInitialized,         // first fix, or a reset (repeated rejections, or lost after an outage): position set to the fix
+  kRejectedGate,        // innovation outside the Mahalanobis gate
+  kRejectedTooOld,      // captured before the oldest history entry or before the last reset
+  kRejectedOutOfOrder,  // captured before the last fused fix
+  kRejectedInvalid,     // non-finite, or fused before the first predict
+  kRejectedBusy,        // queue_fix() while another fix is still in progress
+  kPending,             // queued, or gated and waiting for its update (queue_fix() / advance_fix())
 };
 
 struct PositionFilterHealth {
@@ -197,7 +197,7 @@ class PositionFilterCore {
   bool has_bias(int axis) const { return axis == 2 ? params_.z_accel_bias : params_.xy_accel_bias; }
   bool class_has_bias(int c) const { return c == 0 ? params_.xy_accel_bias : params_.z_accel_bias; }
   // Spectral densities of position, velocity and, per covariance class, the bias (0 if it has none).
-  bool white() const { return params_.process_noise == ProcessNoise::WhiteAcceleration; }
+  bool white() const { return params_.process_noise == ProcessNoise::kWhiteAcceleration; }
   float qp() const { return white() ? 0.0f : params_.q_pos; }
   float qv() const { return white() ? params_.q_accel : params_.q_vel; }
   float qb(int c) const {
