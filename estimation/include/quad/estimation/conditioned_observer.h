@@ -126,6 +126,9 @@ class ConditionedObserver {
   void cache_propagation(float dt);
   bool step_ok(const Vec3& gyro, float dt);
   bool commit(const Quat& q_next, const Vec3& b_next, const Vec3& rate);
+  bool gravity_direction(const Vec3& accel, Vec3& u_meas);
+  void add_heading_innovation(const Vec3& mag, const Vec3& u_hat, const Vec3& axis, Vec3& sigma_r, Vec3& db) const;
+  void add_bias_pullback(Vec3& db) const;
 
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)

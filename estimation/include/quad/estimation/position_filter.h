@@ -171,7 +171,7 @@ class PositionFilterCore {
   const PositionFilterHealth& health() const { return health_; }
   // History entries (the oldest ones) from before the last fold of the accumulated correction, which get
   // the old-epoch correction on lookup (0: no old epoch). Diagnostics and tests.
-  uint16_t old_epoch_entries() const { return old_left_; }
+  uint16_t old_epoch_entries() const { return old_epoch_left_; }
 
  protected:
   PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params);
@@ -190,8 +190,8 @@ class PositionFilterCore {
   };
 
   // Index into p_, q_ and gain_ of an axis' covariance class: 0 for x and y, 1 for z unless z shares.
-  int covariance_class(int axis) const { return axis == 2 && !one_class_ ? 1 : 0; }
-  int class_count() const { return one_class_ ? 1 : 2; }
+  int covariance_class(int axis) const { return axis == 2 && !z_shares_xy_covariance_ ? 1 : 0; }
+  int class_count() const { return z_shares_xy_covariance_ ? 1 : 2; }
   // Whether an axis, or a covariance class, carries the bias state; where it does not, b and its
   // corrections stay zero.
   bool has_bias(int axis) const { return axis == 2 ? params_.z_accel_bias : params_.xy_accel_bias; }
@@ -212,6 +212,9 @@ class PositionFilterCore {
   float correction_position(int axis, float dt) const;
   void initialize_from_fix(const Vec3& p_ned, uint32_t capture_us);
   void set_step(int32_t step_us);
+  bool fix_resets() const;
+  void capture_gain_terms(float tau, float h1, float h2, float w[2][3]);
+  bool within_gate(const Vec3& y, const float p_s[3], float nu[3]);
   void propagate(const Vec3& u, int32_t step_us);
   FixResult accept_fix(const Vec3& p_ned);  // the checks of every fix: Pending when it may go on
   FixResult gate_fix(const Vec3& p_ned, uint32_t capture_us);
@@ -227,11 +230,12 @@ class PositionFilterCore {
   float half_dt_;                            // q_dt_ / 2
   float h_dt_;                               // q_dt_^2 / 2 (bias states only)
   AxisState x_[3];
-  AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
-  bool one_class_ = false;                   // z's covariance is identical to x's and y's
-  Correction corr_[3];                       // accumulated correction, carried to now (t_us_)
-  // Correction of the old epoch, frozen at the time of its newest entry (the fold): valid while old_left_ > 0.
-  FrozenCorrection corr_old_[3];
+  AxisCovariance p_[2];  // horizontal (x and y), vertical (p_[1] unused while z_shares_xy_covariance_)
+  bool z_shares_xy_covariance_ = false;  // z's covariance is identical to x's and y's: one class
+  Correction correction_[3];             // accumulated correction, carried to now (t_us_)
+  // Correction of the old epoch, frozen at the time of its newest entry (the fold): valid while
+  // old_epoch_left_ > 0.
+  FrozenCorrection old_epoch_correction_[3];
   uint32_t inv_span_us_ = 0;                 // history spacing whose reciprocal inv_span_ holds (0: none)
   float inv_span_;
   // Last correction gain, carried to now; while a fix is gated (kFixGated) its D h, the gain times S.
@@ -248,7 +252,7 @@ class PositionFilterCore {
   uint16_t capacity_;
   uint16_t head_ = 0;   // index of the next entry to write
   uint16_t count_ = 0;  // valid entries
-  uint16_t old_left_ = 0;  // the oldest old_left_ entries predate the last fold (old epoch; 0: none)
+  uint16_t old_epoch_left_ = 0;  // the oldest old_epoch_left_ entries predate the last fold (old epoch; 0: none)
   // The fix in progress (queue_fix(), advance_fix()): queued, its position and capture time; gated, its
   // innovations, 1 / S per class and the time it was gated at (the same storage: the AVR's RAM).
   enum FixStage : uint8_t { kFixIdle, kFixQueued, kFixGated };
