@@ -196,7 +196,7 @@ def main():
             continue
         failed = True
         print(f"{rel}:{first}: {fn} is {length} lines, over {args.max}: split it into named steps, "
-              f"or add '{key}' with the reason to ALLOWED in {os.path.relpath(__file__)}")
+              f"or add '{key}' with the reason to ALLOWED in {os.path.relpath(__file__, args.root)}")
     scanned = tuple(os.path.normpath(f) + os.sep for f in args.folders)
     for key in sorted(ALLOWED):
         if key.split("::")[0].startswith(scanned) and key not in seen:
