@@ -142,7 +142,7 @@ Vec3 g_accel_sum;
 uint8_t g_accel_count = 0;
 quad::fw::StageClock g_stages;  // configured for 100 Hz stages in a 400 Hz loop by tick400_frames()
 
-quad::est::FixResult g_fix_result = quad::est::FixResult::RejectedInvalid;  // of the last advance_fix()
+quad::est::FixResult g_fix_result = quad::est::FixResult::kRejectedInvalid;  // of the last advance_fix()
 float g_shaper_missed = 0.0f;  // s of shaper frames given to a vision fix
 
 // A vision fix as it reaches the firmware above 100 Hz: queued, fused by the frames' shaper iterations.
@@ -206,7 +206,7 @@ void fix_frames(uint32_t& k, bool mag_new, const quad::ctrl::PositionSetpoint& s
         continue;
       }
       measure(f == 0 ? gate : update, [&] { tick400(s, mag_new, sp); });
-      check(g_fix_result == (f == 0 ? quad::est::FixResult::Pending : quad::est::FixResult::Fused), "tick400_fix_steps");
+      check(g_fix_result == (f == 0 ? quad::est::FixResult::kPending : quad::est::FixResult::kFused), "tick400_fix_steps");
     }
   }
 }
@@ -316,22 +316,22 @@ int main() {
             [&] { u = quad::est::kinematic_acceleration(g_observer.attitude(), s2.accel); });
     measure("kinematic_acceleration", [&] { u = quad::est::kinematic_acceleration(g_observer.dcm(), s2.accel); });
     measure("kalman_predict", [&] { g_filter.predict(u, g_now_us); });
-    quad::est::FixResult fix = quad::est::FixResult::RejectedInvalid;
+    quad::est::FixResult fix = quad::est::FixResult::kRejectedInvalid;
     const Vec3 p = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs);
     const Vec3 y = p + Vec3{0.02f, -0.01f, 0.015f};
     measure("kalman_fused_fix", [&] { fix = g_filter.fuse_position(y, g_now_us - kFixDelayUs); });
-    check(fix == quad::est::FixResult::Fused, "kalman_fix_not_fused");
+    check(fix == quad::est::FixResult::kFused, "kalman_fix_not_fused");
     // The same fusion in two steps (400 Hz): the gate, a predict, the update carried across it.
     g_now_us += kPeriodUs;
     g_filter.predict(u, g_now_us);
     const Vec3 y2 = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs) + Vec3{-0.01f, 0.02f, 0.0f};
     g_filter.queue_fix(y2, g_now_us - kFixDelayUs);
     measure("kalman_fix_gate", [&] { fix = g_filter.advance_fix(); });
-    check(fix == quad::est::FixResult::Pending, "kalman_fix_gate_failed");
+    check(fix == quad::est::FixResult::kPending, "kalman_fix_gate_failed");
     g_now_us += kPeriodUs;
     g_filter.predict(u, g_now_us);
     measure("kalman_fix_update", [&] { fix = g_filter.advance_fix(); });
-    check(fix == quad::est::FixResult::Fused, "kalman_fix_update_failed");
+    check(fix == quad::est::FixResult::kFused, "kalman_fix_update_failed");
     measure("shaper", [&] { g_shaper.update(kDt, g_setpoint); });
 
     const quad::ctrl::VehicleState st = vehicle_state();
@@ -398,7 +398,7 @@ int main() {
     g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
     g_shaper.update(kDt, g_setpoint);
     quad::ctrl::PositionSetpoint far;
-    quad::est::FixResult fix = quad::est::FixResult::RejectedInvalid;
+    quad::est::FixResult fix = quad::est::FixResult::kRejectedInvalid;
     const Vec3 p = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs);
     const Vec3 y = p + Vec3{-0.02f, 0.01f, 0.015f};
     const Vec3 push{1.5f, -1.2f, 0.8f};
@@ -412,7 +412,7 @@ int main() {
       far.yaw_d = 0.7f;
       quad_probe::keep(g_cascade.step(vehicle_state(), far));
     });
-    check(fix == quad::est::FixResult::Fused, "worst_fix_not_fused");
+    check(fix == quad::est::FixResult::kFused, "worst_fix_not_fused");
     check(g_cascade.output().attitude.limited, "worst_tilt_not_limited");
     check(g_cascade.output().motors.yaw_limited, "worst_yaw_not_limited");
   }

@@ -84,8 +84,8 @@ int main(int argc, char** argv) {
        }},
       {"--propagator",
        [&](auto& k, auto& v) {
-         if (v == "exact") o.observer.propagator = quad::est::Propagator::Exact;
-         else if (v == "second-order") o.observer.propagator = quad::est::Propagator::SecondOrder;
+         if (v == "exact") o.observer.propagator = quad::est::Propagator::kExact;
+         else if (v == "second-order") o.observer.propagator = quad::est::Propagator::kSecondOrder;
          else usage_error(k + ": unknown propagator '" + v + "'");
        }},
       {"--k1", [&](auto& k, auto& v) { o.observer.k1 = number(k, v); }},
@@ -110,8 +110,8 @@ int main(int argc, char** argv) {
        }},
       {"--noise-model",
        [&](auto& k, auto& v) {
-         if (v == "thesis") o.position.process_noise = quad::est::ProcessNoise::ThesisDiagonal;
-         else if (v == "white") o.position.process_noise = quad::est::ProcessNoise::WhiteAcceleration;
+         if (v == "thesis") o.position.process_noise = quad::est::ProcessNoise::kThesisDiagonal;
+         else if (v == "white") o.position.process_noise = quad::est::ProcessNoise::kWhiteAcceleration;
          else usage_error(k + ": unknown noise model '" + v + "'");
        }},
       {"--q-pos", [&](auto& k, auto& v) { o.position.q_pos = number(k, v); }},

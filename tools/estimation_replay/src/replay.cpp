@@ -17,7 +17,7 @@ class Attitude {
  public:
   explicit Attitude(const ReplayOptions& o) : kind_(o.filter), mahony_(o.mahony), linear_(o.linear) {
     est::ObserverParams p = o.observer;
-    p.innovation = kind_ == AttitudeFilter::Unconditioned ? est::Innovation::Unconditioned : est::Innovation::Conditioned;
+    p.innovation = kind_ == AttitudeFilter::Unconditioned ? est::Innovation::kUnconditioned : est::Innovation::kConditioned;
     observer_.set_params(p);
   }
 
