@@ -15,10 +15,10 @@ constexpr uint8_t kJumpReportRejections = 3;
 
 FlashText rejection_text(est::CalibrationStatus status) {
   switch (status) {
-    case est::CalibrationStatus::Moved: return QUAD_TEXT("calibration: vehicle moved, again");
-    case est::CalibrationStatus::Turning: return QUAD_TEXT("calibration: vehicle turning, again");
-    case est::CalibrationStatus::NotLevel: return QUAD_TEXT("calibration: not level, again");
-    case est::CalibrationStatus::NonFinite: return QUAD_TEXT("calibration: bad sample, again");
+    case est::CalibrationStatus::kMoved: return QUAD_TEXT("calibration: vehicle moved, again");
+    case est::CalibrationStatus::kTurning: return QUAD_TEXT("calibration: vehicle turning, again");
+    case est::CalibrationStatus::kNotLevel: return QUAD_TEXT("calibration: not level, again");
+    case est::CalibrationStatus::kNonFinite: return QUAD_TEXT("calibration: bad sample, again");
     default: return QUAD_TEXT("calibration: again");
   }
 }
@@ -244,7 +244,7 @@ void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us) {
   if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
     // Queued for the frame-rate work's iteration (frame_schedule.h).
     const est::FixResult r = estimator_.queue_fix(p_ned, capture_us);
-    if (r != est::FixResult::Pending) fix_result(r, false);
+    if (r != est::FixResult::kPending) fix_result(r, false);
     return;
   }
   fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
@@ -256,11 +256,11 @@ void FlightApp::fix_step(Step step) {
   mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = step();
   mark(hal::TracePoint::kFixEnd);
-  if (r != est::FixResult::Pending) fix_result(r, estimator_.filter_resets() != resets_before);
+  if (r != est::FixResult::kPending) fix_result(r, estimator_.filter_resets() != resets_before);
 }
 
 void FlightApp::fix_result(est::FixResult r, bool reset) {
-  const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
+  const bool taken = r == est::FixResult::kFused || r == est::FixResult::kInitialized;
   if (taken && (reset || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
     // The estimate jumped to a fix it had refused before (a decoy taken for the star, a moved marker,
     // a return from a long outage): not a failsafe, but the operator must hear of it.
@@ -279,7 +279,7 @@ void FlightApp::fix_result(est::FixResult r, bool reset) {
   } else {
     ++fixes_rejected_;
     // (One refused because another was still in progress says nothing about the star.)
-    if (r != est::FixResult::RejectedBusy && fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
+    if (r != est::FixResult::kRejectedBusy && fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
   }
 }
 

@@ -74,10 +74,10 @@ int main(int argc, char** argv) {
       {"-o", [&](auto&, auto& v) { output = v; }},
       {"--filter",
        [&](auto& k, auto& v) {
-         static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::Conditioned},
-                                                                     {"unconditioned", AttitudeFilter::Unconditioned},
-                                                                     {"mahony", AttitudeFilter::Mahony},
-                                                                     {"linear", AttitudeFilter::Linear}};
+         static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::kConditioned},
+                                                                     {"unconditioned", AttitudeFilter::kUnconditioned},
+                                                                     {"mahony", AttitudeFilter::kMahony},
+                                                                     {"linear", AttitudeFilter::kLinear}};
          const auto it = names.find(v);
          if (it == names.end()) usage_error(k + ": unknown filter '" + v + "'");
          o.filter = it->second;
@@ -200,7 +200,7 @@ int main(int argc, char** argv) {
   std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
             << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
             << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
-  if (o.filter == AttitudeFilter::Conditioned || o.filter == AttitudeFilter::Unconditioned) {
+  if (o.filter == AttitudeFilter::kConditioned || o.filter == AttitudeFilter::kUnconditioned) {
     std::cerr << "; observer: " << s.observer.skipped << " samples skipped, " << s.observer.accel_rejected
               << " accelerometer and " << s.observer.mag_rejected << " magnetometer samples not used";
   }
