@@ -15,7 +15,13 @@ def client_for(scheduler, workers):
     # The task functions travel by value, so a cluster's workers need the build, not this tool's code.
     cloudpickle.register_pickle_by_value(run_module)
     if scheduler:
-        return Client(scheduler, timeout="30s"), None
+        client = Client(scheduler, timeout="30s")
+        try:
+            client.wait_for_workers(1, timeout=120)
+        except Exception:  # TimeoutError of asyncio or distributed, by version
+            client.close()
+            raise RuntimeError(f"the scheduler {scheduler} has had no worker for 120 s (start dask-worker)")
+        return client, None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=40)
     return Client(cluster), cluster
