@@ -23,7 +23,7 @@ def client_for(scheduler, workers):
             raise RuntimeError(f"the scheduler {scheduler} has had no worker for 120 s (start dask-worker)")
         return client, None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=40)
+                           dashboard_address=":0", silence_logs=40)
     return Client(cluster), cluster
 
 
