@@ -166,5 +166,11 @@ def read_outcome(run, output, status):
     if run["success_output"] and not re.search(run["success_output"], output, re.MULTILINE):
         ok = False  # e.g. a test filter that matched nothing exits 0 too
     figures = {f["name"]: figure_value(run, f, summary, output) for f in run["figures"]}
-    tail = "" if ok else "\n".join(output.strip().splitlines()[-6:])
-    return {"ok": ok, "crashed": crashed, "figures": figures, "failure": tail}
+    return {"ok": ok, "crashed": crashed, "figures": figures, "failure": "" if ok else _excerpt(output)}
+
+
+def _excerpt(output):
+    """The lines that say why a run failed: from the first failure or error message, else the last ones."""
+    lines = output.strip().splitlines()
+    first = next((i for i, line in enumerate(lines) if re.search(r"Failure|error|cut short|CRASHED", line)), None)
+    return "\n".join(lines[first:first + 6] if first is not None else lines[-6:])
