@@ -67,7 +67,7 @@ def evaluate(campaign, runs, records):
                 value = agg[key] if agg else None
                 checks.append({"figure": f["name"], "aggregate": key, "value": value, "bound": bound,
                                "unit": f["unit"], "ok": value is not None and stats.within(value, bound, f["better"])})
-        result.append({"group": gid, "n": n, "failed": failed, "crashed": crashed,
+        result.append({"group": gid, "n": n, "failed": failed, "crashed": crashed, "flights": members[0][0]["quad_sim"],
                        "failed_ci": stats.fraction_interval(failed, n), "crashed_ci": stats.fraction_interval(crashed, n),
                        "figures": figures, "checks": checks, "ok": all(c["ok"] for c in checks),
                        "seeds": sorted(run["seed"] for run, _ in members)})
@@ -100,9 +100,11 @@ def markdown(campaign, evaluation, plot_links):
     anchors = list(dict.fromkeys(a for f in campaign["figures"] for a in f["anchors"]))
     lines = []
     for g in evaluation:
-        lines.append(f"**{g['group']}**: {g['n']} runs (seeds {_seed_text(g['seeds'])}); failed {g['failed']}, "
-                     f"crashed {g['crashed']} (95 % interval of the crashed fraction "
-                     f"{_ci(g['crashed_ci'], '.2f')}).")
+        # A command run's crash is one of its failures (its own assertions); a flight's is in its summary.
+        what, ci = ("crashed", g["crashed_ci"]) if g["flights"] else ("failed", g["failed_ci"])
+        lines.append(f"**{g['group']}**: {g['n']} runs (seeds {_seed_text(g['seeds'])}); failed {g['failed']}"
+                     + (f", crashed {g['crashed']}" if g["flights"] else "")
+                     + f" (95 % interval of the {what} fraction {_ci(ci, '.2f')}).")
         lines.append("")
         head = ["figure", "median [95 % CI]", "p95 [95 % CI]", "worst", "bound", "verdict"] + anchors
         lines += ["| " + " | ".join(head) + " |", "| " + " | ".join(["---"] * len(head)) + " |"]
