@@ -1,6 +1,6 @@
 // quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
 //
-//   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
+//   quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD] [--viewer]
 //            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
 //            [--station-calib FILE] [--no-plots] [--quiet]
 //
@@ -35,12 +35,15 @@ void on_signal(int) { g_stop = true; }
 int usage(const char* error) {
   if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
   std::fprintf(stderr,
-               "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
+               "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD]\n"
                "                [--viewer] [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK]\n"
                "                [--station CMD] [--station-calib FILE] [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
+               "  --set KEY=VALUE   override one scenario key (repeatable): a dotted path, list items by index,\n"
+               "                    a YAML value: radio.latency_s=0.01, firmware_params.POS_KP_XY=4,\n"
+               "                    commands.3.at_s=45, wind.mean_ned_m_s=[1,0,0]\n"
                "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
                "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
                "                    arguments (--uart0 ... --params FILE) are appended\n"
@@ -92,6 +95,7 @@ std::string utc_stamp() {
 int main(int argc, char** argv) {
   std::string scenario_path, out_dir, firmware, record, ground_port, station, station_calib, screenshot;
   std::optional<long> seed;
+  std::vector<quad::sim::ScenarioOverride> overrides;
   bool realtime = false, viewer = false, plots = true, quiet = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -103,6 +107,7 @@ int main(int argc, char** argv) {
       if (a == "--scenario") scenario_path = value("--scenario");
       else if (a == "--out") out_dir = value("--out");
       else if (a == "--seed") seed = std::stol(value("--seed"));
+      else if (a == "--set") overrides.push_back(quad::sim::parse_override(value("--set")));
       else if (a == "--firmware") firmware = value("--firmware");
       else if (a == "--record") record = value("--record");
       else if (a == "--viewer-screenshot") screenshot = value("--viewer-screenshot");
@@ -123,7 +128,7 @@ int main(int argc, char** argv) {
   if (!screenshot.empty() && !viewer) return usage("--viewer-screenshot needs --viewer");
 
   try {
-    quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path);
+    quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path, overrides);
     if (seed) scenario.seed = static_cast<uint64_t>(*seed);
     if (out_dir.empty()) out_dir = "runs/" + scenario.name + "-" + utc_stamp();
 

@@ -264,6 +264,37 @@ Fault parse_fault(const Field& f, double duration) {
   return fault;
 }
 
+// Replaces the node at o.key in `root` by o.value (parsed as YAML), creating missing map keys.
+void apply_override(YAML::Node& root, const ScenarioOverride& o, const std::string& file) {
+  const std::string where = file + ": --set " + o.key + "=" + o.value + ": ";
+  YAML::Node value;
+  try {
+    value = YAML::Load(o.value);
+  } catch (const YAML::ParserException& e) {
+    throw ScenarioError(where + "the value is not YAML (" + e.msg + ")");
+  }
+  YAML::Node node = root;
+  std::string path;
+  std::istringstream parts(o.key);
+  for (std::string part; std::getline(parts, part, '.');) {
+    if (part.empty()) throw ScenarioError(where + "the key has an empty part");
+    path += (path.empty() ? "" : ".") + part;
+    YAML::Node next;
+    if (node.IsSequence()) {
+      const bool digits = std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c); });
+      if (!digits || std::stoul(part) >= node.size())
+        throw ScenarioError(where + "'" + path + "': the list has " + std::to_string(node.size()) + " items");
+      next.reset(node[std::stoul(part)]);
+    } else if (node.IsMap() || !node.IsDefined() || node.IsNull()) {
+      next.reset(node[part]);
+    } else {
+      throw ScenarioError(where + "'" + path + "' is inside a value that is neither a mapping nor a list");
+    }
+    node.reset(next);
+  }
+  node = value;  // assigns through the reference into the document
+}
+
 }  // namespace
 
 Eigen::Vector3d Scenario::wind_at(double t) const {
@@ -273,13 +304,16 @@ Eigen::Vector3d Scenario::wind_at(double t) const {
   return w;
 }
 
-Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw ScenarioError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
-  }
+ScenarioOverride parse_override(const std::string& key_equals_value) {
+  const size_t eq = key_equals_value.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw ScenarioError("--set '" + key_equals_value + "': expected KEY=VALUE, e.g. radio.latency_s=0.01");
+  return {key_equals_value.substr(0, eq), key_equals_value.substr(eq + 1)};
+}
+
+namespace {
+
+Scenario scenario_from(const YAML::Node& root, const std::string& name, const std::string& base_dir) {
   Scenario s;
   s.path = name;
   const Field top(root, "", &name);
@@ -436,13 +470,37 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   return s;
 }
 
-Scenario load_scenario(const std::string& path) {
+}  // namespace
+
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir,
+                        const std::vector<ScenarioOverride>& overrides) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw ScenarioError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
+  }
+  if (overrides.empty()) return scenario_from(root, name, base_dir);
+  std::string keys;
+  for (const ScenarioOverride& o : overrides) {
+    apply_override(root, o, name);
+    keys += (keys.empty() ? "" : ", ") + o.key;
+  }
+  try {
+    return scenario_from(root, name, base_dir);
+  } catch (const ScenarioError& e) {  // a line number may then be the --set value's own
+    throw ScenarioError(std::string(e.what()) + " (with --set " + keys + ")");
+  }
+}
+
+Scenario load_scenario(const std::string& path, const std::vector<ScenarioOverride>& overrides) {
   std::ifstream in(path);
   if (!in) throw ScenarioError(path + ": cannot open the scenario file");
   std::stringstream text;
   text << in.rdbuf();
   const size_t slash = path.find_last_of('/');
-  return parse_scenario(text.str(), path, slash == std::string::npos ? std::string(".") : path.substr(0, slash));
+  return parse_scenario(text.str(), path, slash == std::string::npos ? std::string(".") : path.substr(0, slash),
+                        overrides);
 }
 
 }  // namespace quad::sim

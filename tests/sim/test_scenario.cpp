@@ -102,5 +102,39 @@ TEST(Scenario, ErrorsNameTheFileLineAndKey) {
   EXPECT_NE(error_of("name: [unclosed\n").find("bad.yaml:"), std::string::npos);
 }
 
+// quad_sim --set: a key replaced, a firmware parameter and a map created, a list item by index; a bad
+// path or value names the --set argument.
+TEST(Scenario, OverridesReplaceKeysBeforeTheScenarioIsChecked) {
+  const std::string yaml =
+      "name: x\nduration_s: 10\nradio: {latency_s: 0.004}\ncommands:\n  - {at_s: 3.0, arm: true}\n"
+      "  - {at_s: 8.0, land: true}\n";
+  const Scenario s = parse_scenario(yaml, "o.yaml", ".",
+                                    {parse_override("radio.latency_s=0.02"), parse_override("duration_s=12"),
+                                     parse_override("firmware_params.POS_KP_XY=4"), parse_override("commands.1.at_s=9.5"),
+                                     parse_override("wind.mean_ned_m_s=[1, 0, 0]")});
+  EXPECT_DOUBLE_EQ(s.radio.latency_s, 0.02);
+  EXPECT_DOUBLE_EQ(s.duration_s, 12.0);
+  ASSERT_EQ(s.firmware_params.size(), 1u);
+  EXPECT_EQ(s.firmware_params[0].first, "POS_KP_XY");
+  EXPECT_DOUBLE_EQ(s.firmware_params[0].second, 4.0);
+  ASSERT_EQ(s.commands.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.commands[1].at_s, 9.5);
+  EXPECT_TRUE(s.wind_mean_ned_m_s.isApprox(Eigen::Vector3d(1, 0, 0)));
+
+  auto error = [&](const std::string& o) {
+    try {
+      parse_scenario(yaml, "o.yaml", ".", {parse_override(o)});
+    } catch (const ScenarioError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_NE(error("commands.2.at_s=1").find("--set commands.2.at_s=1"), std::string::npos);
+  EXPECT_NE(error("radio.latency_s.x=1").find("neither a mapping nor a list"), std::string::npos);
+  EXPECT_NE(error("radio.latncy_s=1").find("'radio.latncy_s' is not a known key"), std::string::npos);
+  EXPECT_NE(error("radio.latency_s=abc").find("(with --set radio.latency_s)"), std::string::npos);
+  EXPECT_THROW(parse_override("no_equals_sign"), ScenarioError);
+}
+
 }  // namespace
 }  // namespace quad::sim

@@ -154,8 +154,19 @@ struct Scenario {
   Eigen::Vector3d wind_at(double t) const;
 };
 
-Scenario load_scenario(const std::string& path);
+// One scenario key replaced before the scenario is checked (quad_sim --set KEY=VALUE): `key` is a dotted
+// path, list items by index (`radio.latency_s`, `firmware_params.POS_KP_XY`, `commands.3.at_s`), `value`
+// a YAML value (`0.01`, `[1, 0, 0]`, `{at_s: 40, land: true}`). A missing map key is created.
+struct ScenarioOverride {
+  std::string key;
+  std::string value;
+};
+// "KEY=VALUE" to an override; throws ScenarioError when there is no '=' or no key.
+ScenarioOverride parse_override(const std::string& key_equals_value);
+
+Scenario load_scenario(const std::string& path, const std::vector<ScenarioOverride>& overrides = {});
 // Parses YAML text; `name` stands for the file in error messages and `base_dir` resolves relative paths.
-Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir);
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir,
+                        const std::vector<ScenarioOverride>& overrides = {});
 
 }  // namespace quad::sim
