@@ -313,64 +313,17 @@ ScenarioOverride parse_override(const std::string& key_equals_value) {
 
 namespace {
 
-Scenario scenario_from(const YAML::Node& root, const std::string& name, const std::string& base_dir) {
-  Scenario s;
-  s.path = name;
-  const Field top(root, "", &name);
-  top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
-                  "rc", "faults", "metrics", "firmware_params"});
-  s.name = top["name"].text();
-  s.duration_s = top["duration_s"].number(0.01, 86400.0);
-  if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
+void parse_wind(const Field& f, Scenario& s);
+
+// The vehicle and its environment: the airframe's start, the links, sensors, motors, field, drag, wind.
+void parse_vehicle(const Field& top, const std::string& base_dir, Scenario& s) {
   // The model: relative to the scenario file when given, else the shipped Quad-C.
   s.model_path = top["model"].defined() ? resolve(base_dir, top["model"].text()) : std::string(QUAD_SIM_SOURCE_DIR "/models/quad_c.xml");
-
   if (const Field f = top["initial"]; f.defined()) {
     f.expect_map({"north_east_m", "height_m", "yaw_deg"});
     if (f["north_east_m"].defined()) s.initial_north_east_m = f["north_east_m"].vec2();
     f["height_m"].get(s.initial_height_m, 0.0, 1000.0);
     if (f["yaw_deg"].defined()) s.initial_yaw_rad = f["yaw_deg"].number(-360.0, 360.0) * kDeg;
-  }
-  if (const Field f = top["hil"]; f.defined()) {
-    f.expect_map({"rate_hz", "uart0_baud"});
-    f["rate_hz"].get(s.control_rate_hz, 10.0, 1000.0);
-    if (f["uart0_baud"].defined()) s.uart0_baud = f["uart0_baud"].integer(9600, 921600);
-  }
-  if (const Field f = top["radio"]; f.defined()) {
-    f.expect_map({"baud", "latency_s", "jitter_s", "loss", "bit_error_rate"});
-    if (f["baud"].defined()) s.radio_baud = f["baud"].integer(9600, 921600);
-    parse_radio(f, s.radio);
-  }
-  if (const Field f = top["gcs"]; f.defined()) {
-    f.expect_map({"port"});
-    const std::string port = f["port"].text();
-    if (port != "uart0" && port != "radio") f["port"].fail("must be uart0 or radio");
-    s.gcs_over_radio = port == "radio";
-  }
-  top["rc_rate_hz"].get(s.rc_rate_hz, 1.0, 500.0);
-  if (const Field f = top["vision"]; f.defined()) {
-    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
-    f["enabled"].get(s.vision.enabled);
-    f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
-    f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
-    f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
-  }
-  if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
-  if (const Field f = top["station_settings"]; f.defined()) {
-    for (const std::string& k : f.keys()) {
-      const Field v = f[k.c_str()];
-      const std::string value = v.text();
-      const bool word = std::all_of(value.begin(), value.end(), [](unsigned char ch) { return std::isalnum(ch) || ch == '_'; });
-      bool numeric = true;
-      try {
-        (void)v.number();
-      } catch (const ScenarioError&) {
-        numeric = false;
-      }
-      if (!numeric && !word) v.fail("must be a number or a single word");
-      s.station_settings.emplace_back(k, value);
-    }
   }
   if (const Field f = top["motors"]; f.defined()) {
     f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});
@@ -399,56 +352,111 @@ Scenario scenario_from(const YAML::Node& root, const std::string& name, const st
     f["linear_n_per_m_s"].get(s.drag_linear, 0.0, 100.0);
     f["quadratic_n_per_m2_s2"].get(s.drag_quadratic, 0.0, 100.0);
   }
-  if (const Field f = top["wind"]; f.defined()) {
-    f.expect_map({"mean_ned_m_s", "gusts"});
-    f["mean_ned_m_s"].get(s.wind_mean_ned_m_s);
-    if (const Field g = f["gusts"]; g.defined()) {
-      for (size_t i = 0; i < g.size(); ++i) {
-        const Field e = g.at(i);
-        e.expect_map({"start_s", "end_s", "velocity_ned_m_s"});
-        Gust gust;
-        gust.start_s = e["start_s"].number(0.0, s.duration_s);
-        gust.end_s = e["end_s"].number(gust.start_s, 1e9);
-        gust.velocity_ned_m_s = e["velocity_ned_m_s"].vec3();
-        s.gusts.push_back(gust);
-      }
+  if (const Field f = top["wind"]; f.defined()) parse_wind(f, s);
+}
+
+void parse_wind(const Field& f, Scenario& s) {
+  f.expect_map({"mean_ned_m_s", "gusts"});
+  f["mean_ned_m_s"].get(s.wind_mean_ned_m_s);
+  if (const Field g = f["gusts"]; g.defined()) {
+    for (size_t i = 0; i < g.size(); ++i) {
+      const Field e = g.at(i);
+      e.expect_map({"start_s", "end_s", "velocity_ned_m_s"});
+      Gust gust;
+      gust.start_s = e["start_s"].number(0.0, s.duration_s);
+      gust.end_s = e["end_s"].number(gust.start_s, 1e9);
+      gust.velocity_ned_m_s = e["velocity_ned_m_s"].vec3();
+      s.gusts.push_back(gust);
     }
   }
-  if (const Field f = top["commands"]; f.defined()) {
-    for (size_t i = 0; i < f.size(); ++i) {
-      const Field e = f.at(i);
-      e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land"});
-      GcsCommand c;
-      c.at_s = e["at_s"].number(0.0, s.duration_s);
-      int actions = 0;
-      if (e["arm"].defined()) c.arm = e["arm"].boolean(), ++actions;
-      if (e["mode"].defined()) c.mode = parse_mode(e["mode"]), ++actions;
-      if (e["setpoint_ned_m"].defined()) c.setpoint_ned_m = e["setpoint_ned_m"].vec3(), ++actions;
-      if (e["yaw_deg"].defined()) {
-        if (!c.setpoint_ned_m) e["yaw_deg"].fail("goes with setpoint_ned_m");
-        c.yaw_rad = e["yaw_deg"].number(-360.0, 360.0) * kDeg;
+}
+
+// The links: the HIL link, the radio and where the ground station sits on it, the RC frame rate.
+void parse_links(const Field& top, Scenario& s) {
+  if (const Field f = top["hil"]; f.defined()) {
+    f.expect_map({"rate_hz", "uart0_baud"});
+    f["rate_hz"].get(s.control_rate_hz, 10.0, 1000.0);
+    if (f["uart0_baud"].defined()) s.uart0_baud = f["uart0_baud"].integer(9600, 921600);
+  }
+  if (const Field f = top["radio"]; f.defined()) {
+    f.expect_map({"baud", "latency_s", "jitter_s", "loss", "bit_error_rate"});
+    if (f["baud"].defined()) s.radio_baud = f["baud"].integer(9600, 921600);
+    parse_radio(f, s.radio);
+  }
+  if (const Field f = top["gcs"]; f.defined()) {
+    f.expect_map({"port"});
+    const std::string port = f["port"].text();
+    if (port != "uart0" && port != "radio") f["port"].fail("must be uart0 or radio");
+    s.gcs_over_radio = port == "radio";
+  }
+  top["rc_rate_hz"].get(s.rc_rate_hz, 1.0, 500.0);
+}
+
+// The vision fix: simulated, or the rendered cameras with the station, and the station's settings.
+void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
+  if (const Field f = top["vision"]; f.defined()) {
+    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
+    f["enabled"].get(s.vision.enabled);
+    f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
+    f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
+    f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
+  }
+  if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
+  if (const Field f = top["station_settings"]; f.defined()) {
+    for (const std::string& k : f.keys()) {
+      const Field v = f[k.c_str()];
+      const std::string value = v.text();
+      const bool word = std::all_of(value.begin(), value.end(), [](unsigned char ch) { return std::isalnum(ch) || ch == '_'; });
+      bool numeric = true;
+      try {
+        (void)v.number();
+      } catch (const ScenarioError&) {
+        numeric = false;
       }
-      if (e["land"].defined()) {
-        if (!e["land"].boolean()) e["land"].fail("can only be true");
-        c.land = true, ++actions;
-      }
-      if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land");
-      s.commands.push_back(c);
+      if (!numeric && !word) v.fail("must be a number or a single word");
+      s.station_settings.emplace_back(k, value);
     }
   }
-  if (const Field f = top["rc"]; f.defined()) {
-    for (size_t i = 0; i < f.size(); ++i) {
-      const Field e = f.at(i);
-      e.expect_map({"at_s", "roll", "pitch", "yaw", "throttle"});
-      RcSticks r;
-      r.at_s = e["at_s"].number(0.0, s.duration_s);
-      if (e["roll"].defined()) r.roll = e["roll"].integer(-1000, 1000);
-      if (e["pitch"].defined()) r.pitch = e["pitch"].integer(-1000, 1000);
-      if (e["yaw"].defined()) r.yaw = e["yaw"].integer(-1000, 1000);
-      if (e["throttle"].defined()) r.throttle = e["throttle"].integer(0, 1000);
-      s.rc.push_back(r);
-    }
+}
+
+GcsCommand parse_command(const Field& e, double duration_s) {
+  e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land"});
+  GcsCommand c;
+  c.at_s = e["at_s"].number(0.0, duration_s);
+  int actions = 0;
+  if (e["arm"].defined()) c.arm = e["arm"].boolean(), ++actions;
+  if (e["mode"].defined()) c.mode = parse_mode(e["mode"]), ++actions;
+  if (e["setpoint_ned_m"].defined()) c.setpoint_ned_m = e["setpoint_ned_m"].vec3(), ++actions;
+  if (e["yaw_deg"].defined()) {
+    if (!c.setpoint_ned_m) e["yaw_deg"].fail("goes with setpoint_ned_m");
+    c.yaw_rad = e["yaw_deg"].number(-360.0, 360.0) * kDeg;
   }
+  if (e["land"].defined()) {
+    if (!e["land"].boolean()) e["land"].fail("can only be true");
+    c.land = true, ++actions;
+  }
+  if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land");
+  return c;
+}
+
+RcSticks parse_rc(const Field& e, double duration_s) {
+  e.expect_map({"at_s", "roll", "pitch", "yaw", "throttle"});
+  RcSticks r;
+  r.at_s = e["at_s"].number(0.0, duration_s);
+  if (e["roll"].defined()) r.roll = e["roll"].integer(-1000, 1000);
+  if (e["pitch"].defined()) r.pitch = e["pitch"].integer(-1000, 1000);
+  if (e["yaw"].defined()) r.yaw = e["yaw"].integer(-1000, 1000);
+  if (e["throttle"].defined()) r.throttle = e["throttle"].integer(0, 1000);
+  return r;
+}
+
+// What happens in the flight: ground-station commands, RC sticks and faults, in time order; the
+// firmware's parameters; the window the metrics cover.
+void parse_flight(const YAML::Node& root, const Field& top, Scenario& s) {
+  if (const Field f = top["commands"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) s.commands.push_back(parse_command(f.at(i), s.duration_s));
+  if (const Field f = top["rc"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) s.rc.push_back(parse_rc(f.at(i), s.duration_s));
   if (const Field f = top["faults"]; f.defined())
     for (size_t i = 0; i < f.size(); ++i) s.faults.push_back(parse_fault(f.at(i), s.duration_s));
   if (const Field f = top["firmware_params"]; f.defined()) {
@@ -467,6 +475,22 @@ Scenario scenario_from(const YAML::Node& root, const std::string& name, const st
   auto by_time = [](const auto& a, const auto& b) { return a.at_s < b.at_s; };
   std::stable_sort(s.commands.begin(), s.commands.end(), by_time);
   std::stable_sort(s.rc.begin(), s.rc.end(), by_time);
+}
+
+Scenario scenario_from(const YAML::Node& root, const std::string& name, const std::string& base_dir) {
+  Scenario s;
+  s.path = name;
+  const Field top(root, "", &name);
+  top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
+                  "vision", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "rc", "faults", "metrics", "firmware_params"});
+  s.name = top["name"].text();
+  s.duration_s = top["duration_s"].number(0.01, 86400.0);
+  if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
+  parse_vehicle(top, base_dir, s);
+  parse_links(top, s);
+  parse_vision(top, base_dir, s);
+  parse_flight(root, top, s);
   return s;
 }
 
