@@ -6,6 +6,9 @@
 //   polygon_epsilon min_hu_distance max_hu_distance inner_ratio min_solidity max_solidity
 //   max_row_difference_px min_range_m max_range_m centroid_sigma_px track_roi roi_growth roi_margin_px
 //   undistort_iterations
+//   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
+//   robust_max_ratio robust_low_ratio max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
+//   max_shape_solidity
 //   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
 #pragma once
 

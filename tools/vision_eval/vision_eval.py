@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Scores `vision_station detect` output against the truth written by vision_eval_gen.
+
+    vision_eval.py score --sets DIR --runs NAME=DETECT_DIR [NAME=DETECT_DIR ...] [--markdown OUT.md]
+
+DIR/<condition>/truth.csv is the truth; DETECT_DIR/<condition>.jsonl holds one `detect` JSON line per pair
+(in pairs.csv order). A fix counts as the star when its 3-D error is within 5 % of the range; any other fix
+(on a pair without a star in full view, or far from the star) is a false fix. Prints a table per run and
+condition, and one per factor (floor, blur, interlacing, JPEG quality, range, tilt) over all conditions.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import statistics
+import sys
+
+MATCH_FRACTION = 0.05
+
+
+def percentile(values, q):
+    if not values:
+        return float("nan")
+    s = sorted(values)
+    k = (len(s) - 1) * q
+    lo, hi = math.floor(k), math.ceil(k)
+    return s[lo] + (s[hi] - s[lo]) * (k - lo)
+
+
+def load(sets_dir, detect_dir, condition):
+    truth_path = os.path.join(sets_dir, condition, "truth.csv")
+    detect_path = os.path.join(detect_dir, condition + ".jsonl")
+    with open(truth_path) as f:
+        truth = list(csv.DictReader(f))
+    with open(detect_path) as f:
+        fixes = [json.loads(line) for line in f if line.strip()]
+    if len(fixes) != len(truth):
+        sys.exit(f"{detect_path}: {len(fixes)} lines for {len(truth)} pairs in {truth_path}")
+    rows = []
+    for t, d in zip(truth, fixes):
+        row = {k: t[k] for k in t}
+        row["condition"] = condition
+        row["in_view"] = t["star_in_view"] == "1"
+        row["found"] = bool(d.get("found"))
+        row["ms"] = d.get("ms")
+        row["error"] = None
+        if row["found"] and row["in_view"]:
+            err = math.dist((d["x"], d["y"], d["z"]), (float(t["x"]), float(t["y"]), float(t["z"])))
+            row["error"] = err / float(t["range_m"])
+        rows.append(row)
+    return rows
+
+
+def summarise(rows):
+    stars = [r for r in rows if r["in_view"]]
+    hits = [r for r in stars if r["error"] is not None and r["error"] <= MATCH_FRACTION]
+    false_fixes = sum(1 for r in rows if r["found"] and not (r["error"] is not None and r["error"] <= MATCH_FRACTION))
+    errors = [100.0 * r["error"] for r in hits]
+    ms = [r["ms"] for r in rows if r["ms"] is not None]
+    return {
+        "pairs": len(rows), "stars": len(stars), "found": len(hits), "false": false_fixes,
+        "rate": 100.0 * len(hits) / len(stars) if stars else float("nan"),
+        "median": statistics.median(errors) if errors else float("nan"),
+        "p95": percentile(errors, 0.95), "ms": statistics.median(ms) if ms else float("nan"),
+    }
+
+
+HEADER = ("| {k} | pairs | stars in view | found | rate | false fixes | median error | p95 error | median ms |\n"
+          "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+
+
+def line(label, s):
+    return (f"| {label} | {s['pairs']} | {s['stars']} | {s['found']} | {s['rate']:.2f} % | {s['false']} | "
+            f"{s['median']:.3f} % | {s['p95']:.3f} % | {s['ms']:.2f} |")
+
+
+def bins(value, edges, unit):
+    for lo, hi in zip(edges, edges[1:]):
+        if lo <= value < hi:
+            return f"{lo:g}–{hi:g}{unit}"
+    return f"≥ {edges[-1]:g}{unit}"
+
+
+FACTORS = [
+    ("floor", lambda r: r["floor"]),
+    ("motion blur", lambda r: bins(float(r["blur_px"]), [0, 2, 4, 6.01], " px")),
+    ("interlaced", lambda r: "yes" if r["interlaced"] == "1" else "no"),
+    ("JPEG quality", lambda r: "lossless" if r["jpeg_quality"] == "0" else bins(int(r["jpeg_quality"]), [50, 70, 91], "")),
+    ("range", lambda r: bins(float(r["range_m"]), [0, 1, 1.5, 2, 2.5], " m")),
+    ("tilt", lambda r: bins(float(r["tilt_deg"]), [0, 5, 10, 15, 20.01], "°")),
+]
+
+
+def report(name, rows, conditions):
+    out = [f"#### {name}: per condition", "", HEADER.format(k="condition")]
+    for c in conditions:
+        out.append(line(c, summarise([r for r in rows if r["condition"] == c])))
+    out.append(line("all", summarise(rows)))
+    out += ["", f"#### {name}: per factor (all conditions; pairs without a star count under their own level)", ""]
+    for factor, key in FACTORS:
+        out.append(HEADER.format(k=factor))
+        levels = sorted({key(r) for r in rows if r["in_view"] or factor in ("floor", "interlaced", "JPEG quality")})
+        for level in levels:
+            out.append(line(level, summarise([r for r in rows if key(r) == level])))
+        out.append("")
+    return "\n".join(out)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    score = sub.add_parser("score")
+    score.add_argument("--sets", required=True)
+    score.add_argument("--runs", nargs="+", required=True, help="NAME=DETECT_DIR")
+    score.add_argument("--conditions", default=None, help="comma list; default: every set directory")
+    score.add_argument("--markdown", default=None)
+    args = parser.parse_args()
+    conditions = args.conditions.split(",") if args.conditions else sorted(
+        d for d in os.listdir(args.sets) if os.path.exists(os.path.join(args.sets, d, "truth.csv")))
+    text = []
+    for run in args.runs:
+        name, _, detect_dir = run.partition("=")
+        rows = [r for c in conditions for r in load(args.sets, detect_dir, c)]
+        text.append(report(name, rows, conditions))
+    result = "\n\n".join(text) + "\n"
+    print(result)
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(result)
+
+
+if __name__ == "__main__":
+    main()
