@@ -11,12 +11,26 @@
 namespace quad::vision {
 namespace {
 
+constexpr int kHarmonics = 8;
+
+// e^(−i·k·a_j) for the bin centres a_j and k = 0..7, computed once.
+const std::array<std::array<std::complex<double>, StarShapeTest::kBins>, kHarmonics>& twiddles() {
+  static const auto table = [] {
+    std::array<std::array<std::complex<double>, StarShapeTest::kBins>, kHarmonics> t{};
+    for (int k = 0; k < kHarmonics; ++k) {
+      for (int i = 0; i < StarShapeTest::kBins; ++i) {
+        t[k][i] = std::polar(1.0, -k * 2.0 * CV_PI * (i + 0.5) / StarShapeTest::kBins);
+      }
+    }
+    return t;
+  }();
+  return table;
+}
+
 std::complex<double> harmonic(const std::array<double, StarShapeTest::kBins>& p, int k) {
+  const std::array<std::complex<double>, StarShapeTest::kBins>& w = twiddles()[k];
   std::complex<double> c = 0.0;
-  for (int i = 0; i < StarShapeTest::kBins; ++i) {
-    const double a = 2.0 * CV_PI * (i + 0.5) / StarShapeTest::kBins;
-    c += p[i] * std::polar(1.0, -k * a);
-  }
+  for (int i = 0; i < StarShapeTest::kBins; ++i) c += p[i] * w[i];
   return c * (2.0 / StarShapeTest::kBins);
 }
 

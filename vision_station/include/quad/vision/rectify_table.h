@@ -1,7 +1,7 @@
 // Raw image point → rectified point by bilinear interpolation in a table of exact undistort+rectify
 // results on a grid every `step` pixels (PointRectifier on the grid nodes, once per image size). The lens
-// map is smooth, so a 4-px grid is exact to about 0.01 px, and a contour point costs nanoseconds
-// instead of the iterative undistortion's microseconds.
+// map is smooth, so a 2-px grid is exact to about 0.01 px inside the lens model's valid field, and a
+// contour point costs nanoseconds instead of the iterative undistortion's microseconds.
 #pragma once
 
 #include <vector>
@@ -15,7 +15,7 @@ namespace quad::vision {
 class RectifyTable {
  public:
   RectifyTable() = default;
-  RectifyTable(const PointRectifier& rectifier, cv::Size image_size, int step = 4);
+  RectifyTable(const PointRectifier& rectifier, cv::Size image_size, int step = 2);
 
   cv::Size image_size() const { return size_; }
   cv::Point2f map(cv::Point2f raw) const;
@@ -23,7 +23,7 @@ class RectifyTable {
 
  private:
   cv::Size size_;
-  int step_ = 4;
+  int step_ = 2;
   int cols_ = 0, rows_ = 0;   // grid nodes
   std::vector<cv::Point2f> nodes_;
 };
