@@ -4,7 +4,11 @@
 # (`vision_station calibrate`), renders the sets, runs `vision_station detect` with each configuration
 # and scores the fixes against the truth.
 #   tools/vision_eval/evaluate.sh [--split heldout|tune] [--stars N] [--data DIR] [--bin DIR]
-#                                 [--runs "name=settings.yaml ..."] [--markdown OUT.md]
+#                                 [--runs "default thesis ..."] [--markdown OUT.md]
+#                                 [--check MIN_RATE,MAX_FALSE,MAX_MEDIAN] [--doc docs/vision_station.md]
+# Runs (station settings): default, robust_none, robust_field, robust_blend, thesis (all by default).
+# --check fails (exit 1) when the first run, over all conditions, finds fewer than MIN_RATE % of the
+# stars in full view, makes more than MAX_FALSE false fixes or has a median error above MAX_MEDIAN %.
 # Defaults: held-out split, 520 stars in full view per condition (+ 1/3 as many pairs without), data in
 # build/host/vision_eval, binaries in build/host/bin. Sets and calibration are reused when present.
 set -eu
@@ -14,8 +18,11 @@ split=heldout
 stars=520
 data="$root/build/host/vision_eval"
 bin="$root/build/host/bin"
-runs=""
+runs="default robust_none robust_field robust_blend thesis"
 markdown=""
+check=""
+doc=""
+args="$*"
 while [ $# -gt 0 ]; do
   case "$1" in
     --split) split=$2; shift 2 ;;
@@ -24,6 +31,8 @@ while [ $# -gt 0 ]; do
     --bin) bin=$2; shift 2 ;;
     --runs) runs=$2; shift 2 ;;
     --markdown) markdown=$2; shift 2 ;;
+    --check) check=$2; shift 2 ;;
+    --doc) doc=$2; shift 2 ;;
     *) echo "evaluate.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -41,18 +50,15 @@ if [ ! -f "$sets/.complete" ]; then
   touch "$sets/.complete"
 fi
 # Configurations: the default, each deinterlace choice, and the thesis pipeline as the baseline.
-if [ -z "$runs" ]; then
-  cfg="$data/configs"
-  mkdir -p "$cfg"
-  printf '%%YAML:1.0\n---\n' > "$cfg/default.yaml"
-  for d in none field blend; do printf '%%YAML:1.0\n---\ndeinterlace: %s\n' "$d" > "$cfg/robust_$d.yaml"; done
-  printf '%%YAML:1.0\n---\nmethod: thesis\ndeinterlace: none\n' > "$cfg/thesis.yaml"
-  runs="default=$cfg/default.yaml robust_none=$cfg/robust_none.yaml robust_field=$cfg/robust_field.yaml robust_blend=$cfg/robust_blend.yaml thesis=$cfg/thesis.yaml"
-fi
+cfg="$data/configs"
+mkdir -p "$cfg"
+printf '%%YAML:1.0\n---\n' > "$cfg/default.yaml"
+for d in none field blend; do printf '%%YAML:1.0\n---\ndeinterlace: %s\n' "$d" > "$cfg/robust_$d.yaml"; done
+printf '%%YAML:1.0\n---\nmethod: thesis\ndeinterlace: none\n' > "$cfg/thesis.yaml"
 score_args=""
-for run in $runs; do
-  name=${run%%=*}
-  settings=${run#*=}
+for name in $runs; do
+  settings="$cfg/$name.yaml"
+  [ -f "$settings" ] || { echo "evaluate.sh: unknown run $name" >&2; exit 2; }
   out="$data/detect-$split-$stars/$name"
   mkdir -p "$out"
   for dir in "$sets"/*/; do
@@ -64,4 +70,10 @@ for run in $runs; do
   score_args="$score_args $name=$out"
 done
 # shellcheck disable=SC2086
-python3 "$here/vision_eval.py" score --sets "$sets" --runs $score_args ${markdown:+--markdown "$markdown"}
+python3 "$here/vision_eval.py" score --sets "$sets" --runs $score_args ${markdown:+--markdown "$markdown"} \
+  ${check:+--check "$check"}
+if [ -n "$doc" ]; then
+  [ -n "$markdown" ] || { echo "evaluate.sh: --doc needs --markdown" >&2; exit 2; }
+  python3 "$here/vision_eval.py" insert --doc "$doc" --marker vision_eval \
+    --command "tools/vision_eval/evaluate.sh $args" --from "$markdown"
+fi
