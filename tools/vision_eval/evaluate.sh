@@ -6,7 +6,8 @@
 #   tools/vision_eval/evaluate.sh [--split heldout|tune] [--stars N] [--data DIR] [--bin DIR]
 #                                 [--runs "default thesis ..."] [--markdown OUT.md]
 #                                 [--check MIN_RATE,MAX_FALSE,MAX_MEDIAN] [--doc docs/vision_station.md]
-# Runs (station settings): default, robust_none, robust_field, robust_blend, thesis (all by default).
+# Runs (station settings): default (deinterlace: field), robust_none, robust_blend, thesis (all by
+# default); robust_field is the default spelled out.
 # --check fails (exit 1) when the first run, over all conditions, finds fewer than MIN_RATE % of the
 # stars in full view, makes more than MAX_FALSE false fixes or has a median error above MAX_MEDIAN %.
 # Defaults: held-out split, 520 stars in full view per condition (+ 1/3 as many pairs without), data in
@@ -18,7 +19,7 @@ split=heldout
 stars=520
 data="$root/build/host/vision_eval"
 bin="$root/build/host/bin"
-runs="default robust_none robust_field robust_blend thesis"
+runs="default robust_none robust_blend thesis"
 markdown=""
 check=""
 doc=""

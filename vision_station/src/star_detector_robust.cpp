@@ -30,8 +30,10 @@ void StarDetector::robust_floor() {
   // The contrast level ρ comes from the image (Otsu on the image/floor ratio), clamped.
   const DetectorSettings& s = settings_;
   const cv::Point2f scale = coarse_scale();
+  // Halving only the columns (field views): INTER_LINEAR at exactly ×½ averages each pixel pair, like
+  // INTER_AREA, but takes OpenCV's vectorised path (INTER_AREA's fast path needs equal integer scales).
   cv::resize(view_, coarse_, cv::Size(std::max(1, view_.cols / 2), std::max(1, static_cast<int>(view_.rows / scale.y))), 0,
-             0, cv::INTER_AREA);
+             0, scale.y > 1.0f ? cv::INTER_AREA : cv::INTER_LINEAR);
   cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
   const int window = std::max(1, s.robust_window_px / 8) | 1;
   cv::dilate(small_, background_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)));
@@ -54,19 +56,24 @@ void StarDetector::robust_threshold(double ratio) {
 bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
   const cv::Point2f scale = coarse_scale();
   const int sx = static_cast<int>(scale.x), sy = static_cast<int>(scale.y);
-  constexpr int kGrow = 3;  // coarse pixels: the mid-level edge may lie a little outside the coarse edge
-  const cv::Rect grown = cv::Rect(coarse_box.x - kGrow, coarse_box.y - kGrow, coarse_box.width + 2 * kGrow,
-                                  coarse_box.height + 2 * kGrow) & cv::Rect(0, 0, coarse_.cols, coarse_.rows);
+  // The mid-level edge may lie a little outside the coarse edge: grow by 12 frame pixels on every side.
+  const int gx = 6, gy = 12 / (sy * static_cast<int>(view_row_scale_));
+  const cv::Rect grown = cv::Rect(coarse_box.x - gx, coarse_box.y - gy, coarse_box.width + 2 * gx,
+                                  coarse_box.height + 2 * gy) & cv::Rect(0, 0, coarse_.cols, coarse_.rows);
   const cv::Rect region = cv::Rect(grown.x * sx, grown.y * sy, grown.width * sx, grown.height * sy) &
                           cv::Rect(0, 0, view_.cols, view_.rows);
   // The star's own grey: the mean of its coarse interior (eroded once more when that leaves enough).
   cv::erode(binary_(grown), interior_, kernel_);
   if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
   const double star_grey = cv::mean(coarse_(grown), interior_)[0];
-  // Mid-level between the star and the local floor, at full resolution.
-  cv::resize(coarse_floor_(grown), midpoint_, region.size(), 0, 0, cv::INTER_LINEAR);
-  midpoint_.convertTo(midpoint_, CV_8U, 0.5, 0.5 * star_grey);
-  cv::compare(view_(region), midpoint_, refine_binary_, cv::CMP_LT);
+  // The local floor: the mean of the region's ring outside the star (dilated twice), taken from the pixels
+  // around this star only, so a full-frame and an ROI search measure the same mid-level.
+  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  cv::bitwise_not(refine_scratch_, refine_scratch_);
+  if (cv::countNonZero(refine_scratch_) < 8) return false;
+  const double floor_grey = cv::mean(coarse_(grown), refine_scratch_)[0];
+  const double mid_level = 0.5 * (floor_grey + star_grey);
+  cv::compare(view_(region), cv::Scalar(mid_level), refine_binary_, cv::CMP_LT);
   cv::erode(refine_binary_, refine_scratch_, kernel_);
   cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
   cv::erode(refine_binary_, refine_scratch_, kernel_);
@@ -87,7 +94,9 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
   std::vector<cv::Point2f> rectified;
   rectify(*best, cv::Point2f(1.0f, 1.0f), rectified);
   const cv::Moments m = cv::moments(rectified);
-  if (!(std::fabs(m.m00) > 0.6 * c.area && std::fabs(m.m00) < 1.6 * c.area)) return false;
+  // The coarse contour of the low level is thinner than the mid-level one; a merge shows as a failed shape.
+  if (!(std::fabs(m.m00) > 0.5 * c.area && std::fabs(m.m00) < 2.5 * c.area)) return false;
+  if (!shape_test_.score(rectified).is_star) return false;
   c.rectified.swap(rectified);
   c.area = std::fabs(m.m00);
   c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
