@@ -8,6 +8,9 @@
 //   undistort_iterations estimate_pose pose_max_rms_px pose_min_edge_sigma_px
 //   send_covariance (1: LANDING_TARGET_COVARIANCE after each LANDING_TARGET)
 //   max_pair_skew_ms (left/right capture times further apart are no pair; 0: half the frame period)
+//   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
+//   robust_max_ratio robust_low_ratio max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
+//   max_shape_solidity
 //   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
 #pragma once
 
