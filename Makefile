@@ -4,7 +4,7 @@
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 SCENARIO ?= sim/scenarios/hover.yaml
 
-.PHONY: all setup configure build test avr cortex-m4 flash debug test-debug fuzz fuzz-short flight clean
+.PHONY: all setup configure build test avr cortex-m4 flash debug test-debug fuzz fuzz-short flight clean results
 
 all: build
 
@@ -60,6 +60,16 @@ flight: setup
 	$(MAKE) --no-print-directory build
 	$(if $(TARGET),$(MAKE) --no-print-directory $(filter avr cortex-m4,$(TARGET)))
 	tools/flight.sh $(if $(TARGET),--target $(TARGET) )$(if $(filter command line environment,$(origin SCENARIO)),$(SCENARIO),sim/scenarios/flight.yaml)
+
+# Every headline figure flown again by its campaign (sim/campaigns/*.yaml; docs/campaigns.md) on a local
+# Dask cluster, the generated sections of docs/results.md and docs/reliability.md rewritten; exits non-zero
+# when a campaign's bound is not met. CAMPAIGN_ARGS="--scheduler tcp://HOST:8786" runs on a cluster.
+CAMPAIGNS ?= $(sort $(wildcard sim/campaigns/*.yaml))
+results: setup
+	$(MAKE) --no-print-directory build
+	$(MAKE) --no-print-directory avr
+	$(MAKE) --no-print-directory cortex-m4
+	tools/campaign $(CAMPAIGNS) --update-docs $(CAMPAIGN_ARGS)
 
 clean:
 	rm -rf build

@@ -6,7 +6,9 @@
 #   FLIGHT_VIDEO=1 make flight                            also renders a chase-camera MP4 (slower)
 #   make flight TARGET=avr | TARGET=cortex-m4             the board's HIL image in the loop instead
 # The run folder (default runs/<scenario>-<UTC time>) holds log.csv, events.log, summary.json, the PNG
-# plots, firmware.log, station.log, report.txt and, with --video, flight.mp4.
+# plots, firmware.log, station.log, report.txt and, with --video, flight.mp4. The station learns the
+# cameras from chessboards the simulator renders (`vision_station calibrate`, cached in
+# build/host/bin/station_calibration/ until the cameras or the station change; docs/simulator.md).
 # --target flies the cross image on its emulated processor (avr: apm25_hil.elf on simavr through avr_pil;
 # cortex-m4: mps2_hil.elf on QEMU through qemu_pil), run folder runs/<scenario>-<target>-<UTC time>, and
 # reports it beside a host flight of the same scenario and seed: --host-run DIR, else the latest complete

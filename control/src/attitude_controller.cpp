@@ -1,7 +1,6 @@
 #include "quad/control/attitude_controller.h"
 
 #include "quad/control/approx.h"
-#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace ctrl {
@@ -23,9 +22,8 @@ Vec3 AttitudeController::update(const Quat& q, const Vec3& omega, const Quat& q_
                q_d.w * q.x - q_d.x * q.w - q_d.y * q.z + q_d.z * q.y,
                q_d.w * q.y + q_d.x * q.z - q_d.y * q.w - q_d.z * q.x,
                q_d.w * q.z - q_d.x * q.y + q_d.y * q.x - q_d.z * q.w};
-  // e.w < 0 on the sign bit (no software float compare): the float test for every e.w but -0, where the
-  // error is 180 deg and both ways round are equally short, and NaN (a NaN torque either way).
-  const float gain = (float_bits(e.w) >> 31) != 0u ? gains_.alpha : -gains_.alpha;
+  // (At e.w = +-0 the error is 180 deg: both ways round are equally short, and -0 goes the + way.)
+  const float gain = e.w < 0.0f ? gains_.alpha : -gains_.alpha;
   return {e.x * gain - gains_.gamma.x * omega.x, e.y * gain - gains_.gamma.y * omega.y,
           e.z * gain - gains_.gamma.z * omega.z};
 }

@@ -74,8 +74,8 @@ void SetpointShaper::update(float dt, PositionSetpoint& sp) {
     if (dist_sq <= kArrivalDistSq && norm_sq(v_) * (inv_dt_ * inv_dt_) <= params_.max_accel * params_.max_accel) {
       // Arrival: within 0.1 mm and able to stop in this step, the reference lands on the target at rest.
       // Closer in, the linear law's steps k d dt fall below the float resolution of p at metre scale
-      // (1.2e-7 m at 1.5 m): the approach stalled micrometres short, with a velocity of about 1e-5 m/s
-      // that no longer moved p, and never held (the firmware computed every later step in full).
+      // (1.2e-7 m at 1.5 m): without this step the approach would stall micrometres short, with a velocity
+      // of about 1e-5 m/s that does not move p, and never hold (every later step computed in full).
       a = (Vec3{} - v_) * inv_dt_;  // the stop (+0 at rest, as the hold gives)
       p_ = target_;
       v_ = Vec3{};

@@ -45,9 +45,9 @@ void ThrustAttitude::set_params(const ThrustAttitudeParams& p) {
 }
 
 Quat ThrustAttitude::yaw_quat(float yaw_d) {
-  // (Compared by bit pattern: exact for the finite headings update() passes, and no soft-float call;
-  // -0 and +0 merely recompute the same quaternion.)
-  if (float_order(yaw_d) != float_order(cached_yaw_)) {
+  // (Compared bit for bit, not as floats: a heading of -0 gives -0 in the quaternion's z, so the cache
+  // must not hand the +0 heading's quaternion to it.)
+  if (memcmp(&yaw_d, &cached_yaw_, sizeof yaw_d) != 0) {
     const float half = 0.5f * wrap_heading(yaw_d);
     cached_yaw_quat_ = Quat{cosf(half), 0.0f, 0.0f, sinf(half)};
     cached_yaw_ = yaw_d;
@@ -77,11 +77,10 @@ void ThrustAttitude::update(const Vec3& mu_d, float yaw_d, AttitudeCommand& cmd)
   bool limited = false;
 
   // Limit 1: the thrust must point up (a_z > 0, away from the singularity of eq. 8.37) and be reachable.
-  // (Compared by bit pattern, float_order() of approx.h: exact, min_accel_ and max_accel_ are > 0.)
-  if (float_order(a_z) < float_order(min_accel_)) {
+  if (a_z < min_accel_) {
     a_z = min_accel_;
     limited = true;
-  } else if (float_order(a_z) > float_order(max_accel_)) {
+  } else if (a_z > max_accel_) {
     a_z = max_accel_;
     limited = true;
   }
@@ -90,73 +89,73 @@ void ThrustAttitude::update(const Vec3& mu_d, float yaw_d, AttitudeCommand& cmd)
   // vertical part kept.
   // The shortcut first (see the header: a_z >= kFreeAz makes the tilt cap at least free_h_sq_, and
   // a_z^2 <= free_az_sq_ the thrust cap, so h_sq <= h_max_sq below and the full test would not act).
-  // Every operand here is >= 0 (a_z >= min_accel_ > 0, squares), so the comparisons are by bit pattern.
   float h_sq = h_x * h_x + h_y * h_y;
   const float a_z_sq = a_z * a_z;
-  // Q_tilt = (q0, -p_y K, p_x K, 0) with p = h and K = k (general form below) or p = h / |h| and
-  // K = sin(max_tilt / 2) (at the tilt limit). errata "8.37 yaw": Q_d = Q_tilt (x) Q_yaw, the heading a
-  // rotation about the desired body z axis; with Q_yaw = (c, 0, 0, s) the Hamilton product (eq. 3.11) is
-  //   Q_d = (q0 c, p_x K s - p_y K c, p_x K c + p_y K s, q0 s),
-  // evaluated with K c and K s formed first (eight multiplications for tilt and heading together).
   const Quat yaw = yaw_quat(yaw_d);
-  float p_x = h_x, p_y = h_y, w_c, w_s, k_c, k_s;
-  bool at_tilt_limit = false;
-  if (float_order(a_z) >= float_order(kFreeAz) && float_order(a_z_sq) <= float_order(free_az_sq_) &&
-      float_order(h_sq) <= float_order(free_h_sq_)) {
-    // within both limits
-  } else {
+  if (!(a_z >= kFreeAz && a_z_sq <= free_az_sq_ && h_sq <= free_h_sq_)) {
     const float tilt_cap = tan_max_tilt_ * a_z;
     const float thrust_cap = max_accel_sq_ - a_z_sq;
     const float tilt_cap_sq = tilt_cap * tilt_cap;
-    const bool thrust_capped = float_order(thrust_cap) < float_order(tilt_cap_sq);
+    const bool thrust_capped = thrust_cap < tilt_cap_sq;
     const float h_max_sq = thrust_capped ? maxf(thrust_cap, 0.0f) : tilt_cap_sq;
-    if (float_order(h_sq) > float_order(h_max_sq)) {
-      limited = true;
+    if (h_sq > h_max_sq) {
       if (!thrust_capped) {
-        // At the tilt limit the tilt is max_tilt itself, so N = a_z / cos(max_tilt) (eq. 8.30) and
-        // Q_tilt is the rotation by max_tilt about e_z x u_h, u_h = h / |h| (eq. 8.37a/b with
-        // u = (sin(max_tilt) u_h, cos(max_tilt))): one square root and one division instead of three
-        // and two. Not bit-identical to the general form below: within 2.4e-7 (tested).
-        at_tilt_limit = true;
-        const float inv_h = 1.0f / sqrtf(h_sq);
-        p_x = h_x * inv_h;
-        p_y = h_y * inv_h;
-        h_x = p_x * tilt_cap;
-        h_y = p_y * tilt_cap;
-        cmd.thrust = params_.mass * (a_z * inv_cos_tilt_);  // thesis eq. 8.30
-        w_c = tilt_cos_half_ * yaw.w;
-        w_s = tilt_cos_half_ * yaw.z;
-        k_c = tilt_sin_half_ * yaw.w;
-        k_s = tilt_sin_half_ * yaw.z;
-      } else {
-        const float s = sqrtf(h_max_sq / h_sq);
-        h_x *= s;
-        h_y *= s;
-        p_x = h_x;
-        p_y = h_y;
-        h_sq = h_max_sq;  // |s h|^2, up to rounding
+        command_at_tilt_limit(h_x, h_y, h_sq, a_z, tilt_cap, yaw, cmd);
+        cmd.limited = true;
+        return;
       }
+      const float s = sqrtf(h_max_sq / h_sq);
+      h_x *= s;
+      h_y *= s;
+      h_sq = h_max_sq;  // |s h|^2, up to rounding
+      limited = true;
     }
   }
+  command_within_limits(h_x, h_y, h_sq, a_z, a_z_sq, yaw, cmd);
+  cmd.limited = limited;
+}
 
-  if (!at_tilt_limit) {
-    const float n = sqrtf(h_sq + a_z_sq);  // N = ||g e_z - mu_d|| >= min_accel > 0
-    cmd.thrust = params_.mass * n;         // thesis eq. 8.30
-
-    // thesis eq. 8.37a/b as corrected in the errata (u = (g e_z - mu_d)/N, v = e_z in eq. 8.35):
-    //   q0 = sqrt((1 + a_z/N)/2),  q = (mu_d2, -mu_d1, 0) / (2 N q0) = (-h_y, h_x, 0) / (2 N q0).
-    // With k = 1/sqrt(2 N (N + a_z)) these are q0 = (N + a_z) k and q = (-h_y, h_x, 0) k: one square
-    // root and one division, and a unit quaternion by construction. a_z > 0 keeps N + a_z > N > 0.
-    const float n_a = n + a_z;
-    const float k = 1.0f / sqrtf((n + n) * n_a);  // (2 N = N + N exactly)
-    k_c = k * yaw.w;
-    k_s = k * yaw.z;
-    w_c = n_a * k_c;
-    w_s = n_a * k_s;
-  }
+// Q_tilt = (q0, -p_y K, p_x K, 0) with p = h and K = k (general form) or p = h / |h| and
+// K = sin(max_tilt / 2) (at the tilt limit). errata "8.37 yaw": Q_d = Q_tilt (x) Q_yaw, the heading a
+// rotation about the desired body z axis; with Q_yaw = (c, 0, 0, s) the Hamilton product (eq. 3.11) is
+//   Q_d = (q0 c, p_x K s - p_y K c, p_x K c + p_y K s, q0 s),
+// evaluated with K c and K s formed first (eight multiplications for tilt and heading together).
+// w_c = q0 c, w_s = q0 s, k_c = K c, k_s = K s.
+QUAD_STEP void ThrustAttitude::compose(float p_x, float p_y, float w_c, float w_s, float k_c, float k_s, float h_x,
+                                       float h_y, float a_z, AttitudeCommand& cmd) {
   cmd.q_d = Quat{w_c, p_x * k_s - p_y * k_c, p_x * k_c + p_y * k_s, w_s};
   cmd.mu_applied = Vec3{-h_x, -h_y, kGravity - a_z};
-  cmd.limited = limited;
+}
+
+// The general form: thrust and attitude of the (limited) demand (h, a_z).
+QUAD_STEP void ThrustAttitude::command_within_limits(float h_x, float h_y, float h_sq, float a_z, float a_z_sq,
+                                                     const Quat& yaw, AttitudeCommand& cmd) const {
+  const float n = sqrtf(h_sq + a_z_sq);  // N = ||g e_z - mu_d|| >= min_accel > 0
+  cmd.thrust = params_.mass * n;         // thesis eq. 8.30
+
+  // thesis eq. 8.37a/b as corrected in the errata (u = (g e_z - mu_d)/N, v = e_z in eq. 8.35):
+  //   q0 = sqrt((1 + a_z/N)/2),  q = (mu_d2, -mu_d1, 0) / (2 N q0) = (-h_y, h_x, 0) / (2 N q0).
+  // With k = 1/sqrt(2 N (N + a_z)) these are q0 = (N + a_z) k and q = (-h_y, h_x, 0) k: one square
+  // root and one division, and a unit quaternion by construction. a_z > 0 keeps N + a_z > N > 0.
+  const float n_a = n + a_z;
+  const float k = 1.0f / sqrtf((n + n) * n_a);  // (2 N = N + N exactly)
+  const float k_c = k * yaw.w;
+  const float k_s = k * yaw.z;
+  compose(h_x, h_y, n_a * k_c, n_a * k_s, k_c, k_s, h_x, h_y, a_z, cmd);
+}
+
+// At the tilt limit the tilt is max_tilt itself, so N = a_z / cos(max_tilt) (eq. 8.30) and Q_tilt is the
+// rotation by max_tilt about e_z x u_h, u_h = h / |h| (eq. 8.37a/b with u = (sin(max_tilt) u_h,
+// cos(max_tilt))): one square root and one division instead of three and two. Not bit-identical to the
+// general form: within 2.4e-7 (tested). h is scaled to the tilt cap tan(max_tilt) a_z.
+QUAD_STEP void ThrustAttitude::command_at_tilt_limit(float h_x, float h_y, float h_sq, float a_z, float tilt_cap,
+                                                     const Quat& yaw, AttitudeCommand& cmd) const {
+  const float inv_h = 1.0f / sqrtf(h_sq);
+  const float p_x = h_x * inv_h;
+  const float p_y = h_y * inv_h;
+  cmd.thrust = params_.mass * (a_z * inv_cos_tilt_);  // thesis eq. 8.30
+  compose(p_x, p_y, tilt_cos_half_ * yaw.w, tilt_cos_half_ * yaw.z, tilt_sin_half_ * yaw.w, tilt_sin_half_ * yaw.z,
+          p_x * tilt_cap, p_y * tilt_cap, a_z, cmd);
 }
 
 const char* validate(const ThrustAttitudeParams& p) {

@@ -41,19 +41,19 @@ float StationaryCalibrator::gyro_std() const { return max_std(gs_, gss_, n_); }
 float StationaryCalibrator::accel_std() const { return max_std(as_, ass_, n_); }
 
 CalibrationStatus StationaryCalibrator::result(ImuBias& out) const {
-  if (non_finite_) return CalibrationStatus::NonFinite;
-  if (n_ < limits_.min_samples || n_ < 2) return CalibrationStatus::TooFewSamples;
-  if (gyro_std() > limits_.max_gyro_std || accel_std() > limits_.max_accel_std) return CalibrationStatus::Moved;
+  if (non_finite_) return CalibrationStatus::kNonFinite;
+  if (n_ < limits_.min_samples || n_ < 2) return CalibrationStatus::kTooFewSamples;
+  if (gyro_std() > limits_.max_gyro_std || accel_std() > limits_.max_accel_std) return CalibrationStatus::kMoved;
   const float inv_n = 1.0f / static_cast<float>(n_);
   const Vec3 gyro_mean = g0_ + gs_ * inv_n;
   const Vec3 accel_mean = a0_ + as_ * inv_n;
-  if (norm(gyro_mean) > limits_.max_gyro_mean) return CalibrationStatus::Turning;
+  if (norm(gyro_mean) > limits_.max_gyro_mean) return CalibrationStatus::kTurning;
   // thesis eq. 7.2: b_a = mean(a_B) + g e_z (the vehicle level, at the identity attitude)
   const Vec3 accel_bias = accel_mean + Vec3{0.0f, 0.0f, kGravity};
-  if (norm(accel_bias) > limits_.max_accel_bias) return CalibrationStatus::NotLevel;
+  if (norm(accel_bias) > limits_.max_accel_bias) return CalibrationStatus::kNotLevel;
   out.gyro = gyro_mean;  // thesis eq. 7.4
   out.accel = accel_bias;
-  return CalibrationStatus::Ok;
+  return CalibrationStatus::kOk;
 }
 
 }  // namespace est

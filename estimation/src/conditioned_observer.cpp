@@ -10,9 +10,6 @@ namespace {
 
 constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 
-// (Comparisons of the hot path are on bit patterns, quad/math/float_bits.h: integer ones instead of
-// calls into the AVR's software float compare; each use below states why its operands qualify.)
-
 // Thesis sec. 4.3: eq. 4.15 with cos(x) ~ 1 - x^2/2 and sinc(x) ~ 1 - x^2/6, x = T |Omega| / 2. The
 // approximation changes the squared norm by only ~x^4/12 per step, so one Newton step of 1/sqrt, (3 - |q|^2)/2,
 // renormalises to round-off without the square root and division of a full normalisation.
@@ -20,15 +17,15 @@ constexpr float kMaxDt = 0.5f;  // s: a longer gap is not one sample period
 // Without `renormalise` the Newton step is left out: the norm then moves by x^4/24 per step (1.6e-7 at
 // 35 rad/s and 400 Hz) plus round-off, which the next renormalised step takes back.
 Quat propagate_second_order(const Quat& q, const Vec3& omega, float dt, float half_dt_sq, bool renormalise = true) {
-  const float half_dt = half(dt);
+  const float half_dt = 0.5f * dt;
   const float x2 = half_dt_sq * dot(omega, omega);
   const float k = half_dt * (1.0f - x2 * (1.0f / 6.0f));
-  const Quat d{1.0f - half(x2), omega.x * k, omega.y * k, omega.z * k};
+  const Quat d{1.0f - 0.5f * x2, omega.x * k, omega.y * k, omega.z * k};
   // A(Omega) q = q (x) d (eq. 3.11), written out as operator* computes it (the same roundings) to
   // spare the AVR the call and the copies of both operands: this runs in every iteration.
   const Quat n{q.w * d.w - q.x * d.x - q.y * d.y - q.z * d.z, q.w * d.x + q.x * d.w + q.y * d.z - q.z * d.y,
                q.w * d.y - q.x * d.z + q.y * d.w + q.z * d.x, q.w * d.z + q.x * d.y - q.y * d.x + q.z * d.w};
-  return renormalise ? n * (1.5f - half(dot(n, n))) : n;
+  return renormalise ? n * (1.5f - 0.5f * dot(n, n)) : n;
 }
 
 // The multi-rate form renormalises on the third propagation after a correction (at 400 Hz the
@@ -59,16 +56,15 @@ void ConditionedObserver::cache_reference() {
   const float hi = (1.0f + params_.accel_norm_tolerance) * kGravity;
   accel_lo2_ = lo * lo;
   accel_hi2_ = hi * hi;
-  if (!(accel_hi2_ >= 0.0f)) accel_hi2_ = 0.0f;  // a NaN tolerance accepts nothing (update() compares bits)
   const Vec3& m = params_.mag_ref_ned;
-  if (params_.innovation == Innovation::Conditioned) {
+  if (params_.innovation == Innovation::kConditioned) {
     // thesis eq. 4.7: v_I = pi_{e3} m_I / ||pi_{e3} m_I||; pi_{e3} m = (m_N, m_E, 0).
     const Vec3 h{m.x, m.y, 0.0f};
     const float n = norm(h);
     inv_mag_h_ = n > 0.0f ? 1.0f / n : 0.0f;  // eq. 4.8 denominator (errata: the inertial norm)
     v_ref_ = h * inv_mag_h_;
     // A reference along magnetic north (the learned one: m_E = 0) is exactly e1, not m_N (1/m_N) (which
-    // can round to one ulp below 1): update() then takes row 0 of R as v_hat without multiplying.
+    // can round to one ulp below 1): update()'s v_hat is then row 0 of R exactly.
     if (m.y == 0.0f && n > 0.0f) v_ref_.x = m.x > 0.0f ? 1.0f : -1.0f;
   } else {
     // thesis eq. 4.3a: v_I = m_I / ||m_I||
@@ -77,8 +73,7 @@ void ConditionedObserver::cache_reference() {
     v_ref_ = m * inv_mag_h_;
   }
   k2_mag_ = params_.k2 * inv_mag_h_;
-  // just below Delta / sqrt(3) (1/sqrt(3) = 0.5773503); zero for a Delta that is not positive, so that the
-  // bit comparison in update() decides as the float one would
+  // just below Delta / sqrt(3) (1/sqrt(3) = 0.5773503); zero for a Delta that is not positive
   inner_delta_ = params_.delta > 0.0f ? params_.delta * 0.57735f : 0.0f;
   step_dt_ = -1.0f;  // the step gains below belong to the old parameters
 }
@@ -100,15 +95,11 @@ void ConditionedObserver::cache_propagation(float dt) {
 
 // 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise.
 bool ConditionedObserver::step_ok(const Vec3& gyro, float dt) {
-  // On the bits: as a signed integer the pattern is positive exactly for positive floats and positive
-  // NaNs (+0 is zero, everything with the sign bit negative), and a NaN's is above kMaxDt's, so this is
-  // the float test (NaN of either sign fails it).
-  const int32_t dt_bits = static_cast<int32_t>(float_bits(dt));
-  if (!is_finite(gyro) || !(dt_bits > 0 && dt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) {
+  if (!is_finite(gyro) || !(dt > 0.0f && dt <= kMaxDt)) {
     ++health_.skipped;
     return false;
   }
-  if (float_bits(dt) != float_bits(prop_dt_)) cache_propagation(dt);  // (dt > 0: equal values, equal patterns)
+  if (dt != prop_dt_) cache_propagation(dt);
   return true;
 }
 
@@ -157,7 +148,7 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
   if (propagations_since_correction_ < 255u) ++propagations_since_correction_;
   const bool renormalise = propagations_since_correction_ == kRenormalisingPropagation ||
                            unnormalised_steps_ >= kMaxUnnormalisedSteps;
-  const Quat q_next = params_.propagator == Propagator::Exact
+  const Quat q_next = params_.propagator == Propagator::kExact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
   if (!commit(q_next, bias_, rate)) return;
@@ -166,13 +157,67 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
   ++health_.propagations;
 }
 
+// Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
+// pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm; false
+// (and counted) otherwise.
+QUAD_STEP bool ConditionedObserver::gravity_direction(const Vec3& accel, Vec3& u_meas) {
+  const float a2 = dot(accel, accel);  // (norm_sq, without its extra call level)
+  if (!(a2 > accel_lo2_ && a2 < accel_hi2_)) {
+    ++health_.accel_rejected;
+    return false;
+  }
+  u_meas = accel * (-1.0f / sqrtf(a2));
+  return true;
+}
+
+// The magnetometer's terms of the innovations, eq. 4.9 (or 4.4), added to sigma_r and db. `axis` is the
+// measured vertical u_B, or the estimated one without a usable accelerometer.
+QUAD_STEP void ConditionedObserver::add_heading_innovation(const Vec3& mag, const Vec3& u_hat, const Vec3& axis,
+                                                           Vec3& sigma_r, Vec3& db) const {
+  // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
+  // reference and any conditioned one have no vertical part; a zero declination needs row 0 only, and
+  // the learned reference's 1 no multiplication). The zero and one tests, with k1 = 1 below, are on the
+  // bit patterns (float_bits.h: 950 cycles off the longest iteration of the 200 Hz PIL flight).
+  Vec3 v_hat;
+  if (!is_zero(v_ref_.x)) v_hat = is_one(v_ref_.x) ? r_.row(0) : r_.row(0) * v_ref_.x;
+  if (!is_zero(v_ref_.y)) v_hat += r_.row(1) * v_ref_.y;
+  if (!is_zero(v_ref_.z)) v_hat += u_hat * v_ref_.z;
+  if (params_.innovation == Innovation::kConditioned) {
+    // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
+    // vertical stands in for u_B so the heading is still held.
+    // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_dt_) instead of the vector.
+    const Vec3 e_v = cross(mag - axis * dot(axis, mag), v_hat);  // sk(v_B) v_hat / inv_mag_h_
+    // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.
+    sigma_r += u_hat * (k2_mag_ * dot(u_hat, e_v));
+    db -= e_v * k4_mag_dt_;
+  } else {
+    // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
+    const float mag_sq = norm_sq(mag);
+    if (mag_sq > 0.0f) sigma_r += cross(mag, v_hat) * (params_.k2 / sqrtf(mag_sq));
+  }
+}
+
+// eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
+// inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
+// sat_Delta(b) - b = b (Delta/|b| - 1), added to db.
+// Inside the cube |b_i| <= Delta/sqrt(3) the norm cannot exceed Delta: three comparisons decide the
+// usual case without the squared norm.
+QUAD_STEP void ConditionedObserver::add_bias_pullback(Vec3& db) const {
+  const ObserverParams& k = params_;
+  if (k.innovation != Innovation::kConditioned ||
+      (absf(bias_.x) <= inner_delta_ && absf(bias_.y) <= inner_delta_ && absf(bias_.z) <= inner_delta_)) {
+    return;
+  }
+  const float b2 = norm_sq(bias_);
+  if (b2 > k.delta * k.delta) db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
+}
+
 void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& mag, bool mag_valid, float dt,
                                float correction_dt, bool multi_rate) {
   if (!step_ok(gyro, dt)) return;
   // A correction step the dt check would refuse (a multi-rate caller's bookkeeping gone wrong) corrects
   // over the attitude step instead.
-  const int32_t cdt_bits = static_cast<int32_t>(float_bits(correction_dt));
-  if (!(cdt_bits > 0 && cdt_bits <= static_cast<int32_t>(float_bits(kMaxDt)))) correction_dt = dt;
+  if (!(correction_dt > 0.0f && correction_dt <= kMaxDt)) correction_dt = dt;
   if (r_stale_) {
     r_ = to_dcm(q_);
     r_stale_ = false;
@@ -182,61 +227,25 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   // eq. 4.5 prints; the convergence tests pin the sign). R^T e3 is the third row of R (eq. 3.18), kept
   // from the end of the last step.
   const Vec3 u_hat = r_.row(2);
-
-  // Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
-  // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm.
   Vec3 u_meas;
-  bool use_accel = false;
-  const float a2 = dot(accel, accel);  // (norm_sq, without its extra call level)
-  // a2 is a sum of squares (>= +0 or NaN) and both bounds are >= 0: integer comparisons are exact (a NaN
-  // pattern is above every finite one, so it fails the upper bound).
-  if (float_bits(a2) > float_bits(accel_lo2_) && float_bits(a2) < float_bits(accel_hi2_)) {
-    u_meas = accel * (-1.0f / sqrtf(a2));
-    use_accel = true;
-  }
-  if (!use_accel) ++health_.accel_rejected;
-
+  const bool use_accel = gravity_direction(accel, u_meas);
   bool use_mag = false;
   if (mag_valid) {
-    use_mag = is_finite(mag) && float_bits(inv_mag_h_) != 0u;  // inv_mag_h_ > 0 (it is +0 or positive)
+    use_mag = is_finite(mag) && inv_mag_h_ > 0.0f;
     if (!use_mag) ++health_.mag_rejected;
   }
-
-  // (correction_dt > 0 here: equal values have equal patterns)
-  if (float_bits(correction_dt) != float_bits(step_dt_)) cache_step(correction_dt);
+  if (correction_dt != step_dt_) cache_step(correction_dt);
 
   // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
   // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.
   Vec3 sigma_r, db;
   if (use_accel) {
     const Vec3 e_u = cross(u_meas, u_hat);
-    sigma_r = float_bits(k.k1) == kFloatOneBits ? e_u : e_u * k.k1;  // table 8.1's k1 = 1: multiplying by one is exact
+    sigma_r = is_one(k.k1) ? e_u : e_u * k.k1;  // (table 8.1: k1 = 1)
     db = e_u * -k3_dt_;
   }
-  if (use_mag) {
-    // v_hat_B = R^T v_I = sum_i v_I,i (row i of R): only the rows the reference needs (the learned
-    // reference and any conditioned one have no vertical part; a zero declination needs row 0 only).
-    Vec3 v_hat;
-    // (A component is zero when its pattern without the sign is; x 1 is exact.)
-    if (float_bits(v_ref_.x) << 1) v_hat = float_bits(v_ref_.x) == kFloatOneBits ? r_.row(0) : r_.row(0) * v_ref_.x;
-    if (float_bits(v_ref_.y) << 1) v_hat += r_.row(1) * v_ref_.y;
-    if (float_bits(v_ref_.z) << 1) v_hat += u_hat * v_ref_.z;
-    if (k.innovation == Innovation::Conditioned) {
-      // eq. 4.8: v_B = pi_{u_B} m_B / ||pi_{u_I} m_I||. Without a usable accelerometer the estimated
-      // vertical stands in for u_B so the heading is still held.
-      // The constant 1/||pi_{u_I} m_I|| is folded into the gains (k2_mag_, k4_mag_dt_) instead of the vector.
-      const Vec3& axis = use_accel ? u_meas : u_hat;
-      const Vec3 e_v = cross(mag - axis * dot(axis, mag), v_hat);  // sk(v_B) v_hat / inv_mag_h_
-      // eq. 4.9: k2 u_hat u_hat^T sk(v_B) v_hat: the heading correction acts about the estimated vertical.
-      sigma_r += u_hat * (k2_mag_ * dot(u_hat, e_v));
-      db -= e_v * k4_mag_dt_;
-    } else {
-      // eq. 4.3b: v_B = m_B / ||m_B||, and eq. 4.4: sigma_R = ... + k2 sk(v_B) v_hat.
-      const float m2 = norm_sq(mag);
-      if (m2 > 0.0f) sigma_r += cross(mag, v_hat) * (k.k2 / sqrtf(m2));
-    }
-  }
-  if (k.innovation == Innovation::Unconditioned) db = sigma_r * -k_i_dt_;  // eq. 4.4: b' = -k_I sigma_R
+  if (use_mag) add_heading_innovation(mag, u_hat, use_accel ? u_meas : u_hat, sigma_r, db);
+  if (k.innovation == Innovation::kUnconditioned) db = sigma_r * -k_i_dt_;  // eq. 4.4: b' = -k_I sigma_R
 
   // eq. 4.10: Omega_hat = Omega_m - b + sigma_R, then eq. 4.18 (4.15 exact, or its second-order form).
   const Vec3 rate = gyro - bias_;
@@ -244,19 +253,10 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   // Single-rate, every step renormalises; multi-rate, the fourth unnormalised step in a row does (the
   // propagation before the next correction, at 400 Hz: the correction's iteration is the heaviest).
   const bool renormalise = !multi_rate || unnormalised_steps_ >= kMaxUnnormalisedSteps;
-  const Quat q_next = k.propagator == Propagator::Exact
+  const Quat q_next = k.propagator == Propagator::kExact
                           ? normalized(integrate_exact(q_, omega, dt))
                           : propagate_second_order(q_, omega, dt, half_dt_sq_, renormalise);
-  // eq. 4.17: b_{k+1} = b_k + T (-k_b b_k + k_b sat_Delta(b_k) + sigma_b,k); the first two terms cancel
-  // inside the Delta ball, and outside it pull the estimate back (the unconditioned eq. 4.4 has none):
-  // sat_Delta(b) - b = b (Delta/|b| - 1).
-  // Inside the cube |b_i| <= Delta/sqrt(3) the norm cannot exceed Delta: three comparisons decide the
-  // usual case without the squared norm.
-  if (k.innovation == Innovation::Conditioned && !(abs_at_most(bias_.x, inner_delta_) && abs_at_most(bias_.y, inner_delta_) &&
-                                                   abs_at_most(bias_.z, inner_delta_))) {
-    const float b2 = norm_sq(bias_);
-    if (b2 > k.delta * k.delta) db += bias_ * (kb_dt_ * (k.delta / sqrtf(b2) - 1.0f));
-  }
+  add_bias_pullback(db);
   const Vec3 b_next = bias_ + db;
 
   if (!commit(q_next, b_next, rate)) return;

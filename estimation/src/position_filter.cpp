@@ -1,6 +1,6 @@
 #include "quad/estimation/position_filter.h"
 
-#include "quad/math/float_bits.h"
+#include <string.h>  // memcmp
 
 namespace quad {
 namespace est {
@@ -17,48 +17,28 @@ float seconds_between(uint32_t a, uint32_t b) { return static_cast<float>(static
 // fewer on the AVR).
 int32_t micros_between(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
 
-// (Comparisons on bit patterns, halving on the exponent: quad/math/float_bits.h.)
-// x <= limit for a limit that is +0 or positive, exactly (false when either is NaN): a negative x is
-// below it, a positive one compares by its pattern.
-bool at_most(float x, float limit) {
-  if (abs_bits(limit) > kFloatInfBits) return false;
-  return float_bits(x) >> 31 ? abs_bits(x) <= kFloatInfBits : float_bits(x) <= float_bits(limit);
-}
-
-// x / 4 and x / 8 the same way (exact: powers of two).
-inline float quarter(float x) { return half(half(x)); }
-inline float eighth(float x) { return half(half(half(x))); }
-
-// g x, on the AVR without the software multiplication when g is exactly 1 (exact: table 8.1's Q = I2 T
-// has q_p = q_v = 1).
-#if defined(QUAD_TARGET_AVR)
-__attribute__((noinline)) float times(float g, float x) { return float_bits(g) == kFloatOneBits ? x : g * x; }
-#else
-inline float times(float g, float x) { return g * x; }
-#endif
-
 // Q(T) = int_0^T Phi(t) diag(qp, qv, qb) Phi(t)^T dt for Phi(t) = [[1, t, -t^2/2], [0, 1, -t], [0, 0, 1]]:
 // the exact discretisation of the continuous process whose Euler form is thesis eq. 8.12. This is its
 // qp, qv part (the same for every covariance class), with t2 = t^2 and h = t^2/2 given; add_bias_noise()
 // adds the qb part.
 AxisCovariance process_noise(float t, float t2, float h, float qp, float qv) {
   AxisCovariance q;
-  q.pp = times(qp, t) + times(qv, t2 * t) * (1.0f / 3.0f);
-  q.pv = times(qv, h);  // (= half(qv t^2) bit for bit: halving is exact)
-  q.vv = times(qv, t);
+  q.pp = qp * t + qv * (t2 * t) * (1.0f / 3.0f);
+  q.pv = qv * h;
+  q.vv = qv * t;
   return q;
 }
 
 // The qb part of Q(T) (eq. 8.12 extended by the bias random walk), added to q. The powers qb t^n are
 // formed each from the last (seven multiplications instead of twelve; float rounding only).
 void add_bias_noise(AxisCovariance& q, float t, float qb) {
-  if (!positive(qb)) return;  // (qb > 0, as an integer test)
+  if (!(qb > 0.0f)) return;
   const float b1 = qb * t, b2 = b1 * t, b3 = b2 * t, b4 = b3 * t, b3_3 = b3 * (1.0f / 3.0f);
   q.pp += b4 * t * (1.0f / 20.0f);  // qb t^5 / 20
-  q.pv += eighth(b4);               // qb t^4 / 8
+  q.pv += 0.125f * b4;              // qb t^4 / 8
   q.vv += b3_3;                     // qb t^3 / 3
-  q.pb = -half(b3_3);               // -qb t^3 / 6
-  q.vb = -half(b2);                 // -qb t^2 / 2
+  q.pb = -0.5f * b3_3;              // -qb t^3 / 6
+  q.vb = -0.5f * b2;                // -qb t^2 / 2
   q.bb = b1;                        // qb t
 }
 
@@ -108,7 +88,7 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
   drop_fix();  // its D h and 1 / S belong to the old model
   params_ = params;
   q_step_us_ = 0;  // the cached Q(T) belongs to the old parameters (no step is 0 us)
-  if (one_class_) {  // z gets its own copy back before the sharing is re-decided
+  if (z_shares_xy_covariance_) {  // z gets its own copy back before the sharing is re-decided
     p_[1] = p_[0];
     for (int j = 0; j < 3; ++j) gain_[1][j] = gain_[0][j];
   }
@@ -123,8 +103,8 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
   for (int i = 0; i < 3; ++i) {
     if (has_bias(i)) continue;
     x_[i].b = 0.0f;
-    corr_[i].b = 0.0f;
-    corr_old_[i].b = 0.0f;
+    correction_[i].b = 0.0f;
+    old_epoch_correction_[i].b = 0.0f;
   }
   update_class_sharing();
 }
@@ -135,15 +115,16 @@ void PositionFilterCore::set_params(const PositionFilterParams& params) {
 void PositionFilterCore::update_class_sharing() {
   // The covariances compared as bits (one memcmp instead of six float comparisons: smaller code, and
   // exactly the "identical numbers" the sharing needs; AxisCovariance is six floats, no padding).
-  one_class_ = qb(0) == qb(1) && params_.z_accel_bias == params_.xy_accel_bias && params_.fix_sigma_xy == params_.fix_sigma_z &&
-               memcmp(&p_[0], &p_[1], sizeof(AxisCovariance)) == 0;
+  z_shares_xy_covariance_ = qb(0) == qb(1) && params_.z_accel_bias == params_.xy_accel_bias &&
+                            params_.fix_sigma_xy == params_.fix_sigma_z &&
+                            memcmp(&p_[0], &p_[1], sizeof(AxisCovariance)) == 0;
 }
 
 void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_us) {
   drop_fix();
   for (int i = 0; i < 3; ++i) {
     x_[i] = AxisState{p_ned[i], v_ned[i], 0.0f};
-    corr_[i] = Correction{};
+    correction_[i] = Correction{};
   }
   for (int c = 0; c < 2; ++c) {
     p_[c] = AxisCovariance{};
@@ -184,13 +165,13 @@ void PositionFilterCore::drop_fix() {
 void PositionFilterCore::clear_history() {
   head_ = 0;
   count_ = 0;
-  old_left_ = 0;  // (no entry, no old epoch)
+  old_epoch_left_ = 0;  // (no entry, no old epoch)
 }
 
 float PositionFilterCore::correction_position(int axis, float dt) const {
-  const Correction& c = corr_[axis];
+  const Correction& c = correction_[axis];
   if (!has_bias(axis)) return c.p + dt * c.v;  // c.b is zero
-  return c.p + dt * (c.v - half(dt) * c.b);
+  return c.p + dt * (c.v - 0.5f * dt * c.b);
 }
 
 // History entries hold p - (accumulated correction carried to their time); see the header. The
@@ -198,12 +179,12 @@ float PositionFilterCore::correction_position(int axis, float dt) const {
 void PositionFilterCore::push_history() {
   HistoryEntry& e = history_[head_];
   e.t_us = t_us_;
-  for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - corr_[i].p;
+  for (int i = 0; i < 3; ++i) e.p[i] = x_[i].p - correction_[i].p;
   head_ = static_cast<uint16_t>(head_ + 1 == capacity_ ? 0 : head_ + 1);
   if (count_ < capacity_) {
     ++count_;
-  } else if (old_left_ > 0) {
-    --old_left_;  // the oldest entry, overwritten, was of the old epoch
+  } else if (old_epoch_left_ > 0) {
+    --old_epoch_left_;  // the oldest entry, overwritten, was of the old epoch
   }
   // Once the last fused fix is older than the whole history, no fix can be out of order with it; forget
   // it before the 32-bit clock difference could wrap (after 35 min without fixes).
@@ -222,14 +203,14 @@ void PositionFilterCore::push_history() {
 // fold while an old epoch is left first adds its correction into its entries (O(those entries)), after
 // which every entry is of the current epoch.
 void PositionFilterCore::fold_correction() {
-  if (old_left_ > 0) fold_old_epoch();
+  if (old_epoch_left_ > 0) fold_old_epoch();
   // The newest entry is at now (every predict, reset and initialisation pushes one at the time it sets),
   // so it is the fold's time.
   for (int i = 0; i < 3; ++i) {
-    corr_old_[i] = FrozenCorrection{corr_[i].p, corr_[i].v, corr_[i].b};
-    corr_[i] = Correction{};
+    old_epoch_correction_[i] = FrozenCorrection{correction_[i].p, correction_[i].v, correction_[i].b};
+    correction_[i] = Correction{};
   }
-  old_left_ = count_;
+  old_epoch_left_ = count_;
 }
 
 // Adds the old epoch's correction, carried from the fold to each entry's time by Phi(t_e - t_fold), into
@@ -237,26 +218,26 @@ void PositionFilterCore::fold_correction() {
 void PositionFilterCore::fold_old_epoch() {
   uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);  // the oldest entry
   if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
-  uint16_t newest_old = static_cast<uint16_t>(k + old_left_ - 1);
+  uint16_t newest_old = static_cast<uint16_t>(k + old_epoch_left_ - 1);
   if (newest_old >= capacity_) newest_old = static_cast<uint16_t>(newest_old - capacity_);
   const uint32_t fold_us = history_[newest_old].t_us;
-  for (uint16_t n = 0; n < old_left_; ++n) {
+  for (uint16_t n = 0; n < old_epoch_left_; ++n) {
     HistoryEntry& e = history_[k];
     const float d = seconds_between(e.t_us, fold_us);  // (<= 0)
     for (int i = 0; i < 3; ++i) {
-      const FrozenCorrection& c = corr_old_[i];
-      e.p[i] += has_bias(i) ? c.p + d * (c.v - half(d) * c.b) : c.p + d * c.v;
+      const FrozenCorrection& c = old_epoch_correction_[i];
+      e.p[i] += has_bias(i) ? c.p + d * (c.v - 0.5f * d * c.b) : c.p + d * c.v;
     }
     k = static_cast<uint16_t>(k + 1 == capacity_ ? 0 : k + 1);
   }
-  old_left_ = 0;
+  old_epoch_left_ = 0;
 }
 
 // T, Q(T), T/2 and T^2/2 for a step of step_us (kept out of propagate(), whose usual path it is not).
 void PositionFilterCore::set_step(int32_t step_us) {
   const float dt = static_cast<float>(step_us) * 1e-6f, t2 = dt * dt;
-  half_dt_ = half(dt);
-  h_dt_ = half(t2);  // T^2/2 (= half(dt) * dt bit for bit)
+  half_dt_ = 0.5f * dt;
+  h_dt_ = 0.5f * t2;  // T^2/2
   const AxisCovariance base = process_noise(dt, t2, h_dt_, qp(), qv());
   for (int c = 0; c < 2; ++c) {
     q_[c] = base;
@@ -279,7 +260,7 @@ void PositionFilterCore::propagate(const Vec3& u, int32_t step_us) {
   const float ua[3] = {u.x, u.y, u.z};
   for (int i = 0; i < 3; ++i) {
     AxisState& x = x_[i];
-    Correction& c = corr_[i];
+    Correction& c = correction_[i];
     const float v0 = x.v;
     if (has_bias(i)) {
       x.v = v0 + dt * (ua[i] - x.b);
@@ -293,7 +274,7 @@ void PositionFilterCore::propagate(const Vec3& u, int32_t step_us) {
     x.p += h * (v0 + x.v);
   }
   propagate_covariance(p_[0], dt, h_dt_, class_has_bias(0), q_[0]);
-  if (!one_class_) propagate_covariance(p_[1], dt, h_dt_, class_has_bias(1), q_[1]);
+  if (!z_shares_xy_covariance_) propagate_covariance(p_[1], dt, h_dt_, class_has_bias(1), q_[1]);
 }
 
 void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
@@ -310,9 +291,9 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   t_us_ = t_us;
   if (!initialized_) return;
   propagate(u, step_us);
-  if (float_bits(q_dt_) > float_bits(kMaxStep)) {  // dt > kMaxStep (both positive)
+  if (q_dt_ > kMaxStep) {
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
-    for (int i = 0; i < 3; ++i) corr_[i] = Correction{};
+    for (int i = 0; i < 3; ++i) correction_[i] = Correction{};
     have_fix_ = false;
     drop_fix();
     clear_history();
@@ -364,24 +345,24 @@ bool PositionFilterCore::predicted_position_at(uint32_t t_us, float out[3], floa
     frac = static_cast<float>(into) * inv_span_;
   }
   for (int i = 0; i < 3; ++i) {
-    const Correction& c = corr_[i];
+    const Correction& c = correction_[i];
     float p = a.p[i];
     if (between) p += frac * (b->p[i] - p);
     float cp = c.p + h1 * c.v;
     if (has_bias(i)) cp += h2 * c.b;  // (elsewhere c.b is zero)
     out[i] = p + cp;
   }
-  if (lo < old_left_) {
+  if (lo < old_epoch_left_) {
     // An entry of the old epoch: its correction too, frozen at the fold, the time of the newest old
     // entry, carried to t_us by Phi(t_us - t_fold)'s first row. Between that entry (a) and the first of
     // the current epoch (b), a's share of the interpolation only: (1 - frac) c.p (a is at the fold).
-    const bool straddle = between && lo + 1 == old_left_;
-    const float d = straddle ? 0.0f : seconds_between(t_us, entry(static_cast<uint16_t>(old_left_ - 1)).t_us);
+    const bool straddle = between && lo + 1 == old_epoch_left_;
+    const float d = straddle ? 0.0f : seconds_between(t_us, entry(static_cast<uint16_t>(old_epoch_left_ - 1)).t_us);
     const float w = straddle ? 1.0f - frac : 1.0f;
     for (int i = 0; i < 3; ++i) {
-      const FrozenCorrection& c = corr_old_[i];
+      const FrozenCorrection& c = old_epoch_correction_[i];
       float cp = c.v;
-      if (has_bias(i)) cp -= half(d) * c.b;  // (elsewhere c.b is zero)
+      if (has_bias(i)) cp -= 0.5f * d * c.b;  // (elsewhere c.b is zero)
       out[i] += w * (c.p + d * cp);
     }
   }
@@ -423,30 +404,30 @@ void PositionFilterCore::initialize_from_fix(const Vec3& p_ned, uint32_t capture
 
 FixResult PositionFilterCore::fuse_position(const Vec3& y, uint32_t capture_us) {
   const FixResult accepted = accept_fix(y);
-  if (accepted != FixResult::Pending) return accepted;
+  if (accepted != FixResult::kPending) return accepted;
   const FixResult gated = gate_fix(y, capture_us);
-  return gated == FixResult::Pending ? update_fix() : gated;
+  return gated == FixResult::kPending ? update_fix() : gated;
 }
 
 FixResult PositionFilterCore::accept_fix(const Vec3& y) {
   if (fix_stage_ != kFixIdle) {
     ++health_.rejected_busy;
-    return FixResult::RejectedBusy;
+    return FixResult::kRejectedBusy;
   }
   if (!is_finite(y) || !clock_started_) {
     ++health_.rejected_invalid;
-    return FixResult::RejectedInvalid;
+    return FixResult::kRejectedInvalid;
   }
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 FixResult PositionFilterCore::queue_fix(const Vec3& y, uint32_t capture_us) {
   const FixResult accepted = accept_fix(y);
-  if (accepted != FixResult::Pending) return accepted;
+  if (accepted != FixResult::kPending) return accepted;
   for (int i = 0; i < 3; ++i) fix_[i] = y[i];
   fix_us_ = capture_us;
   fix_stage_ = kFixQueued;
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 FixResult PositionFilterCore::advance_fix() {
@@ -455,20 +436,80 @@ FixResult PositionFilterCore::advance_fix() {
     return gate_fix(Vec3{fix_[0], fix_[1], fix_[2]}, fix_us_);
   }
   if (fix_stage_ == kFixGated) return update_fix();
-  return FixResult::RejectedInvalid;  // nothing in progress (nothing counted)
+  return FixResult::kRejectedInvalid;  // nothing in progress (nothing counted)
+}
+
+// A fix resets the filter instead of correcting it: before the first fix, when the position variance
+// is lost (dead reckoning through an outage; also catches NaN; z's own entry only when it has one), or
+// after too many rejections in a row.
+QUAD_STEP bool PositionFilterCore::fix_resets() const {
+  const float lost = sqf(params_.reset_position_sigma);
+  const bool diverged = !(p_[0].pp <= lost) || (!z_shares_xy_covariance_ && !(p_[1].pp <= lost));
+  const bool rejected_too_often =
+      params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
+  return !initialized_ || diverged || rejected_too_often;
+}
+
+// Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
+// -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
+// correction carried to now is Phi(tau) K nu = D h nu / S. Computed once per covariance class into
+// w[c] = D h and fix_inv_s_[c] = 1 / S. Only w = D h is needed, so D is not formed: w = P h - Q(tau) h,
+// with Q(tau) h in closed form,
+//   Q(tau) h = int_0^tau Phi(t) diag(qp, qv, qb) Phi(t - tau)^T e_0 dt
+//            = (qp tau - qv tau^3/6 + qb tau^5/120, -qv tau^2/2 + qb tau^4/24, -qb tau^3/6)
+// (Phi(t)^T h = Phi(t - tau)^T e_0; its qp, qv part is the same for every class; float rounding only).
+// h1 = -tau, h2 = -tau^2/2.
+QUAD_STEP void PositionFilterCore::capture_gain_terms(float tau, float h1, float h2, float w[2][3]) {
+  const float tau2 = tau * tau;
+  const float tau3_6 = h2 * tau * (1.0f / 3.0f);  // -tau^3/6
+  const float qv = this->qv();
+  const float qh_pos = qp() * tau + qv * tau3_6, qh_vel = qv * h2;  // Q(tau) h's qp, qv part
+  for (int c = 0; c < class_count(); ++c) {
+    const AxisCovariance& p = p_[c];
+    float w0 = p.pp + h1 * p.pv - qh_pos;
+    float w1 = p.pv + h1 * p.vv - qh_vel;
+    float hdh;
+    if (class_has_bias(c)) {
+      const float qh_bias = qb(c) * tau3_6;                  // -qb tau^3/6
+      w0 += h2 * p.pb - (qh_bias * tau2) * (-1.0f / 20.0f);  // qb tau^5/120
+      w1 += h2 * p.vb - 0.25f * (qh_bias * h1);              // qb tau^4/24
+      const float w2 = p.pb + h1 * p.vb + h2 * p.bb - qh_bias;
+      w[c][2] = w2;
+      hdh = w0 + h1 * w1 + h2 * w2;  // h^T D h
+    } else {
+      w[c][2] = 0.0f;
+      hdh = w0 + h1 * w1;  // (w_2 = 0: adding h2 w_2 = -0 would change nothing)
+    }
+    w[c][0] = w0;
+    w[c][1] = w1;
+    const float r = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
+    // h^T D h is the variance of the predicted position at capture time: never below zero.
+    fix_inv_s_[c] = 1.0f / (maxf(hdh, 0.0f) + r);
+  }
+}
+
+// Mahalanobis gate per axis: nu^2 / S <= gate^2, with nu = y - p_s the innovations (also rejects a
+// non-finite innovation). Keeps the normalised innovation squared for last_nis().
+QUAD_STEP bool PositionFilterCore::within_gate(const Vec3& y, const float p_s[3], float nu[3]) {
+  float nis = 0.0f;
+  const float gate2 = sqf(params_.gate_sigma);
+  bool pass = true;
+  for (int i = 0; i < 3; ++i) {
+    nu[i] = y[i] - p_s[i];
+    const float d2 = nu[i] * nu[i] * fix_inv_s_[covariance_class(i)];
+    if (!(d2 <= gate2)) pass = false;
+    nis += d2;
+  }
+  last_nis_ = nis;
+  return pass;
 }
 
 // The first step: the lookup at capture time, D h, S and the gate. A fix that passes leaves its D h in
 // gain_, 1 / S in fix_inv_s_, its innovations in fix_ and the time in fix_us_ for update_fix().
 FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
-  const float lost = sqf(params_.reset_position_sigma);
-  // (also catches NaN; z's own entry only when it has one; lost >= 0: integer comparisons)
-  const bool diverged = !at_most(p_[0].pp, lost) || (!one_class_ && !at_most(p_[1].pp, lost));
-  const bool rejected_too_often =
-      params_.reset_after_rejections > 0 && consecutive_rejections_ >= params_.reset_after_rejections;
-  if (!initialized_ || diverged || rejected_too_often) {
+  if (fix_resets()) {
     initialize_from_fix(y, capture_us);
-    return FixResult::Initialized;
+    return FixResult::kInitialized;
   }
   // A fix stamped after "now" (clock offset) is taken as current.
   int32_t tau_us = micros_between(t_us_, capture_us);
@@ -480,71 +521,26 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
   if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
     ++health_.rejected_out_of_order;
-    return FixResult::RejectedOutOfOrder;
+    return FixResult::kRejectedOutOfOrder;
   }
-  // Delayed fusion (seed 003, errata form): with D = P_now - Q(tau) and h^T = H Phi(-tau) = (1, -tau,
-  // -tau^2/2), the covariance at capture time is Phi(-tau) D Phi(-tau)^T, so S = h^T D h + R and the
-  // correction carried to now is Phi(tau) K nu = D h nu / S. Computed once per covariance class.
-  // Only w = D h is needed, so D is not formed: w = P h - Q(tau) h, with Q(tau) h in closed form,
-  //   Q(tau) h = int_0^tau Phi(t) diag(qp, qv, qb) Phi(t - tau)^T e_0 dt
-  //            = (qp tau - qv tau^3/6 + qb tau^5/120, -qv tau^2/2 + qb tau^4/24, -qb tau^3/6)
-  // (Phi(t)^T h = Phi(t - tau)^T e_0; its qp, qv part is the same for every class; float rounding only).
   const float h1 = -tau;
-  const float tau2 = tau * tau;
-  const float h2 = -half(tau2);  // -tau^2/2 (= -0.5f * tau * tau bit for bit)
-  const float m3 = h2 * tau * (1.0f / 3.0f);  // -tau^3/6
-  const float qv = this->qv();
-  const float qh0 = times(qp(), tau) + times(qv, m3), qh1 = times(qv, h2);
+  const float h2 = -0.5f * (tau * tau);  // -tau^2/2
   float p_s[3];
   if (!predicted_position_at(capture_us, p_s, h1, h2)) {
     ++health_.rejected_too_old;
-    return FixResult::RejectedTooOld;
+    return FixResult::kRejectedTooOld;
   }
   float w[2][3];
-  float* const inv_s = fix_inv_s_;
-  const int classes = class_count();
-  for (int c = 0; c < classes; ++c) {
-    const AxisCovariance& p = p_[c];
-    float w0 = p.pp + h1 * p.pv - qh0;
-    float w1 = p.pv + h1 * p.vv - qh1;
-    float hdh;
-    if (class_has_bias(c)) {
-      const float qh2 = qb(c) * m3;                         // -qb tau^3/6
-      w0 += h2 * p.pb - (qh2 * tau2) * (-1.0f / 20.0f);     // qb tau^5/120
-      w1 += h2 * p.vb - quarter(qh2 * h1);                  // qb tau^4/24
-      const float w2 = p.pb + h1 * p.vb + h2 * p.bb - qh2;
-      w[c][2] = w2;
-      hdh = w0 + h1 * w1 + h2 * w2;  // h^T D h
-    } else {
-      w[c][2] = 0.0f;
-      hdh = w0 + h1 * w1;  // (w_2 = 0: adding h2 w_2 = -0 would change nothing)
-    }
-    w[c][0] = w0;
-    w[c][1] = w1;
-    const float r = sqf(c == 1 ? params_.fix_sigma_z : params_.fix_sigma_xy);
-    // h^T D h is the variance of the predicted position at capture time: never below zero.
-    inv_s[c] = 1.0f / ((positive(hdh) ? hdh : 0.0f) + r);  // (maxf(hdh, 0), without the float comparison)
-  }
-  // Mahalanobis gate per axis: nu^2 / S <= gate^2.
+  capture_gain_terms(tau, h1, h2, w);
   float nu[3];
-  float nis = 0.0f;
-  const float gate2 = sqf(params_.gate_sigma);
-  bool pass = abs_bits(gate2) <= kFloatInfBits;  // a NaN gate passes nothing (as the float comparison)
-  for (int i = 0; i < 3; ++i) {
-    nu[i] = y[i] - p_s[i];
-    const float d2 = nu[i] * nu[i] * inv_s[covariance_class(i)];
-    if (!abs_at_most(d2, gate2)) pass = false;  // d2 >= 0: exact; also rejects a non-finite innovation
-    nis += d2;
-  }
-  last_nis_ = nis;
-  if (!pass) {
+  if (!within_gate(y, p_s, nu)) {
     ++health_.rejected_gate;
     ++consecutive_rejections_;
-    return FixResult::RejectedGate;
+    return FixResult::kRejectedGate;
   }
 
   gain_tau_ = tau;
-  for (int c = 0; c < classes; ++c) {
+  for (int c = 0; c < class_count(); ++c) {
     for (int j = 0; j < 3; ++j) gain_[c][j] = w[c][j];
   }
   for (int i = 0; i < 3; ++i) fix_[i] = nu[i];
@@ -552,7 +548,7 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   last_fix_us_ = capture_us;
   have_fix_ = true;
   fix_stage_ = kFixGated;
-  return FixResult::Pending;
+  return FixResult::kPending;
 }
 
 // The second step: the gated fix's correction, carried by Phi(T) from the time it was gated to now,
@@ -567,7 +563,7 @@ FixResult PositionFilterCore::update_fix() {
     // predict() ran since the gate: D h becomes Phi(T) D h (rows of Phi(T) = [[1, T, -T^2/2], [0, 1, -T],
     // [0, 0, 1]]), so that P -= (Phi D h)(Phi D h)^T / S and x += Phi D h nu / S are the update made at
     // the gate and predicted since.
-    const float t = static_cast<float>(carry_us) * 1e-6f, h = half(t * t);
+    const float t = static_cast<float>(carry_us) * 1e-6f, h = 0.5f * (t * t);
     for (int c = 0; c < classes; ++c) {
       float* w = gain_[c];
       w[0] += t * w[1] - h * w[2];  // (w_2 = 0 without a bias state)
@@ -596,7 +592,7 @@ FixResult PositionFilterCore::update_fix() {
   for (int i = 0; i < 3; ++i) {
     const float* k = gain_[covariance_class(i)];
     AxisState& x = x_[i];
-    Correction& c = corr_[i];
+    Correction& c = correction_[i];
     const float dp = k[0] * nu[i], dv = k[1] * nu[i];
     x.p += dp;
     x.v += dv;
@@ -608,8 +604,8 @@ FixResult PositionFilterCore::update_fix() {
       c.b += db;
     }
     // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
-    // monotonic and 1 is a float): two integer comparisons decide the usual case exactly.
-    if (!(abs_at_most(c.p, 0.5f * kFoldThreshold) && abs_at_most(c.v, 2.0f * kFoldThreshold)) &&
+    // monotonic and 1 is a float): two comparisons decide the usual case exactly.
+    if (!(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
         absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) {
       fold = true;
     }
@@ -617,7 +613,7 @@ FixResult PositionFilterCore::update_fix() {
   if (fold) fold_correction();
   consecutive_rejections_ = 0;
   ++health_.fused;
-  return FixResult::Fused;
+  return FixResult::kFused;
 }
 
 }  // namespace est

@@ -15,10 +15,10 @@ constexpr uint8_t kJumpReportRejections = 3;
 
 FlashText rejection_text(est::CalibrationStatus status) {
   switch (status) {
-    case est::CalibrationStatus::Moved: return QUAD_TEXT("calibration: vehicle moved, again");
-    case est::CalibrationStatus::Turning: return QUAD_TEXT("calibration: vehicle turning, again");
-    case est::CalibrationStatus::NotLevel: return QUAD_TEXT("calibration: not level, again");
-    case est::CalibrationStatus::NonFinite: return QUAD_TEXT("calibration: bad sample, again");
+    case est::CalibrationStatus::kMoved: return QUAD_TEXT("calibration: vehicle moved, again");
+    case est::CalibrationStatus::kTurning: return QUAD_TEXT("calibration: vehicle turning, again");
+    case est::CalibrationStatus::kNotLevel: return QUAD_TEXT("calibration: not level, again");
+    case est::CalibrationStatus::kNonFinite: return QUAD_TEXT("calibration: bad sample, again");
     default: return QUAD_TEXT("calibration: again");
   }
 }
@@ -120,7 +120,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   report(event);
   mark(hal::TracePoint::kEstimated);
 
-  if (plan.frame_work) report_transition(control_.update_mode(mode_inputs()));
+  if (plan.frame_work) report_transition(control_.update_mode(mode_inputs(false)));
   if (!control_.armed()) link_.persist_signing_clock(now_us_, false);
   mark(hal::TracePoint::kModesDone);
   ctrl::VehicleState s;
@@ -184,7 +184,7 @@ void FlightApp::report(EstimatorEvent event) {
                             .message());
 }
 
-ModeInputs FlightApp::mode_inputs() const {
+ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   ModeInputs in;
   in.now_us = now_us_;
   in.estimator_converged = estimator_.converged();
@@ -192,7 +192,7 @@ ModeInputs FlightApp::mode_inputs() const {
   in.sensors_healthy = estimator_.sensors_ok();
   in.rc_seen = control_.rc_seen();
   in.rc_time_us = control_.rc_time_us();
-  in.rc_throttle = control_.rc_throttle();
+  if (with_throttle) in.rc_throttle = control_.rc_throttle();
   in.vision_seen = vision_seen_;
   in.vision_time_us = vision_time_us_;
   in.landed = control_.landed();
@@ -272,7 +272,7 @@ void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us) {
   if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
     // Queued for the frame-rate work's iteration (frame_schedule.h).
     const est::FixResult r = estimator_.queue_fix(p_ned, capture_us);
-    if (r != est::FixResult::Pending) fix_result(r, false);
+    if (r != est::FixResult::kPending) fix_result(r, false);
     return;
   }
   fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
@@ -284,11 +284,11 @@ void FlightApp::fix_step(Step step) {
   mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = step();
   mark(hal::TracePoint::kFixEnd);
-  if (r != est::FixResult::Pending) fix_result(r, estimator_.filter_resets() != resets_before);
+  if (r != est::FixResult::kPending) fix_result(r, estimator_.filter_resets() != resets_before);
 }
 
 void FlightApp::fix_result(est::FixResult r, bool reset) {
-  const bool taken = r == est::FixResult::Fused || r == est::FixResult::Initialized;
+  const bool taken = r == est::FixResult::kFused || r == est::FixResult::kInitialized;
   if (taken && (reset || fixes_rejected_in_a_row_ >= kJumpReportRejections)) {
     // The estimate jumped to a fix it had refused before (a decoy taken for the star, a moved marker,
     // a return from a long outage): not a failsafe, but the operator must hear of it.
@@ -307,7 +307,7 @@ void FlightApp::fix_result(est::FixResult r, bool reset) {
   } else {
     ++fixes_rejected_;
     // (One refused because another was still in progress says nothing about the star.)
-    if (r != est::FixResult::RejectedBusy && fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
+    if (r != est::FixResult::kRejectedBusy && fixes_rejected_in_a_row_ < 255) ++fixes_rejected_in_a_row_;
   }
 }
 

@@ -32,8 +32,8 @@ BootCalibration::Event BootCalibration::add(uint32_t t_us, const Vec3& gyro, con
 
   est::ImuBias bias;
   const est::CalibrationStatus status = stats_.result(bias);
-  if (status == est::CalibrationStatus::TooFewSamples) return Event::kCollecting;  // a slow loop: wait
-  if (status != est::CalibrationStatus::Ok) {
+  if (status == est::CalibrationStatus::kTooFewSamples) return Event::kCollecting;  // a slow loop: wait
+  if (status != est::CalibrationStatus::kOk) {
     rejection_ = status;
     ++rejected_;
     restart();

@@ -2,6 +2,7 @@
 
 #include "quad/firmware/app_checks.h"
 #include "quad/firmware/param_fields.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace fw {
@@ -179,7 +180,8 @@ void FlightControl::detect_landing(float dt, float v_z) {
   // On the ground the commanded descent cannot happen: the estimated vertical speed stays near zero
   // while the controller, pushing down, asks for clearly less than hover thrust (the hover thrust the
   // trim has learned: a_trim < 0, up, means the vehicle needs more than the model).
-  bool on_ground = absf(v_z) < land_vz_max_;
+  // (LAND_VZ_MAX >= 0.05 by its range: abs_below() compares the patterns, float_bits.h.)
+  bool on_ground = abs_below(v_z, land_vz_max_);
   if (on_ground) {
     const float hover_scale = 1.0f - trim_.accel_z() * (1.0f / kGravity);
     on_ground = last_thrust_ < land_thrust_max_ * hover_scale;

@@ -9,6 +9,18 @@ namespace {
 // HIL_SENSOR.fields_updated: bits 6..8 flag a new magnetometer sample.
 constexpr uint32_t kHilMagFields = 0x1C0u;
 
+// The decoded message lives only in this call's frame, not under the iteration's (the AVR's peak stack).
+__attribute__((noinline)) bool decode_sample(const mav::Frame& frame, HilBridge::Sample* s) {
+  mav::HilSensor msg;
+  if (!mav::decode(frame, msg)) return false;
+  s->time_usec = msg.time_usec;
+  s->imu.accel = Vec3{msg.xacc, msg.yacc, msg.zacc};
+  s->imu.gyro = Vec3{msg.xgyro, msg.ygyro, msg.zgyro};
+  s->mag.field = Vec3{msg.xmag, msg.ymag, msg.zmag};
+  s->mag_new = (msg.fields_updated & kHilMagFields) != 0;
+  return true;
+}
+
 }  // namespace
 
 void HilBridge::connect(FlightApp& app, AppIo& io) {
@@ -18,27 +30,21 @@ void HilBridge::connect(FlightApp& app, AppIo& io) {
 }
 
 void HilBridge::on_frame(void* bridge, const mav::Frame& frame) {
-  mav::HilSensor msg;
-  if (mav::decode(frame, msg)) static_cast<HilBridge*>(bridge)->on_sensor(msg);
+  Sample s;
+  if (decode_sample(frame, &s)) static_cast<HilBridge*>(bridge)->on_sample(s);
 }
 
-void HilBridge::on_sensor(const mav::HilSensor& msg) {
+void HilBridge::on_sample(const Sample& s) {
   ++sensor_frames_;
-  if (stepped_ && msg.time_usec == time_usec_) {
+  if (stepped_ && s.time_usec == time_usec_) {
     // The simulator repeated a step whose answer it missed: answer again, do not step twice.
-    send_actuators(msg.time_usec);
+    send_actuators(s.time_usec);
     return;
   }
   stepped_ = true;
-  time_usec_ = msg.time_usec;
-  hal::ImuSample imu;
-  imu.accel = Vec3{msg.xacc, msg.yacc, msg.zacc};
-  imu.gyro = Vec3{msg.xgyro, msg.ygyro, msg.zgyro};
-  hal::MagSample mag;
-  mag.field = Vec3{msg.xmag, msg.ymag, msg.zmag};
-  const bool mag_new = (msg.fields_updated & kHilMagFields) != 0;
-  app_->hil_step(msg.time_usec, imu, mag_new ? &mag : nullptr);
-  send_actuators(msg.time_usec);
+  time_usec_ = s.time_usec;
+  app_->hil_step(s.time_usec, s.imu, s.mag_new ? &s.mag : nullptr);
+  send_actuators(s.time_usec);
 }
 
 void HilBridge::send_actuators(uint64_t time_usec) {

@@ -1,31 +1,25 @@
 #include "quad/firmware/imu_clip.h"
 
+#include "quad/math/float_bits.h"
+
 namespace quad {
 namespace fw {
 
 namespace {
 
-// The pattern to compare |x| against for "|x| >= limit": +0..+inf is its own pattern, a limit of -0 or
-// below makes every finite reading clipped (0), a NaN limit none (no finite |x| reaches +inf's pattern).
-QUAD_MATH_FN uint32_t limit_bits(float limit) {
-  const uint32_t b = float_bits(limit);
-  if (b <= kFloatInfBits) return b;
-  if (b >= kFloatSignBit && b <= (kFloatSignBit | kFloatInfBits)) return 0u;
-  return kFloatInfBits;
-}
+// The limit |x| is compared with (abs_at_least() needs one without the sign bit): a limit of zero or below
+// becomes +0 and makes every finite reading clipped; a NaN limit stays and clips none, as the float
+// comparison absf(x) >= limit would decide.
+float clip_limit(float limit) { return limit <= 0.0f ? 0.0f : limit; }
 
-// NaN compares false and infinity is no reading at all: neither is clipping. On the bits (float_bits.h):
-// is_finite(x) && absf(x) >= limit.
-bool at_limit(float x, uint32_t limit) {
-  const uint32_t a = abs_bits(x);
-  return a < kFloatInfBits && a >= limit;
-}
+// NaN compares false and infinity is no reading at all: neither is clipping. The comparisons are on
+// the bit patterns (float_bits.h: 1 420 cycles off the longest iteration of the 200 Hz PIL flight).
+bool at_limit(float x, float limit) { return is_finite(x) && abs_at_least(x, limit); }
 
 // One gyro axis: true when clipped; a finite reading below the limit becomes the last good value.
-bool guard_axis(float x, float& last_good, uint32_t limit) {
-  const uint32_t a = abs_bits(x);
-  if (a >= kFloatInfBits) return false;  // non-finite: neither clipped nor good
-  if (a >= limit) return true;
+bool guard_axis(float x, float& last_good, float limit) {
+  if (!is_finite(x)) return false;  // neither clipped nor good
+  if (abs_at_least(x, limit)) return true;
   last_good = x;
   return false;
 }
@@ -33,8 +27,8 @@ bool guard_axis(float x, float& last_good, uint32_t limit) {
 }  // namespace
 
 void ImuClipGuard::configure(float gyro_range, float accel_range, float hold_s) {
-  gyro_limit_ = limit_bits(kClipFraction * gyro_range);
-  accel_limit_ = limit_bits(kClipFraction * accel_range);
+  gyro_limit_ = clip_limit(kClipFraction * gyro_range);
+  accel_limit_ = clip_limit(kClipFraction * accel_range);
   hold_s_ = hold_s;
 }
 
@@ -55,7 +49,7 @@ Vec3 ImuClipGuard::update(const hal::ImuSample& raw, float dt) {
     clipping_for_s_ = 0.0f;
     // Only quiet_for_s_ >= kBurstGapS is ever read: once there (dt > 0 adds to it) it stays, so the sum
     // stops growing (one float addition saved per sample in the common, quiet case).
-    if (float_bits(quiet_for_s_) < float_bits(kBurstGapS)) quiet_for_s_ += dt;
+    if (quiet_for_s_ < kBurstGapS) quiet_for_s_ += dt;
     return gyro;
   }
   ++clipped_samples_;

@@ -1,6 +1,5 @@
 #include "quad/firmware/scheduler.h"
 
-#include "quad/math/float_bits.h"
 #include "quad/math/scalar.h"
 
 namespace quad {

@@ -42,7 +42,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   mag_cal_is_identity_ = identity_calibration(p);
 
   est::PositionFilterParams fp;
-  fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::WhiteAcceleration : est::ProcessNoise::ThesisDiagonal;
+  fp.process_noise = p.get(kKfQModel) >= 0.5f ? est::ProcessNoise::kWhiteAcceleration : est::ProcessNoise::kThesisDiagonal;
   load_fields(p, fp, kFilterFields);
   fp.z_accel_bias = p.get(kKfZBias) >= 0.5f;
   fp.xy_accel_bias = p.get(kKfXYBias) >= 0.5f;

@@ -101,7 +101,7 @@ void Telemetry::send(Stream stream, const FlightApp& app, GroundLink& link) {
 
 void Telemetry::send_status(const FlightApp& app, GroundLink& link) {
   mav::SysStatus st;
-  const ModeInputs in = app.mode_inputs();
+  const ModeInputs in = app.mode_inputs(false);
   st.onboard_control_sensors_present = kSensorGyro | kSensorAccel | kSensorMag | kSensorVision | kSensorRc | kSensorAhrs;
   st.onboard_control_sensors_enabled = st.onboard_control_sensors_present;
   const bool sensors_ok = app.estimator().sensors_ok();

@@ -117,7 +117,7 @@ QUAD_SHA256_INLINE uint32_t schedule(uint32_t* w, uint8_t t) {
 // places: in round t, a is v[(8 - t) mod 8], b the next slot, and so on, so a round writes only the new
 // e (into d's slot) and the new a (into h's slot) instead of moving all eight down by one (28 word moves
 // per round on the AVR). One round in a loop, not eight unrolled ones: on the AVR the unrolled rounds
-// cost 7 kB of flash for a fifth of the cycles, and the APM 2.5 image has no flash to spare (issue 9).
+// cost 7 kB of flash for a fifth of the cycles, and the APM 2.5 image has no flash to spare.
 inline void sha_round(uint32_t* v, uint8_t t, uint32_t k_plus_w) {
   const uint8_t r = static_cast<uint8_t>(8u - (t & 7u));
   uint32_t& a = v[r & 7u];

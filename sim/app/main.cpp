@@ -1,8 +1,8 @@
 // quad_sim: the MuJoCo hardware-in-the-loop simulator (docs/simulator.md).
 //
-//   quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD] [--viewer]
+//   quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD] [--viewer]
 //            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
-//            [--no-plots] [--quiet]
+//            [--station-calib FILE] [--no-plots] [--quiet]
 //
 // Exit status: 0 the run completed and wrote every output; 1 the run was cut short (interrupted, the
 // firmware stopped answering, ...) or could not start; 2 bad arguments; 3 the run completed and its log
@@ -35,12 +35,15 @@ void on_signal(int) { g_stop = true; }
 int usage(const char* error) {
   if (error) std::fprintf(stderr, "quad_sim: %s\n", error);
   std::fprintf(stderr,
-               "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--realtime] [--firmware CMD]\n"
+               "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD]\n"
                "                [--viewer] [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK]\n"
-               "                [--station CMD] [--no-plots] [--quiet]\n"
+               "                [--station CMD] [--station-calib FILE] [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
+               "  --set KEY=VALUE   override one scenario key (repeatable): a dotted path, list items by index,\n"
+               "                    a YAML value: radio.latency_s=0.01, firmware_params.POS_KP_XY=4,\n"
+               "                    commands.3.at_s=45, wind.mean_ned_m_s=[1,0,0]\n"
                "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
                "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
                "                    arguments (--uart0 ... --params FILE) are appended\n"
@@ -52,8 +55,12 @@ int usage(const char* error) {
                "                    pty) for the vision station or a ground station; set vision.enabled:\n"
                "                    false in the scenario when the station sends the fixes\n"
                "  --station CMD     vision station command for scenarios with camera.enabled (default:\n"
-               "                    'vision_station run' next to quad_sim); --calib --source sim:SOCKET --out\n"
-               "                    PTY --baud B --status-s 10 --timeout-ms 60000 are appended\n"
+               "                    'vision_station run' next to quad_sim); --calib --settings --source\n"
+               "                    sim:SOCKET --out PTY --baud B --status-s 10 --timeout-ms 60000 are appended.\n"
+               "                    The station is calibrated by CMD with 'run' replaced by 'calibrate' on\n"
+               "                    chessboards rendered through the scenario's cameras, cached in\n"
+               "                    station_calibration/ beside the station executable\n"
+               "  --station-calib FILE  give the station this calibration instead\n"
                "  --no-plots        skip the PNG plots\n"
                "  --quiet           no progress line\n"
                "exit status: 0 complete; 1 cut short or not started; 2 bad arguments; 3 complete, log and\n"
@@ -86,8 +93,9 @@ std::string utc_stamp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, out_dir, firmware, record, ground_port, station, screenshot;
+  std::string scenario_path, out_dir, firmware, record, ground_port, station, station_calib, screenshot;
   std::optional<long> seed;
+  std::vector<quad::sim::ScenarioOverride> overrides;
   bool realtime = false, viewer = false, plots = true, quiet = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -99,11 +107,13 @@ int main(int argc, char** argv) {
       if (a == "--scenario") scenario_path = value("--scenario");
       else if (a == "--out") out_dir = value("--out");
       else if (a == "--seed") seed = std::stol(value("--seed"));
+      else if (a == "--set") overrides.push_back(quad::sim::parse_override(value("--set")));
       else if (a == "--firmware") firmware = value("--firmware");
       else if (a == "--record") record = value("--record");
       else if (a == "--viewer-screenshot") screenshot = value("--viewer-screenshot");
       else if (a == "--ground-port") ground_port = value("--ground-port");
       else if (a == "--station") station = value("--station");
+      else if (a == "--station-calib") station_calib = value("--station-calib");
       else if (a == "--realtime") realtime = true;
       else if (a == "--viewer") viewer = true;
       else if (a == "--no-plots") plots = false;
@@ -118,7 +128,7 @@ int main(int argc, char** argv) {
   if (!screenshot.empty() && !viewer) return usage("--viewer-screenshot needs --viewer");
 
   try {
-    quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path);
+    quad::sim::Scenario scenario = quad::sim::load_scenario(scenario_path, overrides);
     if (seed) scenario.seed = static_cast<uint64_t>(*seed);
     if (out_dir.empty()) out_dir = "runs/" + scenario.name + "-" + utc_stamp();
 
@@ -137,6 +147,7 @@ int main(int argc, char** argv) {
     }
 
     const std::string default_station = executable_dir() + "/vision_station";
+    options.station_calibration = station_calib;
     options.station_argv = station.empty() ? std::vector<std::string>{default_station, "run"} : split_words(station);
     if (scenario.camera.enabled && station.empty() && access(default_station.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "quad_sim: the scenario renders the cameras but %s is not built "

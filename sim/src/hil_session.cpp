@@ -67,6 +67,12 @@ class Session {
   SessionResult run();
 
  private:
+  std::string firmware_params_text() const;
+  void start_processes();
+  void wait_for_firmware_hello();
+  std::string control_period(double t, double period, double uart0_byte_s);
+  std::string exchange_in_real_time(double t, double period, double uart0_byte_s);
+  std::string exchange_in_lockstep(double t, double period, double uart0_byte_s);
   // Sending.
   template <class Msg>
   void send_uart0(const Msg& msg, mav::Sender& sender, double t);
@@ -721,18 +727,24 @@ void Session::progress(double t, bool final_line) {
   std::fflush(stderr);
 }
 
-SessionResult Session::run() {
+// The firmware's parameter file of this run: the scenario's parameters and the mode it steps in (the
+// firmware flags its answers with it, docs/hil-protocol.md).
+std::string Session::firmware_params_text() const {
   std::string params = "# firmware parameters of this run (quad_sim, scenario " + s_.name + ")\n";
   for (const auto& [name, value] : s_.firmware_params) {
     char line[96];
     std::snprintf(line, sizeof line, "%s %.9g\n", name.c_str(), value);
     params += line;
   }
-  // The mode this run steps in: the firmware flags its answers with it (docs/hil-protocol.md).
   const bool scenario_sets_it = std::any_of(s_.firmware_params.begin(), s_.firmware_params.end(),
                                             [](const auto& p) { return p.first == "HIL_LOCKSTEP"; });
   if (!scenario_sets_it) params += o_.realtime ? "HIL_LOCKSTEP 0\n" : "HIL_LOCKSTEP 1\n";
-  write_file_atomically(o_.out_dir + "/firmware_params.txt", params);
+  return params;
+}
+
+// Writes the parameter file, starts the vision station (rendered cameras) and the firmware process.
+void Session::start_processes() {
+  write_file_atomically(o_.out_dir + "/firmware_params.txt", firmware_params_text());
   std::vector<std::string> argv = o_.firmware_argv;
   for (const std::string& a : {std::string("--uart0"), uart0_.slave_path(), std::string("--uart0-baud"),
                                std::to_string(s_.uart0_baud), std::string("--uart2"), uart2_.slave_path(),
@@ -747,22 +759,107 @@ SessionResult Session::run() {
   }
   if (s_.camera.enabled) {
     if (o_.station_argv.empty()) throw std::runtime_error(s_.path + ": camera.enabled needs the vision station command");
-    station_ = std::make_unique<StationLoop>(s_, o_.out_dir, o_.station_argv);
+    StationLoopOptions station;
+    station.calibration_file = o_.station_calibration;
+    station.calibration_cache = o_.station_calibration_cache;
+    station.progress = [this](const std::string& line) {
+      event(0.0, line);
+      if (o_.progress) std::fprintf(stderr, "%s\n", line.c_str());
+    };
+    station_ = std::make_unique<StationLoop>(s_, stereo_rig_from_model(vehicle_.model(), s_.camera, s_.model_path), o_.out_dir,
+                                             o_.station_argv, station);
     event(0.0, "vision station: rendered cameras in the loop (station.log)");
   }
   firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");
-  wall_start_ = last_summary_ = Clock::now();
-  write_summary(false, "running");
+}
 
-  // The firmware opens its ports, flushes them and announces itself (STATUSTEXT): wait for that, and
-  // for 100 ms of quiet after it (the end of its start-up), before the first HIL_SENSOR, so that no
-  // sensor message is lost to the flush or seen twice.
+// The firmware opens its ports, flushes them and announces itself (STATUSTEXT): wait for that, and for
+// 100 ms of quiet after it (the end of its start-up), before the first HIL_SENSOR, so that no sensor
+// message is lost to the flush or seen twice.
+void Session::wait_for_firmware_hello() {
   const auto hello_deadline = Clock::now() + std::chrono::milliseconds(1500);
   while (Clock::now() < hello_deadline && firmware_->running()) {
     if (uart0_.wait_readable(100)) poll_uart0(0.0);
     else if (tele_.frames > 0) break;
   }
   firmware_spoke_first_ = tele_.frames > 0;
+}
+
+// Real time: bytes leave at their serial times and the latest answer is used. Empty, or why the run ends.
+std::string Session::exchange_in_real_time(double t, double period, double uart0_byte_s) {
+  const double wall_t = std::chrono::duration<double>(Clock::now() - wall_start_).count();
+  if (wall_t < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - wall_t));
+  uart0_out_.deliver_until(t + period, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
+  answer_.reset();
+  poll_uart0(t);
+  if (answer_) {
+    account_answer(t, period, uart0_byte_s);  // counted; the answer itself applies now (wall clock)
+    std::array<double, 4> c;
+    for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
+    pending_commands_.emplace_back(t, c);
+    ++exchanges_;
+  }
+  if (!firmware_->running()) return "the firmware " + firmware_->status();
+  return "";
+}
+
+// Lockstep: everything queued for UART0 goes now, and the firmware answers this step before the
+// simulation moves. Empty, or why the run ends.
+std::string Session::exchange_in_lockstep(double t, double period, double uart0_byte_s) {
+  uart0_out_.deliver_until(1e18, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
+  if (!wait_for_answer(t)) {
+    return firmware_->running() ? "the firmware did not answer HIL_SENSOR at t = " + std::to_string(t) +
+                                      " s within " + std::to_string(o_.answer_timeout_s) + " s"
+                                : "the firmware " + firmware_->status() + " (see firmware.log)";
+  }
+  ++exchanges_;
+  // The commands take effect when the answer's last byte has arrived: after the HIL_SENSOR (and whatever
+  // went out ahead of it) on the way there, and after the firmware's bytes of this exchange, behind
+  // anything still on the wire from earlier ones.
+  std::array<double, 4> c;
+  for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
+  pending_commands_.emplace_back(account_answer(t, period, uart0_byte_s), c);
+  // Radio bytes arriving during this period can only be acted on at the next step: hand them over now,
+  // while the firmware waits, so they are read before the next HIL_SENSOR (deterministic order). Vision
+  // and radio latencies exceed the period, so everything arriving by t + T is queued by now.
+  deliver_radio(t + period);
+  return "";
+}
+
+// One control period from t: the ground's inputs, the sensors, the firmware's answer, the radio, the
+// physics and the records. Empty, or why the run ends.
+std::string Session::control_period(double t, double period, double uart0_byte_s) {
+  if (o_.stop && o_.stop->load()) return "interrupted";
+  if (!o_.realtime) wait_radio_consumed();
+  send_due_commands(t);
+  send_rc(t);
+  send_sensors(t);
+  if (uart0_out_.busy_until() > t + period) ++uart0_overruns_;
+  const std::string stopped =
+      o_.realtime ? exchange_in_real_time(t, period, uart0_byte_s) : exchange_in_lockstep(t, period, uart0_byte_s);
+  if (!stopped.empty()) return stopped;
+  poll_uart2(t);
+  poll_ground_port(t);
+  try {
+    physics_period(t + period);
+  } catch (const StationError& e) {
+    // Ctrl-C reaches the station too (same process group): then the run was interrupted, not failed.
+    return o_.stop && o_.stop->load() ? "interrupted" : e.what();
+  }
+  log_row(vehicle_.time());
+  progress(vehicle_.time(), false);
+  if (Clock::now() - last_summary_ > std::chrono::seconds(2)) {
+    last_summary_ = Clock::now();
+    write_summary(false, "running");
+  }
+  return "";
+}
+
+SessionResult Session::run() {
+  start_processes();
+  wall_start_ = last_summary_ = Clock::now();
+  write_summary(false, "running");
+  wait_for_firmware_hello();
   // The first HIL_SENSOR carries a real sample of the vehicle at rest (the IMU and magnetometer then
   // sample once per physics step).
   sample_sensors(0.0);
@@ -771,75 +868,10 @@ SessionResult Session::run() {
   const double period = 1.0 / s_.control_rate_hz;
   const long periods = std::lround(s_.duration_s * s_.control_rate_hz);
   const double uart0_byte_s = 10.0 / s_.uart0_baud;  // 8N1
-  SessionResult result;
   std::string reason;
-  for (long k = 0; k < periods; ++k) {
-    const double t = k * period;
-    if (o_.stop && o_.stop->load()) {
-      reason = "interrupted";
-      break;
-    }
-    if (!o_.realtime) wait_radio_consumed();
-    send_due_commands(t);
-    send_rc(t);
-    send_sensors(t);
-    if (uart0_out_.busy_until() > t + period) ++uart0_overruns_;
-    if (o_.realtime) {
-      // Wall-clock pacing: bytes leave at their serial times, the latest answer is used.
-      const double wall_t = std::chrono::duration<double>(Clock::now() - wall_start_).count();
-      if (wall_t < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - wall_t));
-      uart0_out_.deliver_until(t + period, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
-      answer_.reset();
-      poll_uart0(t);
-      if (answer_) {
-        account_answer(t, period, uart0_byte_s);  // counted; the answer itself applies now (wall clock)
-        std::array<double, 4> c;
-        for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
-        pending_commands_.emplace_back(t, c);
-        ++exchanges_;
-      }
-      if (!firmware_->running()) {
-        reason = "the firmware " + firmware_->status();
-        break;
-      }
-    } else {
-      // Lockstep: everything queued for UART0 goes now; the firmware answers this step before we move.
-      uart0_out_.deliver_until(1e18, [&](const uint8_t* d, size_t n) { uart0_.write_all(d, n); });
-      if (!wait_for_answer(t)) {
-        reason = firmware_->running()
-                     ? "the firmware did not answer HIL_SENSOR at t = " + std::to_string(t) + " s within " +
-                           std::to_string(o_.answer_timeout_s) + " s"
-                     : "the firmware " + firmware_->status() + " (see firmware.log)";
-        break;
-      }
-      ++exchanges_;
-      // The commands take effect when the answer's last byte has arrived: after the HIL_SENSOR (and
-      // whatever went out ahead of it) on the way there, and after the firmware's bytes of this
-      // exchange, behind anything still on the wire from earlier ones.
-      std::array<double, 4> c;
-      for (size_t i = 0; i < 4; ++i) c[i] = answer_->controls[i];
-      pending_commands_.emplace_back(account_answer(t, period, uart0_byte_s), c);
-      // Radio bytes arriving during this period can only be acted on at the next step: hand them over
-      // now, while the firmware waits, so they are read before the next HIL_SENSOR (deterministic order).
-      // Vision and radio latencies exceed the period, so everything arriving by t + T is queued by now.
-      deliver_radio(t + period);
-    }
-    poll_uart2(t);
-    poll_ground_port(t);
-    try {
-      physics_period(t + period);
-    } catch (const StationError& e) {
-      // Ctrl-C reaches the station too (same process group): then the run was interrupted, not failed.
-      reason = o_.stop && o_.stop->load() ? "interrupted" : e.what();
-      break;
-    }
-    log_row(vehicle_.time());
-    progress(vehicle_.time(), false);
-    if (Clock::now() - last_summary_ > std::chrono::seconds(2)) {
-      last_summary_ = Clock::now();
-      write_summary(false, "running");
-    }
-  }
+  for (long k = 0; k < periods && reason.empty(); ++k) reason = control_period(k * period, period, uart0_byte_s);
+
+  SessionResult result;
   result.complete = reason.empty();
   result.reason = reason;
   result.sim_time_s = vehicle_.time();

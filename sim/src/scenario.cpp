@@ -53,6 +53,14 @@ class Field {
     }
   }
 
+  // The keys of a mapping, in file order.
+  std::vector<std::string> keys() const {
+    if (!node_.IsMap()) fail("must be a mapping");
+    std::vector<std::string> out;
+    for (const auto& kv : node_) out.push_back(key_name(kv.first));
+    return out;
+  }
+
   Field operator[](const char* k) const {
     return Field(node_[k], key_.empty() ? std::string(k) : key_ + "." + k, file_);
   }
@@ -144,6 +152,55 @@ void parse_axis(const Field& f, ImuAxisParams& a) {
   f["vibration_at_full_speed"].get(a.vibration_at_full_speed, 0.0, 100.0);
 }
 
+std::string resolve(const std::string& base_dir, const std::string& p) {
+  if (p.empty() || p[0] == '/') return p;
+  return base_dir.empty() ? p : base_dir + "/" + p;
+}
+
+void parse_lens(const Field& f, LensParams& l) {
+  f.expect_map({"fx", "fy", "cx", "cy", "distortion"});
+  f["fx"].get(l.fx, 10.0, 1e5);
+  f["fy"].get(l.fy, 10.0, 1e5);
+  f["cx"].get(l.cx, -1e4, 1e4);
+  f["cy"].get(l.cy, -1e4, 1e4);
+  if (const Field d = f["distortion"]; d.defined()) {
+    if (d.size() != 5) d.fail("must be a list of five numbers (k1, k2, p1, p2, k3)");
+    double* k[] = {&l.k1, &l.k2, &l.p1, &l.p2, &l.k3};
+    for (size_t i = 0; i < 5; ++i) *k[i] = d.at(i).number(-10.0, 10.0);
+  }
+}
+
+void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) {
+  f.expect_map({"enabled", "image_size", "left", "right", "star_tip_to_tip_m", "star_inner_ratio", "distractors",
+                "floor_grey", "floor_texture", "floor_texture_m", "floor_texture_contrast", "star_grey", "noise_grey",
+                "exposure_variation", "vignetting", "exposure_s", "interlaced", "jpeg_quality", "frame_loss",
+                "calibration_focal_error"});
+  f["enabled"].get(c.enabled);
+  if (const Field size = f["image_size"]; size.defined()) {
+    if (size.size() != 2) size.fail("must be [width, height] in pixels");
+    c.image_width = size.at(0).integer(16, 8192);
+    c.image_height = size.at(1).integer(16, 8192);
+  }
+  if (f["left"].defined()) parse_lens(f["left"], c.left);
+  if (f["right"].defined()) parse_lens(f["right"], c.right);
+  f["star_tip_to_tip_m"].get(c.star_tip_to_tip_m, 0.05, 5.0);
+  f["star_inner_ratio"].get(c.star_inner_ratio, 0.1, 0.9);
+  if (f["distractors"].defined()) c.distractors = f["distractors"].integer(0, 50);
+  f["floor_grey"].get(c.floor_grey, 1.0, 255.0);
+  if (f["floor_texture"].defined()) c.floor_texture = resolve(base_dir, f["floor_texture"].text());
+  f["floor_texture_m"].get(c.floor_texture_m, 0.05, 100.0);
+  f["floor_texture_contrast"].get(c.floor_texture_contrast, 0.0, 1.0);
+  f["star_grey"].get(c.star_grey, 0.0, 255.0);
+  f["noise_grey"].get(c.noise_grey, 0.0, 40.0);
+  f["exposure_variation"].get(c.exposure_variation, 0.0, 0.5);
+  f["vignetting"].get(c.vignetting, 0.0, 0.9);
+  f["exposure_s"].get(c.exposure_s, 0.0, 0.0165);  // within one field period
+  f["interlaced"].get(c.interlaced);
+  if (f["jpeg_quality"].defined()) c.jpeg_quality = f["jpeg_quality"].integer(0, 100);
+  f["frame_loss"].get(c.frame_loss, 0.0, 1.0);
+  f["calibration_focal_error"].get(c.calibration_focal_error, -0.5, 0.5);
+}
+
 void parse_radio(const Field& f, RadioConditions& r) {
   f["latency_s"].get(r.latency_s, 0.0, 10.0);
   f["jitter_s"].get(r.jitter_s, 0.0, 10.0);
@@ -207,9 +264,35 @@ Fault parse_fault(const Field& f, double duration) {
   return fault;
 }
 
-std::string resolve(const std::string& base_dir, const std::string& p) {
-  if (p.empty() || p[0] == '/') return p;
-  return base_dir.empty() ? p : base_dir + "/" + p;
+// Replaces the node at o.key in `root` by o.value (parsed as YAML), creating missing map keys.
+void apply_override(YAML::Node& root, const ScenarioOverride& o, const std::string& file) {
+  const std::string where = file + ": --set " + o.key + "=" + o.value + ": ";
+  YAML::Node value;
+  try {
+    value = YAML::Load(o.value);
+  } catch (const YAML::ParserException& e) {
+    throw ScenarioError(where + "the value is not YAML (" + e.msg + ")");
+  }
+  YAML::Node node = root;
+  std::string path;
+  std::istringstream parts(o.key);
+  for (std::string part; std::getline(parts, part, '.');) {
+    if (part.empty()) throw ScenarioError(where + "the key has an empty part");
+    path += (path.empty() ? "" : ".") + part;
+    YAML::Node next;
+    if (node.IsSequence()) {
+      const bool digits = std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c); });
+      if (!digits || std::stoul(part) >= node.size())
+        throw ScenarioError(where + "'" + path + "': the list has " + std::to_string(node.size()) + " items");
+      next.reset(node[std::stoul(part)]);
+    } else if (node.IsMap() || !node.IsDefined() || node.IsNull()) {
+      next.reset(node[part]);
+    } else {
+      throw ScenarioError(where + "'" + path + "' is inside a value that is neither a mapping nor a list");
+    }
+    node.reset(next);
+  }
+  node = value;  // assigns through the reference into the document
 }
 
 }  // namespace
@@ -221,68 +304,26 @@ Eigen::Vector3d Scenario::wind_at(double t) const {
   return w;
 }
 
-Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw ScenarioError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
-  }
-  Scenario s;
-  s.path = name;
-  const Field top(root, "", &name);
-  top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "camera", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
-                  "rc", "faults", "metrics", "firmware_params"});
-  s.name = top["name"].text();
-  s.duration_s = top["duration_s"].number(0.01, 86400.0);
-  if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
+ScenarioOverride parse_override(const std::string& key_equals_value) {
+  const size_t eq = key_equals_value.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw ScenarioError("--set '" + key_equals_value + "': expected KEY=VALUE, e.g. radio.latency_s=0.01");
+  return {key_equals_value.substr(0, eq), key_equals_value.substr(eq + 1)};
+}
+
+namespace {
+
+void parse_wind(const Field& f, Scenario& s);
+
+// The vehicle and its environment: the airframe's start, the links, sensors, motors, field, drag, wind.
+void parse_vehicle(const Field& top, const std::string& base_dir, Scenario& s) {
   // The model: relative to the scenario file when given, else the shipped Quad-C.
   s.model_path = top["model"].defined() ? resolve(base_dir, top["model"].text()) : std::string(QUAD_SIM_SOURCE_DIR "/models/quad_c.xml");
-
   if (const Field f = top["initial"]; f.defined()) {
     f.expect_map({"north_east_m", "height_m", "yaw_deg"});
     if (f["north_east_m"].defined()) s.initial_north_east_m = f["north_east_m"].vec2();
     f["height_m"].get(s.initial_height_m, 0.0, 1000.0);
     if (f["yaw_deg"].defined()) s.initial_yaw_rad = f["yaw_deg"].number(-360.0, 360.0) * kDeg;
-  }
-  if (const Field f = top["hil"]; f.defined()) {
-    f.expect_map({"rate_hz", "uart0_baud"});
-    f["rate_hz"].get(s.control_rate_hz, 10.0, 1000.0);
-    if (f["uart0_baud"].defined()) s.uart0_baud = f["uart0_baud"].integer(9600, 921600);
-  }
-  if (const Field f = top["radio"]; f.defined()) {
-    f.expect_map({"baud", "latency_s", "jitter_s", "loss", "bit_error_rate"});
-    if (f["baud"].defined()) s.radio_baud = f["baud"].integer(9600, 921600);
-    parse_radio(f, s.radio);
-  }
-  if (const Field f = top["gcs"]; f.defined()) {
-    f.expect_map({"port"});
-    const std::string port = f["port"].text();
-    if (port != "uart0" && port != "radio") f["port"].fail("must be uart0 or radio");
-    s.gcs_over_radio = port == "radio";
-  }
-  top["rc_rate_hz"].get(s.rc_rate_hz, 1.0, 500.0);
-  if (const Field f = top["vision"]; f.defined()) {
-    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
-    f["enabled"].get(s.vision.enabled);
-    f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
-    f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
-    f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
-  }
-  if (const Field f = top["camera"]; f.defined()) {
-    f.expect_map({"enabled", "star_tip_to_tip_m", "distractors", "floor_grey", "star_grey", "noise_grey",
-                  "exposure_variation", "vignetting", "frame_loss", "calibration_focal_error"});
-    f["enabled"].get(s.camera.enabled);
-    f["star_tip_to_tip_m"].get(s.camera.star_tip_to_tip_m, 0.05, 5.0);
-    if (f["distractors"].defined()) s.camera.distractors = f["distractors"].integer(0, 50);
-    f["floor_grey"].get(s.camera.floor_grey, 1.0, 255.0);
-    f["star_grey"].get(s.camera.star_grey, 0.0, 255.0);
-    f["noise_grey"].get(s.camera.noise_grey, 0.0, 40.0);
-    f["exposure_variation"].get(s.camera.exposure_variation, 0.0, 0.5);
-    f["vignetting"].get(s.camera.vignetting, 0.0, 0.9);
-    f["frame_loss"].get(s.camera.frame_loss, 0.0, 1.0);
-    f["calibration_focal_error"].get(s.camera.calibration_focal_error, -0.5, 0.5);
   }
   if (const Field f = top["motors"]; f.defined()) {
     f.expect_map({"tau_up_s", "tau_down_s", "thrust_curve", "idle_command", "max_thrust_n"});
@@ -311,60 +352,115 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
     f["linear_n_per_m_s"].get(s.drag_linear, 0.0, 100.0);
     f["quadratic_n_per_m2_s2"].get(s.drag_quadratic, 0.0, 100.0);
   }
-  if (const Field f = top["wind"]; f.defined()) {
-    f.expect_map({"mean_ned_m_s", "gusts"});
-    f["mean_ned_m_s"].get(s.wind_mean_ned_m_s);
-    if (const Field g = f["gusts"]; g.defined()) {
-      for (size_t i = 0; i < g.size(); ++i) {
-        const Field e = g.at(i);
-        e.expect_map({"start_s", "end_s", "velocity_ned_m_s"});
-        Gust gust;
-        gust.start_s = e["start_s"].number(0.0, s.duration_s);
-        gust.end_s = e["end_s"].number(gust.start_s, 1e9);
-        gust.velocity_ned_m_s = e["velocity_ned_m_s"].vec3();
-        s.gusts.push_back(gust);
-      }
+  if (const Field f = top["wind"]; f.defined()) parse_wind(f, s);
+}
+
+void parse_wind(const Field& f, Scenario& s) {
+  f.expect_map({"mean_ned_m_s", "gusts"});
+  f["mean_ned_m_s"].get(s.wind_mean_ned_m_s);
+  if (const Field g = f["gusts"]; g.defined()) {
+    for (size_t i = 0; i < g.size(); ++i) {
+      const Field e = g.at(i);
+      e.expect_map({"start_s", "end_s", "velocity_ned_m_s"});
+      Gust gust;
+      gust.start_s = e["start_s"].number(0.0, s.duration_s);
+      gust.end_s = e["end_s"].number(gust.start_s, 1e9);
+      gust.velocity_ned_m_s = e["velocity_ned_m_s"].vec3();
+      s.gusts.push_back(gust);
     }
   }
-  if (const Field f = top["commands"]; f.defined()) {
-    for (size_t i = 0; i < f.size(); ++i) {
-      const Field e = f.at(i);
-      e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land", "param_list"});
-      GcsCommand c;
-      c.at_s = e["at_s"].number(0.0, s.duration_s);
-      int actions = 0;
-      if (e["arm"].defined()) c.arm = e["arm"].boolean(), ++actions;
-      if (e["mode"].defined()) c.mode = parse_mode(e["mode"]), ++actions;
-      if (e["setpoint_ned_m"].defined()) c.setpoint_ned_m = e["setpoint_ned_m"].vec3(), ++actions;
-      if (e["yaw_deg"].defined()) {
-        if (!c.setpoint_ned_m) e["yaw_deg"].fail("goes with setpoint_ned_m");
-        c.yaw_rad = e["yaw_deg"].number(-360.0, 360.0) * kDeg;
+}
+
+// The links: the HIL link, the radio and where the ground station sits on it, the RC frame rate.
+void parse_links(const Field& top, Scenario& s) {
+  if (const Field f = top["hil"]; f.defined()) {
+    f.expect_map({"rate_hz", "uart0_baud"});
+    f["rate_hz"].get(s.control_rate_hz, 10.0, 1000.0);
+    if (f["uart0_baud"].defined()) s.uart0_baud = f["uart0_baud"].integer(9600, 921600);
+  }
+  if (const Field f = top["radio"]; f.defined()) {
+    f.expect_map({"baud", "latency_s", "jitter_s", "loss", "bit_error_rate"});
+    if (f["baud"].defined()) s.radio_baud = f["baud"].integer(9600, 921600);
+    parse_radio(f, s.radio);
+  }
+  if (const Field f = top["gcs"]; f.defined()) {
+    f.expect_map({"port"});
+    const std::string port = f["port"].text();
+    if (port != "uart0" && port != "radio") f["port"].fail("must be uart0 or radio");
+    s.gcs_over_radio = port == "radio";
+  }
+  top["rc_rate_hz"].get(s.rc_rate_hz, 1.0, 500.0);
+}
+
+// The vision fix: simulated, or the rendered cameras with the station, and the station's settings.
+void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
+  if (const Field f = top["vision"]; f.defined()) {
+    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
+    f["enabled"].get(s.vision.enabled);
+    f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
+    f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
+    f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
+  }
+  if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
+  if (const Field f = top["station_settings"]; f.defined()) {
+    for (const std::string& k : f.keys()) {
+      const Field v = f[k.c_str()];
+      const std::string value = v.text();
+      const bool word = std::all_of(value.begin(), value.end(), [](unsigned char ch) { return std::isalnum(ch) || ch == '_'; });
+      bool numeric = true;
+      try {
+        (void)v.number();
+      } catch (const ScenarioError&) {
+        numeric = false;
       }
-      if (e["land"].defined()) {
-        if (!e["land"].boolean()) e["land"].fail("can only be true");
-        c.land = true, ++actions;
-      }
-      if (e["param_list"].defined()) {
-        if (!e["param_list"].boolean()) e["param_list"].fail("can only be true");
-        c.param_list = true, ++actions;
-      }
-      if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land, param_list");
-      s.commands.push_back(c);
+      if (!numeric && !word) v.fail("must be a number or a single word");
+      s.station_settings.emplace_back(k, value);
     }
   }
-  if (const Field f = top["rc"]; f.defined()) {
-    for (size_t i = 0; i < f.size(); ++i) {
-      const Field e = f.at(i);
-      e.expect_map({"at_s", "roll", "pitch", "yaw", "throttle"});
-      RcSticks r;
-      r.at_s = e["at_s"].number(0.0, s.duration_s);
-      if (e["roll"].defined()) r.roll = e["roll"].integer(-1000, 1000);
-      if (e["pitch"].defined()) r.pitch = e["pitch"].integer(-1000, 1000);
-      if (e["yaw"].defined()) r.yaw = e["yaw"].integer(-1000, 1000);
-      if (e["throttle"].defined()) r.throttle = e["throttle"].integer(0, 1000);
-      s.rc.push_back(r);
-    }
+}
+
+GcsCommand parse_command(const Field& e, double duration_s) {
+  e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land", "param_list"});
+  GcsCommand c;
+  c.at_s = e["at_s"].number(0.0, duration_s);
+  int actions = 0;
+  if (e["arm"].defined()) c.arm = e["arm"].boolean(), ++actions;
+  if (e["mode"].defined()) c.mode = parse_mode(e["mode"]), ++actions;
+  if (e["setpoint_ned_m"].defined()) c.setpoint_ned_m = e["setpoint_ned_m"].vec3(), ++actions;
+  if (e["yaw_deg"].defined()) {
+    if (!c.setpoint_ned_m) e["yaw_deg"].fail("goes with setpoint_ned_m");
+    c.yaw_rad = e["yaw_deg"].number(-360.0, 360.0) * kDeg;
   }
+  if (e["land"].defined()) {
+    if (!e["land"].boolean()) e["land"].fail("can only be true");
+    c.land = true, ++actions;
+  }
+  if (e["param_list"].defined()) {
+    if (!e["param_list"].boolean()) e["param_list"].fail("can only be true");
+    c.param_list = true, ++actions;
+  }
+  if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land, param_list");
+  return c;
+}
+
+RcSticks parse_rc(const Field& e, double duration_s) {
+  e.expect_map({"at_s", "roll", "pitch", "yaw", "throttle"});
+  RcSticks r;
+  r.at_s = e["at_s"].number(0.0, duration_s);
+  if (e["roll"].defined()) r.roll = e["roll"].integer(-1000, 1000);
+  if (e["pitch"].defined()) r.pitch = e["pitch"].integer(-1000, 1000);
+  if (e["yaw"].defined()) r.yaw = e["yaw"].integer(-1000, 1000);
+  if (e["throttle"].defined()) r.throttle = e["throttle"].integer(0, 1000);
+  return r;
+}
+
+// What happens in the flight: ground-station commands, RC sticks and faults, in time order; the
+// firmware's parameters; the window the metrics cover.
+void parse_flight(const YAML::Node& root, const Field& top, Scenario& s) {
+  if (const Field f = top["commands"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) s.commands.push_back(parse_command(f.at(i), s.duration_s));
+  if (const Field f = top["rc"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) s.rc.push_back(parse_rc(f.at(i), s.duration_s));
   if (const Field f = top["faults"]; f.defined())
     for (size_t i = 0; i < f.size(); ++i) s.faults.push_back(parse_fault(f.at(i), s.duration_s));
   if (const Field f = top["firmware_params"]; f.defined()) {
@@ -383,16 +479,56 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& name, c
   auto by_time = [](const auto& a, const auto& b) { return a.at_s < b.at_s; };
   std::stable_sort(s.commands.begin(), s.commands.end(), by_time);
   std::stable_sort(s.rc.begin(), s.rc.end(), by_time);
+}
+
+Scenario scenario_from(const YAML::Node& root, const std::string& name, const std::string& base_dir) {
+  Scenario s;
+  s.path = name;
+  const Field top(root, "", &name);
+  top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
+                  "vision", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "rc", "faults", "metrics", "firmware_params"});
+  s.name = top["name"].text();
+  s.duration_s = top["duration_s"].number(0.01, 86400.0);
+  if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
+  parse_vehicle(top, base_dir, s);
+  parse_links(top, s);
+  parse_vision(top, base_dir, s);
+  parse_flight(root, top, s);
   return s;
 }
 
-Scenario load_scenario(const std::string& path) {
+}  // namespace
+
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir,
+                        const std::vector<ScenarioOverride>& overrides) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw ScenarioError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
+  }
+  if (overrides.empty()) return scenario_from(root, name, base_dir);
+  std::string keys;
+  for (const ScenarioOverride& o : overrides) {
+    apply_override(root, o, name);
+    keys += (keys.empty() ? "" : ", ") + o.key;
+  }
+  try {
+    return scenario_from(root, name, base_dir);
+  } catch (const ScenarioError& e) {  // a line number may then be the --set value's own
+    throw ScenarioError(std::string(e.what()) + " (with --set " + keys + ")");
+  }
+}
+
+Scenario load_scenario(const std::string& path, const std::vector<ScenarioOverride>& overrides) {
   std::ifstream in(path);
   if (!in) throw ScenarioError(path + ": cannot open the scenario file");
   std::stringstream text;
   text << in.rdbuf();
   const size_t slash = path.find_last_of('/');
-  return parse_scenario(text.str(), path, slash == std::string::npos ? std::string(".") : path.substr(0, slash));
+  return parse_scenario(text.str(), path, slash == std::string::npos ? std::string(".") : path.substr(0, slash),
+                        overrides);
 }
 
 }  // namespace quad::sim

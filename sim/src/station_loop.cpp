@@ -11,11 +11,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <thread>
 
+#include "quad/sim/station_calibration.h"
 #include "quad/sim/vision_fix.h"
 #include "quad/vision/sim_protocol.h"
-#include "quad/vision/stereo_calibration.h"
 
 namespace quad::sim {
 namespace wire = quad::vision::sim_protocol;
@@ -24,6 +25,7 @@ namespace mav = quad::mavlink;
 namespace {
 
 constexpr int kAnswerTimeoutMs = 10000;
+constexpr double kHistoryS = 0.1;  // vehicle poses kept for interlaced fields and motion blur
 
 std::string socket_path_for_this_run() {
   // Unix socket paths are limited to 108 bytes, so the socket lives in /tmp rather than the run folder.
@@ -45,25 +47,41 @@ void send_all(int fd, const void* data, size_t length) {
   }
 }
 
+std::string default_calibration_cache(const std::vector<std::string>& station_argv, const std::string& out_dir) {
+  // Beside the station executable (e.g. build/host/bin/station_calibration): shared by every run of that
+  // build; a station found through PATH calibrates into the run folder.
+  const std::string& exe = station_argv.empty() ? std::string() : station_argv.front();
+  const size_t slash = exe.rfind('/');
+  return slash == std::string::npos ? out_dir + "/station_calibration" : exe.substr(0, slash) + "/station_calibration";
+}
+
 }  // namespace
 
-StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
-                         const std::vector<std::string>& station_argv)
+StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, const std::string& out_dir,
+                         const std::vector<std::string>& station_argv, const StationLoopOptions& options)
     : s_(scenario),
-      renderer_(scenario.camera, make_floor_scene(scenario.camera, Rng(scenario.seed, "floor_scene")),
+      renderer_(scenario.camera, rig, make_floor_scene(scenario.camera, Rng(scenario.seed, "floor_scene")),
                 Rng(scenario.seed, "camera")),
       loss_rng_(scenario.seed, "camera_frame_loss"),
       port_(scenario.radio_baud),
       socket_path_(socket_path_for_this_run()) {
-  // The station is calibrated with the rig the cameras are rendered through (a perfect calibration),
-  // unless the scenario gives it focal lengths off by `calibration_focal_error` (fault campaign).
-  const std::string calib = out_dir + "/station_calib.yaml";
-  quad::vision::StereoRig calibrated = renderer_.rig();
-  for (quad::vision::CameraIntrinsics* c : {&calibrated.left, &calibrated.right}) {
-    c->K(0, 0) *= 1.0 + scenario.camera.calibration_focal_error;
-    c->K(1, 1) *= 1.0 + scenario.camera.calibration_focal_error;
+  // The station learns the cameras from chessboards the simulator renders (quad/sim/station_calibration.h),
+  // unless it is given a calibration file; a scenario's `calibration_focal_error` then scales its focal
+  // lengths (fault campaign).
+  std::string calib = options.calibration_file;
+  if (calib.empty()) {
+    const std::string cache = options.calibration_cache.empty() ? default_calibration_cache(station_argv, out_dir)
+                                                                : options.calibration_cache;
+    calib = station_calibration_file(rig, scenario.camera, calibrate_command_for(station_argv), cache, options.progress);
   }
-  quad::vision::save_calibration(quad::vision::rectify(calibrated), calib);
+  if (scenario.camera.calibration_focal_error != 0.0) {
+    write_focal_error_calibration(calib, out_dir + "/station_calib.yaml", scenario.camera.calibration_focal_error);
+  } else {
+    std::filesystem::copy_file(calib, out_dir + "/station_calib.yaml", std::filesystem::copy_options::overwrite_existing);
+  }
+  calib = out_dir + "/station_calib.yaml";
+  const std::string settings = out_dir + "/station_settings.yaml";
+  write_station_settings(settings, rig.left_mount, scenario.station_settings);
 
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_un address{};
@@ -75,7 +93,7 @@ StationLoop::StationLoop(const Scenario& scenario, const std::string& out_dir,
     throw StationError(socket_path_ + ": cannot listen for the vision station: " + std::strerror(errno));
   }
   std::vector<std::string> argv = station_argv;
-  for (const std::string& a : {std::string("--calib"), calib, std::string("--source"), "sim:" + socket_path_,
+  for (const std::string& a : {std::string("--calib"), calib, std::string("--settings"), settings, std::string("--source"), "sim:" + socket_path_,
                                std::string("--out"), port_.slave_path(), std::string("--baud"),
                                std::to_string(scenario.radio_baud), std::string("--status-s"), std::string("10"),
                                // A slow simulator is not a stalled camera: a stall would reset the
@@ -119,6 +137,8 @@ void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Qu
     collect(pending_.front(), to_radio);
     pending_.pop_front();
   }
+  history_.push_back(Timed{t, VehiclePose{p_ned, q_ib}});
+  while (history_.size() > 2 && history_[1].t < t - kHistoryS) history_.pop_front();
   if (t + 1e-9 < next_capture_t_) return;
   next_capture_t_ += 1.0 / s_.vision.rate_hz;
   const uint64_t sequence = next_sequence_++;
@@ -128,9 +148,21 @@ void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Qu
     return;
   }
   renderer_.set_decoy(decoy_ne);
-  renderer_.render(p_ned, q_ib, star_hidden, left_, right_);
+  renderer_.render([this](double when) { return pose_at(when); }, t, star_hidden, left_, right_);
   send_pair(sequence, t);
   pending_.push_back(Pending{sequence, t, star_in_body_frd(p_ned, q_ib)});
+}
+
+VehiclePose StationLoop::pose_at(double t) const {
+  if (t <= history_.front().t) return history_.front().pose;
+  for (size_t i = 1; i < history_.size(); ++i) {
+    const Timed& a = history_[i - 1];
+    const Timed& b = history_[i];
+    if (t > b.t) continue;
+    const double f = b.t > a.t ? (t - a.t) / (b.t - a.t) : 1.0;
+    return VehiclePose{a.pose.p_ned + f * (b.pose.p_ned - a.pose.p_ned), a.pose.q_ib.slerp(f, b.pose.q_ib)};
+  }
+  return history_.back().pose;
 }
 
 void StationLoop::send_pair(uint64_t sequence, double t) {

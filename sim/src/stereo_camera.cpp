@@ -2,20 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "quad/vision/ideal_star.h"
-
 namespace quad::sim {
-namespace vis = quad::vision;
 
 namespace {
 
 constexpr int kSupersample = 4;       // sub-pixels per pixel side for the edge coverage
 constexpr int kSegmentsPerEdge = 24;  // straight floor edges are curves in the distorted image
-constexpr double kValidFraction = 0.97;
 constexpr size_t kNoiseTable = size_t{1} << 21;
+constexpr double kFieldPeriod = 1.0 / 60.0;  // analog video: two fields per 1/30 s frame
+constexpr double kBlurStepPx = 0.5;          // image motion between two sub-exposures at most
+constexpr int kMaxBlurSamples = 16;
 
 std::vector<Eigen::Vector2d> regular_polygon(const Eigen::Vector2d& centre, double radius, int sides, double rotation) {
   std::vector<Eigen::Vector2d> v;
@@ -26,17 +27,10 @@ std::vector<Eigen::Vector2d> regular_polygon(const Eigen::Vector2d& centre, doub
   return v;
 }
 
-Eigen::Matrix3d to_eigen(const cv::Matx33d& m) {
-  Eigen::Matrix3d e;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) e(r, c) = m(r, c);
-  return e;
-}
-
 // Vignetting: brightness falls off with the square of the distance from the principal point.
-cv::Mat lighting_map(const vis::CameraIntrinsics& camera, cv::Size size, double vignetting) {
+cv::Mat lighting_map(const LensParams& lens, cv::Size size, double vignetting) {
   cv::Mat light(size, CV_32F);
-  const double cx = camera.K(0, 2), cy = camera.K(1, 2);
+  const double cx = lens.cx, cy = lens.cy;
   const double corner2 = std::max({cx * cx + cy * cy, (size.width - cx) * (size.width - cx) + cy * cy,
                                    cx * cx + (size.height - cy) * (size.height - cy),
                                    (size.width - cx) * (size.width - cx) + (size.height - cy) * (size.height - cy)});
@@ -50,15 +44,26 @@ cv::Mat lighting_map(const vis::CameraIntrinsics& camera, cv::Size size, double 
   return light;
 }
 
+VehiclePose interpolate(const VehiclePose& a, const VehiclePose& b, double f) {
+  return VehiclePose{a.p_ned + f * (b.p_ned - a.p_ned), a.q_ib.slerp(f, b.q_ib)};
+}
+
 }  // namespace
+
+std::vector<Eigen::Vector2d> landing_star_outline(double tip_to_tip, double inner_ratio) {
+  std::vector<Eigen::Vector2d> outline;
+  const double tip = 0.5 * tip_to_tip;
+  for (int i = 0; i < 8; ++i) {
+    const double angle = i * M_PI / 4.0;
+    const double r = i % 2 == 0 ? tip : inner_ratio * tip;
+    outline.emplace_back(r * std::cos(angle), r * std::sin(angle));
+  }
+  return outline;
+}
 
 std::vector<FloorShape> make_floor_scene(const CameraParams& params, Rng rng) {
   std::vector<FloorShape> scene;
-  FloorShape star;
-  for (const cv::Point2d& p : vis::star_vertices(vis::StarShape{0.5 * params.star_tip_to_tip_m, 0.4}))
-    star.outline.emplace_back(p.x, p.y);
-  star.grey = params.star_grey;
-  scene.push_back(star);
+  scene.push_back(FloorShape{landing_star_outline(params.star_tip_to_tip_m, params.star_inner_ratio), params.star_grey});
   struct Placed {
     Eigen::Vector2d centre;
     double radius;
@@ -83,92 +88,21 @@ std::vector<FloorShape> make_floor_scene(const CameraParams& params, Rng rng) {
   return scene;
 }
 
-CameraPose left_camera_pose(const vis::CameraMount& mount, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib) {
-  // p_B = R_IBᵀ (p_I − p), p_C = R_BCᵀ (p_B − t_BC)  (eq. 7.22 inverted).
-  const Eigen::Matrix3d R_CB = to_eigen(mount.R_BC).transpose();
-  const Eigen::Matrix3d R_BI = q_ib.toRotationMatrix().transpose();
-  const Eigen::Vector3d t_BC(mount.t_BC[0], mount.t_BC[1], mount.t_BC[2]);
-  return CameraPose{R_CB * R_BI, -R_CB * (R_BI * p_ned + t_BC)};
-}
-
-CameraPose right_camera_pose(const vis::StereoRig& rig, const CameraPose& left) {
-  const Eigen::Matrix3d R = to_eigen(rig.R);
-  const Eigen::Vector3d T(rig.T[0], rig.T[1], rig.T[2]);
-  return CameraPose{R * left.R, R * left.t + T};
-}
-
-double fold_radius(const vis::CameraIntrinsics& camera) {
-  const double k1 = camera.D[0], k2 = camera.D[1], k3 = camera.D[4];
-  for (double r = 0.0; r < 3.0; r += 1e-4) {
-    const double r2 = r * r;
-    if (1.0 + 3.0 * k1 * r2 + 5.0 * k2 * r2 * r2 + 7.0 * k3 * r2 * r2 * r2 <= 0.0) return r;
-  }
-  return 3.0;
-}
-
-std::optional<cv::Point2d> project_point(const vis::CameraIntrinsics& camera, double valid_radius,
-                                         const Eigen::Vector3d& p) {
-  if (p.z() <= 1e-4) return std::nullopt;
-  double x = p.x() / p.z(), y = p.y() / p.z();
-  const double r = std::hypot(x, y), limit = kValidFraction * valid_radius;
-  if (r > limit) {
-    x *= limit / r;
-    y *= limit / r;
-  }
-  // OpenCV's forward model (docs/vision_station.md, "Camera model"): the station inverts exactly this.
-  const cv::Vec<double, 5>& D = camera.D;
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + D[0] * r2 + D[1] * r2 * r2 + D[4] * r2 * r2 * r2;
-  const double xd = x * radial + 2.0 * D[2] * x * y + D[3] * (r2 + 2.0 * x * x);
-  const double yd = y * radial + D[2] * (r2 + 2.0 * y * y) + 2.0 * D[3] * x * y;
-  const cv::Matx33d& K = camera.K;
-  return cv::Point2d(K(0, 0) * xd + K(0, 1) * yd + K(0, 2), K(1, 1) * yd + K(1, 2));
-}
-
-StereoCameraRenderer::StereoCameraRenderer(const CameraParams& params, std::vector<FloorShape> scene, Rng rng)
-    : p_(params), scene_(std::move(scene)), scene_shapes_(scene_.size()), rng_(std::move(rng)), rig_(vis::thesis_stereo_rig()),
-      mount_(vis::thesis_camera_mount()), valid_left_(fold_radius(rig_.left)), valid_right_(fold_radius(rig_.right)) {
-  lighting_left_ = lighting_map(rig_.left, rig_.image_size, p_.vignetting);
-  lighting_right_ = lighting_map(rig_.right, rig_.image_size, p_.vignetting);
-  noise_.resize(kNoiseTable);
-  for (int8_t& n : noise_) n = static_cast<int8_t>(std::clamp(std::lround(rng_.normal(p_.noise_grey)), -127L, 127L));
-}
-
-void StereoCameraRenderer::set_decoy(const std::optional<Eigen::Vector2d>& north_east) {
-  scene_.resize(scene_shapes_);
-  if (!north_east || scene_.empty()) return;
-  FloorShape decoy = scene_.front();
-  for (Eigen::Vector2d& v : decoy.outline) v += *north_east;
-  scene_.push_back(std::move(decoy));
-}
-
-void StereoCameraRenderer::render(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool hide_star,
-                                  cv::Mat& left, cv::Mat& right) {
-  // Exposure wanders slowly (auto-exposure hunting, clouds): an AR(1) walk of unit variance.
-  exposure_walk_ = 0.9 * exposure_walk_ + std::sqrt(1.0 - 0.81) * rng_.normal();
-  const double exposure = std::clamp(1.0 + p_.exposure_variation * exposure_walk_, 0.5, 1.5);
-  const CameraPose pose_left = left_camera_pose(mount_, p_ned, q_ib);
-  render_view(rig_.left, valid_left_, pose_left, hide_star, exposure, lighting_left_, left);
-  render_view(rig_.right, valid_right_, right_camera_pose(rig_, pose_left), hide_star, exposure, lighting_right_, right);
-}
-
-void StereoCameraRenderer::render_view(const vis::CameraIntrinsics& camera, double valid_radius, const CameraPose& pose,
-                                       bool hide_star, double exposure, const cv::Mat& lighting, cv::Mat& out) {
-  const cv::Size size = rig_.image_size;
-  albedo_.create(size, CV_32F);
-  albedo_.setTo(cv::Scalar(p_.floor_grey));
+void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose& pose, const std::vector<FloorShape>& shapes,
+                  size_t first, cv::Mat& albedo, cv::Mat& canvas, cv::Mat& coverage) {
+  const cv::Size size = albedo.size();
   const cv::Rect image_rect(0, 0, size.width, size.height);
-  std::vector<cv::Point2d> projected;
+  std::vector<Eigen::Vector2d> projected;
   std::vector<cv::Point> canvas_points;
-  for (size_t s = hide_star ? 1 : 0; s < scene_.size(); ++s) {
-    const FloorShape& shape = scene_[s];
+  for (size_t s = first; s < shapes.size(); ++s) {
+    const FloorShape& shape = shapes[s];
     projected.clear();
     bool visible = true;
     for (size_t i = 0; i < shape.outline.size() && visible; ++i) {
       const Eigen::Vector2d a = shape.outline[i], b = shape.outline[(i + 1) % shape.outline.size()];
       for (int k = 0; k < kSegmentsPerEdge; ++k) {
         const Eigen::Vector2d q = a + (b - a) * (static_cast<double>(k) / kSegmentsPerEdge);
-        const std::optional<cv::Point2d> uv = project_point(camera, valid_radius, pose.R * Eigen::Vector3d(q.x(), q.y(), 0.0) + pose.t);
+        const auto uv = project_lens(lens, valid_radius, pose.R * Eigen::Vector3d(q.x(), q.y(), 0.0) + pose.t);
         if (!uv) {
           visible = false;
           break;
@@ -178,8 +112,8 @@ void StereoCameraRenderer::render_view(const vis::CameraIntrinsics& camera, doub
     }
     if (!visible) continue;
     double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-    for (const cv::Point2d& uv : projected) {
-      x0 = std::min(x0, uv.x); y0 = std::min(y0, uv.y); x1 = std::max(x1, uv.x); y1 = std::max(y1, uv.y);
+    for (const Eigen::Vector2d& uv : projected) {
+      x0 = std::min(x0, uv.x()); y0 = std::min(y0, uv.y()); x1 = std::max(x1, uv.x()); y1 = std::max(y1, uv.y());
     }
     if (x1 < -1.0 || y1 < -1.0 || x0 > size.width || y0 > size.height) continue;
     const cv::Rect box = cv::Rect(cv::Point(static_cast<int>(std::floor(std::max(x0, -1.0))) - 1,
@@ -191,35 +125,165 @@ void StereoCameraRenderer::render_view(const vis::CameraIntrinsics& camera, doub
     // Pixel i covers [i − ½, i + ½]; sub-pixel k of the canvas has its centre at (k + ½)/ss − ½.
     constexpr int kShift = 8;
     canvas_points.clear();
-    for (const cv::Point2d& uv : projected) {
-      const double cx = ((uv.x - box.x) + 0.5) * kSupersample - 0.5;
-      const double cy = ((uv.y - box.y) + 0.5) * kSupersample - 0.5;
+    for (const Eigen::Vector2d& uv : projected) {
+      const double cx = ((uv.x() - box.x) + 0.5) * kSupersample - 0.5;
+      const double cy = ((uv.y() - box.y) + 0.5) * kSupersample - 0.5;
       canvas_points.emplace_back(cvRound(cx * (1 << kShift)), cvRound(cy * (1 << kShift)));
     }
-    canvas_.create(box.height * kSupersample, box.width * kSupersample, CV_8UC1);
-    canvas_.setTo(cv::Scalar(0));
+    canvas.create(box.height * kSupersample, box.width * kSupersample, CV_8UC1);
+    canvas.setTo(cv::Scalar(0));
     const cv::Point* pts = canvas_points.data();
     const int n = static_cast<int>(canvas_points.size());
-    cv::fillPoly(canvas_, &pts, &n, 1, cv::Scalar(255), cv::LINE_8, kShift);
-    cv::resize(canvas_, coverage_, box.size(), 0, 0, cv::INTER_AREA);
+    cv::fillPoly(canvas, &pts, &n, 1, cv::Scalar(255), cv::LINE_8, kShift);
+    cv::resize(canvas, coverage, box.size(), 0, 0, cv::INTER_AREA);
     for (int v = 0; v < box.height; ++v) {
-      float* a = albedo_.ptr<float>(box.y + v) + box.x;
-      const uint8_t* c = coverage_.ptr<uint8_t>(v);
+      float* a = albedo.ptr<float>(box.y + v) + box.x;
+      const uint8_t* c = coverage.ptr<uint8_t>(v);
       for (int u = 0; u < box.width; ++u) a[u] += static_cast<float>((shape.grey - a[u]) * (c[u] * (1.0 / 255.0)));
     }
   }
+}
+
+StereoCameraRenderer::StereoCameraRenderer(const CameraParams& params, const SimStereoRig& rig, std::vector<FloorShape> scene,
+                                           Rng rng)
+    : p_(params), rig_(rig), scene_(std::move(scene)), scene_shapes_(scene_.size()), rng_(std::move(rng)) {
+  left_ = make_view(rig_.left, rig_.left_mount);
+  right_ = make_view(rig_.right, rig_.right_mount);
+  if (!p_.floor_texture.empty()) texture_.emplace(p_.floor_texture, p_.floor_texture_m, p_.floor_grey, p_.floor_texture_contrast);
+  noise_.resize(kNoiseTable);
+  for (int8_t& n : noise_) n = static_cast<int8_t>(std::clamp(std::lround(rng_.normal(p_.noise_grey)), -127L, 127L));
+}
+
+StereoCameraRenderer::View StereoCameraRenderer::make_view(const LensParams& lens, const CameraMountModel& mount) const {
+  View view;
+  view.lens = lens;
+  view.mount = mount;
+  view.valid_radius = lens_fold_radius(lens);
+  const cv::Size size(rig_.width, rig_.height);
+  view.lighting = lighting_map(lens, size, p_.vignetting);
+  if (p_.floor_texture.empty()) return view;
+  view.rays.create(size, CV_32FC2);
+  constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+  for (int v = 0; v < size.height; ++v) {
+    cv::Vec2f* row = view.rays.ptr<cv::Vec2f>(v);
+    for (int u = 0; u < size.width; ++u) {
+      const auto xy = unproject_lens(lens, view.valid_radius, Eigen::Vector2d(u, v));
+      row[u] = xy ? cv::Vec2f(static_cast<float>(xy->x()), static_cast<float>(xy->y())) : cv::Vec2f(kNan, kNan);
+    }
+  }
+  return view;
+}
+
+void StereoCameraRenderer::set_decoy(const std::optional<Eigen::Vector2d>& north_east) {
+  scene_.resize(scene_shapes_);
+  if (!north_east || scene_.empty()) return;
+  FloorShape decoy = scene_.front();
+  for (Eigen::Vector2d& v : decoy.outline) v += *north_east;
+  scene_.push_back(std::move(decoy));
+}
+
+void StereoCameraRenderer::render(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool hide_star, cv::Mat& left,
+                                  cv::Mat& right) {
+  const VehiclePose still{p_ned, q_ib};
+  render([&](double) { return still; }, 0.0, hide_star, left, right);
+}
+
+void StereoCameraRenderer::render(const PoseAtTime& pose_at, double t, bool hide_star, cv::Mat& left, cv::Mat& right) {
+  // Exposure wanders slowly (auto-exposure hunting, clouds): an AR(1) walk of unit variance.
+  exposure_walk_ = 0.9 * exposure_walk_ + std::sqrt(1.0 - 0.81) * rng_.normal();
+  const double exposure = std::clamp(1.0 + p_.exposure_variation * exposure_walk_, 0.5, 1.5);
+  render_view(left_, pose_at, t, hide_star, exposure, left);
+  render_view(right_, pose_at, t, hide_star, exposure, right);
+}
+
+void StereoCameraRenderer::floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, int first_row, int row_step,
+                                        cv::Mat& albedo) {
+  const CameraPose camera = camera_pose_over_floor(view.mount, pose.p_ned, pose.q_ib);
+  albedo.create(rig_.height, rig_.width, CV_32F);
+  if (texture_) {
+    texture_->fill(view.rays, camera, view.lens.fy, first_row, row_step, albedo);
+  } else {
+    albedo.setTo(cv::Scalar(p_.floor_grey));
+  }
+  paint_shapes(view.lens, view.valid_radius, camera, scene_, hide_star ? 1 : 0, albedo, canvas_, coverage_);
+}
+
+int StereoCameraRenderer::blur_samples(const View& view, const VehiclePose& start, const VehiclePose& end) const {
+  // Image motion over the shutter time: the floor point on the optical axis at the start, seen at the end.
+  const CameraPose a = camera_pose_over_floor(view.mount, start.p_ned, start.q_ib);
+  const CameraPose b = camera_pose_over_floor(view.mount, end.p_ned, end.q_ib);
+  const Eigen::Vector3d centre = -a.R.transpose() * a.t, axis = a.R.transpose() * Eigen::Vector3d::UnitZ();
+  if (axis.z() <= 1e-3) return 1;
+  const Eigen::Vector3d on_floor = centre + (-centre.z() / axis.z()) * axis;
+  const Eigen::Vector3d seen = b.R * on_floor + b.t;
+  if (seen.z() <= 1e-3) return kMaxBlurSamples;
+  const double motion_px = view.lens.fy * std::hypot(seen.x() / seen.z(), seen.y() / seen.z());
+  return std::clamp(static_cast<int>(std::ceil(motion_px / kBlurStepPx)), 1, kMaxBlurSamples);
+}
+
+void StereoCameraRenderer::render_view(const View& view, const PoseAtTime& pose_at, double t, bool hide_star, double exposure,
+                                       cv::Mat& out) {
+  const int fields = p_.interlaced ? 2 : 1;
+  sum_.create(rig_.height, rig_.width, CV_32F);
+  for (int field = 0; field < fields; ++field) {
+    const double end_t = t - (fields - 1 - field) * kFieldPeriod;
+    const VehiclePose end = pose_at(end_t);
+    const VehiclePose start = p_.exposure_s > 0.0 ? pose_at(end_t - p_.exposure_s) : end;
+    const int samples = p_.exposure_s > 0.0 ? blur_samples(view, start, end) : 1;
+    last_blur_samples_ = samples;
+    const int first_row = field;  // even rows: the first field
+    for (int k = 0; k < samples; ++k) {
+      // Sub-exposures at the middles of equal slices of the shutter time.
+      floor_albedo(view, samples == 1 ? end : interpolate(start, end, (k + 0.5) / samples), hide_star, first_row, fields, albedo_);
+      for (int v = first_row; v < rig_.height; v += fields) {
+        const float* a = albedo_.ptr<float>(v);
+        float* s = sum_.ptr<float>(v);
+        const float w = 1.0f / static_cast<float>(samples);
+        if (k == 0) {
+          for (int u = 0; u < rig_.width; ++u) s[u] = a[u] * w;
+        } else {
+          for (int u = 0; u < rig_.width; ++u) s[u] += a[u] * w;
+        }
+      }
+    }
+  }
+  expose(view, sum_, exposure, out);
+}
+
+void StereoCameraRenderer::expose(const View& view, const cv::Mat& albedo, double exposure, cv::Mat& out) {
+  const cv::Size size = albedo.size();
   out.create(size, CV_8UC1);
   const size_t pixels = static_cast<size_t>(size.area());
   const int8_t* noise = noise_.data() + static_cast<size_t>(rng_.uniform(0.0, static_cast<double>(noise_.size() - pixels)));
   const float gain = static_cast<float>(exposure);
   for (int v = 0; v < size.height; ++v) {
-    const float* a = albedo_.ptr<float>(v);
-    const float* l = lighting.ptr<float>(v);
+    const float* a = albedo.ptr<float>(v);
+    const float* l = view.lighting.ptr<float>(v);
     uint8_t* o = out.ptr<uint8_t>(v);
     for (int u = 0; u < size.width; ++u, ++noise) {
       const float value = a[u] * l[u] * gain + static_cast<float>(*noise);
       o[u] = static_cast<uint8_t>(std::clamp(value + 0.5f, 0.0f, 255.0f));
     }
+  }
+  if (p_.jpeg_quality > 0) {
+    // The capture device's compression: encode and decode, as the station would receive it.
+    std::vector<uint8_t> jpeg;
+    cv::imencode(".jpg", out, jpeg, {cv::IMWRITE_JPEG_QUALITY, p_.jpeg_quality});
+    out = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+  }
+}
+
+void StereoCameraRenderer::render_target(const CameraPose& target_in_left, const std::vector<FloorShape>& shapes,
+                                         double background, cv::Mat& left, cv::Mat& right) {
+  const Eigen::Matrix3d R = rig_.R_right_left();
+  const Eigen::Vector3d T = rig_.T_right_left();
+  const CameraPose in_right{R * target_in_left.R, R * target_in_left.t + T};
+  for (int i = 0; i < 2; ++i) {
+    const View& view = i == 0 ? left_ : right_;
+    albedo_.create(rig_.height, rig_.width, CV_32F);
+    albedo_.setTo(cv::Scalar(background));
+    paint_shapes(view.lens, view.valid_radius, i == 0 ? target_in_left : in_right, shapes, 0, albedo_, canvas_, coverage_);
+    expose(view, albedo_, 1.0, i == 0 ? left : right);
   }
 }
 

@@ -184,22 +184,22 @@ int main() {
             [&] { u = quad::est::kinematic_acceleration(g_observer.attitude(), s2.accel); });
     measure("kinematic_acceleration", [&] { u = quad::est::kinematic_acceleration(g_observer.dcm(), s2.accel); });
     measure("kalman_predict", [&] { g_filter.predict(u, g_now_us); });
-    quad::est::FixResult fix = quad::est::FixResult::RejectedInvalid;
+    quad::est::FixResult fix = quad::est::FixResult::kRejectedInvalid;
     const Vec3 p = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs);
     const Vec3 y = p + Vec3{0.02f, -0.01f, 0.015f};
     measure("kalman_fused_fix", [&] { fix = g_filter.fuse_position(y, g_now_us - kFixDelayUs); });
-    check(fix == quad::est::FixResult::Fused, "kalman_fix_not_fused");
+    check(fix == quad::est::FixResult::kFused, "kalman_fix_not_fused");
     // The same fusion in two steps (400 Hz): the gate, a predict, the update carried across it.
     g_now_us += kPeriodUs;
     g_filter.predict(u, g_now_us);
     const Vec3 y2 = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs) + Vec3{-0.01f, 0.02f, 0.0f};
     g_filter.queue_fix(y2, g_now_us - kFixDelayUs);
     measure("kalman_fix_gate", [&] { fix = g_filter.advance_fix(); });
-    check(fix == quad::est::FixResult::Pending, "kalman_fix_gate_failed");
+    check(fix == quad::est::FixResult::kPending, "kalman_fix_gate_failed");
     g_now_us += kPeriodUs;
     g_filter.predict(u, g_now_us);
     measure("kalman_fix_update", [&] { fix = g_filter.advance_fix(); });
-    check(fix == quad::est::FixResult::Fused, "kalman_fix_update_failed");
+    check(fix == quad::est::FixResult::kFused, "kalman_fix_update_failed");
     measure("shaper", [&] { g_shaper.update(kDt, g_setpoint); });
 
     const quad::ctrl::VehicleState st = vehicle_state();
@@ -266,7 +266,7 @@ int main() {
     g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
     g_shaper.update(kDt, g_setpoint);
     quad::ctrl::PositionSetpoint far;
-    quad::est::FixResult fix = quad::est::FixResult::RejectedInvalid;
+    quad::est::FixResult fix = quad::est::FixResult::kRejectedInvalid;
     const Vec3 p = g_filter.position() - g_filter.velocity() * (1e-6f * kFixDelayUs);
     const Vec3 y = p + Vec3{-0.02f, 0.01f, 0.015f};
     const Vec3 push{1.5f, -1.2f, 0.8f};
@@ -280,7 +280,7 @@ int main() {
       far.yaw_d = 0.7f;
       quad_probe::keep(g_cascade.step(vehicle_state(), far));
     });
-    check(fix == quad::est::FixResult::Fused, "worst_fix_not_fused");
+    check(fix == quad::est::FixResult::kFused, "worst_fix_not_fused");
     check(g_cascade.output().attitude.limited, "worst_tilt_not_limited");
     check(g_cascade.output().motors.yaw_limited, "worst_yaw_not_limited");
   }

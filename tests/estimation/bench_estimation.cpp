@@ -31,11 +31,11 @@ void BM_ObserverUpdate(benchmark::State& state) {
     benchmark::DoNotOptimize(obs.attitude());
   }
 }
-BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::SecondOrder, quad::est::Innovation::Conditioned)
+BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::kSecondOrder, quad::est::Innovation::kConditioned)
     ->Name("observer_update/conditioned/second_order");
-BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::Exact, quad::est::Innovation::Conditioned)
+BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::kExact, quad::est::Innovation::kConditioned)
     ->Name("observer_update/conditioned/exact");
-BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::SecondOrder, quad::est::Innovation::Unconditioned)
+BENCHMARK_TEMPLATE(BM_ObserverUpdate, quad::est::Propagator::kSecondOrder, quad::est::Innovation::kUnconditioned)
     ->Name("observer_update/unconditioned/second_order");
 
 void BM_ObserverUpdateNoMag(benchmark::State& state) {

@@ -229,8 +229,8 @@ TEST(ConditionedObserver, MagneticDisturbanceDoesNotMoveRollPitch) {
   using quad::est::Innovation;
   for (const auto& [name, axis] : {std::make_pair("vertical", Eigen::Vector3d(0, 0, 1)),
                                    std::make_pair("oblique (1,1,1)", Eigen::Vector3d(1, 1, 1))}) {
-    const Disturbance cond = magnetic_disturbance(Innovation::Conditioned, axis);
-    const Disturbance uncond = magnetic_disturbance(Innovation::Unconditioned, axis);
+    const Disturbance cond = magnetic_disturbance(Innovation::kConditioned, axis);
+    const Disturbance uncond = magnetic_disturbance(Innovation::kUnconditioned, axis);
     std::cout << "[figure] 30 deg field rotation about " << name << " axis for 5 s: roll/pitch change conditioned "
               << cond.roll_pitch << " deg, unconditioned (eq. 4.4) " << uncond.roll_pitch << " deg; yaw change "
               << cond.yaw << " / " << uncond.yaw << " deg\n";
@@ -284,7 +284,7 @@ TEST(ConditionedObserver, NoiseRmsAgainstBaselines) {
     ObserverParams op = params_with_field(field);  // table 8.1 gains
     ConditionedObserver obs(op);
     ObserverParams exact = op;
-    exact.propagator = quad::est::Propagator::Exact;
+    exact.propagator = quad::est::Propagator::kExact;
     ConditionedObserver obs_exact(exact);
     quad::est::MahonyParams mp;
     mp.mag_ref_ned = from_eigen(field);
@@ -384,7 +384,7 @@ TEST(AttitudePropagation, SecondOrderAgainstExactOnGyroOnly) {
       AttitudeSim sim(Eigen::Quaterniond::Identity(), true, 8);
       ObserverParams p = params_with_field(sim.field());
       p.k1 = p.k2 = p.k3 = p.k4 = 0.0f;
-      p.propagator = m == 0 ? quad::est::Propagator::Exact : quad::est::Propagator::SecondOrder;
+      p.propagator = m == 0 ? quad::est::Propagator::kExact : quad::est::Propagator::kSecondOrder;
       ConditionedObserver obs(p);
       const int steps = static_cast<int>(std::lround(20.0 / dt));
       for (int k = 0; k < steps; ++k) {
@@ -821,7 +821,7 @@ struct LegacyFloatObserver {
 
   explicit LegacyFloatObserver(const ConditionedObserver& obs) : p(obs.params()) {
     const Vec3& m = p.mag_ref_ned;
-    if (p.innovation == quad::est::Innovation::Conditioned) {
+    if (p.innovation == quad::est::Innovation::kConditioned) {
       const Vec3 h{m.x, m.y, 0.0f};
       const float n = quad::norm(h);
       inv_mag_h = n > 0.0f ? 1.0f / n : 0.0f;
@@ -863,7 +863,7 @@ struct LegacyFloatObserver {
       if (v_ref.x != 0.0f) v_hat = r.row(0) * v_ref.x;
       if (v_ref.y != 0.0f) v_hat += r.row(1) * v_ref.y;
       if (v_ref.z != 0.0f) v_hat += u_hat * v_ref.z;
-      if (p.innovation == quad::est::Innovation::Conditioned) {
+      if (p.innovation == quad::est::Innovation::kConditioned) {
         const Vec3& axis = use_accel ? u_meas : u_hat;
         const Vec3 e_v = quad::cross(mag - axis * quad::dot(axis, mag), v_hat);
         sigma_r += u_hat * (k2_mag * quad::dot(u_hat, e_v));
@@ -873,11 +873,11 @@ struct LegacyFloatObserver {
         if (m2 > 0.0f) sigma_r += quad::cross(mag, v_hat) * (p.k2 / sqrtf(m2));
       }
     }
-    if (p.innovation == quad::est::Innovation::Unconditioned) db = sigma_r * -k_i_dt;
+    if (p.innovation == quad::est::Innovation::kUnconditioned) db = sigma_r * -k_i_dt;
     const Vec3 rate_now = gyro - bias;
     const Vec3 omega = rate_now + sigma_r;
     quad::Quat q_next;
-    if (p.propagator == quad::est::Propagator::Exact) {
+    if (p.propagator == quad::est::Propagator::kExact) {
       q_next = quad::normalized(quad::integrate_exact(q, omega, dt));
     } else {
       const float half_dt = 0.5f * dt;
@@ -887,7 +887,7 @@ struct LegacyFloatObserver {
       const quad::Quat n = q * d;
       q_next = n * (1.5f - 0.5f * quad::norm_sq(n));
     }
-    if (p.innovation == quad::est::Innovation::Conditioned &&
+    if (p.innovation == quad::est::Innovation::kConditioned &&
         !(quad::absf(bias.x) <= inner && quad::absf(bias.y) <= inner && quad::absf(bias.z) <= inner)) {
       const float b2 = quad::norm_sq(bias);
       if (b2 > p.delta * p.delta) db += bias * (kb_dt * (p.delta / sqrtf(b2) - 1.0f));
@@ -911,10 +911,10 @@ TEST(ConditionedObserver, StepIsBitIdenticalToTheVectorFormItReplaced) {
     quad::est::Propagator propagator;
   };
   const Case cases[] = {
-      {"table 8.1, learned reference", true, quad::est::Innovation::Conditioned, quad::est::Propagator::SecondOrder},
-      {"fast gains, true field", false, quad::est::Innovation::Conditioned, quad::est::Propagator::SecondOrder},
-      {"unconditioned", false, quad::est::Innovation::Unconditioned, quad::est::Propagator::SecondOrder},
-      {"exact propagator", true, quad::est::Innovation::Conditioned, quad::est::Propagator::Exact},
+      {"table 8.1, learned reference", true, quad::est::Innovation::kConditioned, quad::est::Propagator::kSecondOrder},
+      {"fast gains, true field", false, quad::est::Innovation::kConditioned, quad::est::Propagator::kSecondOrder},
+      {"unconditioned", false, quad::est::Innovation::kUnconditioned, quad::est::Propagator::kSecondOrder},
+      {"exact propagator", true, quad::est::Innovation::kConditioned, quad::est::Propagator::kExact},
   };
   for (const Case& c : cases) {
     SensorNoise noise = mpu6000_noise();
@@ -963,7 +963,7 @@ TEST(ConditionedObserver, StepIsBitIdenticalToTheVectorFormItReplaced) {
     }
     EXPECT_GT(rejected, 100);
     EXPECT_GT(skipped, 10);
-    if (c.innovation == quad::est::Innovation::Conditioned) {
+    if (c.innovation == quad::est::Innovation::kConditioned) {
       EXPECT_GT(quad::norm(obs.gyro_bias()), 0.9f * p.delta) << c.name;  // the pull-back branch was reached
     }
   }

@@ -43,7 +43,7 @@ const auto still = [](int) -> Eigen::Vector3d { return Eigen::Vector3d::Zero(); 
 TEST(StationaryCalibration, RecoversBiasesFromAStillLevelWindow) {
   const StationaryCalibrator cal = window(Eigen::Quaterniond::Identity(), 500, still);
   ImuBias b;
-  ASSERT_EQ(cal.result(b), CalibrationStatus::Ok);
+  ASSERT_EQ(cal.result(b), CalibrationStatus::kOk);
   const SensorNoise noise = mpu6000_noise();
   const double gyro_tol = 5 * noise.gyro / std::sqrt(500.0), accel_tol = 5 * noise.accel / std::sqrt(500.0);
   std::cout << "[figure] stationary calibration, 500 samples: gyro bias error "
@@ -65,17 +65,17 @@ TEST(StationaryCalibration, RefusesWindowsThatAreNotStillOrLevel) {
   const auto wobble = [](int k) -> Eigen::Vector3d {
     return (k > 200 && k < 250 ? 0.3 * std::sin(0.2 * k) : 0.0) * Eigen::Vector3d(1, 0.5, 0).eval();
   };
-  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 500, wobble).result(b), CalibrationStatus::Moved);
+  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 500, wobble).result(b), CalibrationStatus::kMoved);
   // Turning steadily on a turntable: small spread, but the mean is a rate, not a bias.
   const auto turning = [](int) -> Eigen::Vector3d { return {0, 0, 0.5}; };
-  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 500, turning).result(b), CalibrationStatus::Turning);
+  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 500, turning).result(b), CalibrationStatus::kTurning);
   // Standing tilted by 15 deg: eq. 7.2 assumes the identity attitude.
   const Eigen::Quaterniond tilted(Eigen::AngleAxisd(15 * M_PI / 180, Eigen::Vector3d::UnitX()));
-  EXPECT_EQ(window(tilted, 500, still).result(b), CalibrationStatus::NotLevel);
-  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 50, still).result(b), CalibrationStatus::TooFewSamples);
+  EXPECT_EQ(window(tilted, 500, still).result(b), CalibrationStatus::kNotLevel);
+  EXPECT_EQ(window(Eigen::Quaterniond::Identity(), 50, still).result(b), CalibrationStatus::kTooFewSamples);
   StationaryCalibrator cal = window(Eigen::Quaterniond::Identity(), 500, still);
   cal.add(Vec3{std::nanf(""), 0, 0}, Vec3{0, 0, -9.8f});
-  EXPECT_EQ(cal.result(b), CalibrationStatus::NonFinite);
+  EXPECT_EQ(cal.result(b), CalibrationStatus::kNonFinite);
   cal.reset();
   EXPECT_EQ(cal.samples(), 0u);
 }

@@ -113,8 +113,8 @@ TEST(HoverAccelBias, OffBadSamplesAndSteps) {
 
 }  // namespace
 
-// update() compares bit patterns (the gate, the gain's limit of 1, the clamp): against the float code it
-// replaced (written out here) the learned bias must be bit-identical for random samples, non-finite
+// update() against the equations written out here (the gate, the gain's limit of 1, the clamp): the
+// learned bias must be bit-identical for random samples, non-finite
 // ones, steps of every kind (0, negative, NaN, infinite, long enough for a gain of 1) and configurations
 // (off, a zero limit, an infinite limit, a tiny time constant).
 #include <cstring>
@@ -141,7 +141,7 @@ struct ReferenceBias {
 
 }  // namespace
 
-TEST(HoverAccelBias, BitPatternUpdateMatchesTheFloatImplementation) {
+TEST(HoverAccelBias, UpdateMatchesTheReferenceImplementation) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   struct Config { float tau, limit; };

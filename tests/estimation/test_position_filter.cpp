@@ -48,7 +48,7 @@ Eigen::Matrix3d q_of(double t, const Eigen::Vector3d& q) {
 }
 
 Eigen::Vector3d q_spectral(const PositionFilterParams& p, int axis) {
-  const bool white = p.process_noise == ProcessNoise::WhiteAcceleration;
+  const bool white = p.process_noise == ProcessNoise::kWhiteAcceleration;
   const double qb = axis == 2 ? (p.z_accel_bias ? p.q_bias : 0.0) : (p.xy_accel_bias ? p.q_bias_xy : 0.0);
   return {white ? 0.0 : p.q_pos, white ? p.q_accel : p.q_vel, qb};
 }
@@ -211,7 +211,7 @@ double position_rms(const PositionFilterParams& p, const SimRun& run, bool stamp
 
 PositionFilterParams tuned() {
   PositionFilterParams p;
-  p.process_noise = ProcessNoise::WhiteAcceleration;
+  p.process_noise = ProcessNoise::kWhiteAcceleration;
   p.q_accel = 0.1f * 0.1f / kRate;  // input noise 0.1 m/s^2 per sample at 100 Hz
   p.fix_sigma_xy = p.fix_sigma_z = 0.02f;
   return p;
@@ -265,7 +265,7 @@ TEST(PositionFilter, SteadyStateGainMatchesDare) {
     for (int k = 1; k <= 30000; ++k) {  // 300 s: the slow bias mode of the thesis Q converges too
       const uint32_t now = t0 + static_cast<uint32_t>(k) * kStepUs;
       kf.predict(Vec3{}, now);
-      if (k % 3 == 0 && k * kStepUs > delay_us) ASSERT_EQ(kf.fuse_position(Vec3{}, now - delay_us), FixResult::Fused);
+      if (k % 3 == 0 && k * kStepUs > delay_us) ASSERT_EQ(kf.fuse_position(Vec3{}, now - delay_us), FixResult::kFused);
     }
     for (int axis = 0; axis < 3; ++axis) {
       const bool bias = axis == 2 ? c.p.z_accel_bias : c.p.xy_accel_bias;
@@ -305,8 +305,8 @@ OracleComparison compare_with_oracle(const PositionFilterParams& p, const SimRun
     if (two_step) {
       if (kf.fix_in_progress()) {
         const FixResult r = kf.advance_fix();
-        if (r == FixResult::Fused) ++arrived;
-        ASSERT_TRUE(r == FixResult::Pending || r == FixResult::Fused) << static_cast<int>(r);
+        if (r == FixResult::kFused) ++arrived;
+        ASSERT_TRUE(r == FixResult::kPending || r == FixResult::kFused) << static_cast<int>(r);
       }
     } else {
       // Fixes that have arrived by t_k.
@@ -348,7 +348,7 @@ OracleComparison compare_with_oracle(const PositionFilterParams& p, const SimRun
   };
   if (two_step) {
     run_filter(kf, run, true, each, [&](const Fix& f, uint32_t stamp) {
-      ASSERT_EQ(kf.queue_fix(fvec(f.y), stamp), FixResult::Pending);  // (fixes are three steps apart or more)
+      ASSERT_EQ(kf.queue_fix(fvec(f.y), stamp), FixResult::kPending);  // (fixes are three steps apart or more)
     });
     // Arrived but not yet updated at the end: not in the comparison, not fused.
     out.arrived = kf.health().fused + (kf.fix_in_progress() ? 1u : 0u);
@@ -479,9 +479,9 @@ TEST(PositionFilter, TwoStepFusionBackToBackIsFusePositionBitForBit) {
       if (k % 3 != 0) continue;
       const Vec3 y{0.1f + 0.01f * k * 0.01f, -0.2f + 0.03f * std::sin(0.1f * k), -1.0f};
       const FixResult ra = a.fuse_position(y, now - 40000);
-      ASSERT_EQ(b.queue_fix(y, now - 40000), FixResult::Pending);
+      ASSERT_EQ(b.queue_fix(y, now - 40000), FixResult::kPending);
       FixResult rb = b.advance_fix();
-      if (rb == FixResult::Pending) {
+      if (rb == FixResult::kPending) {
         // Before the update, the gain reported is the one the update will apply (D h / S).
         const float kp = b.last_gain_p(0);
         rb = b.advance_fix();
@@ -507,26 +507,26 @@ TEST(PositionFilter, TwoStepFusionRefusesASecondFixAndForgetsOnAReset) {
   kf.predict(Vec3{}, now);
   kf.reset(Vec3{}, Vec3{}, now);
   for (int k = 0; k < 10; ++k) kf.predict(Vec3{}, now += kStepUs);
-  EXPECT_EQ(kf.advance_fix(), FixResult::RejectedInvalid);  // nothing in progress: nothing counted
-  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now - 20000), FixResult::Pending);
-  EXPECT_EQ(kf.queue_fix(Vec3{0.02f, 0, 0}, now - 10000), FixResult::RejectedBusy);  // queued
-  EXPECT_EQ(kf.advance_fix(), FixResult::Pending);                                    // gated
-  EXPECT_EQ(kf.queue_fix(Vec3{0.02f, 0, 0}, now - 10000), FixResult::RejectedBusy);  // gated
-  EXPECT_EQ(kf.fuse_position(Vec3{0.02f, 0, 0}, now - 10000), FixResult::RejectedBusy);
+  EXPECT_EQ(kf.advance_fix(), FixResult::kRejectedInvalid);  // nothing in progress: nothing counted
+  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now - 20000), FixResult::kPending);
+  EXPECT_EQ(kf.queue_fix(Vec3{0.02f, 0, 0}, now - 10000), FixResult::kRejectedBusy);  // queued
+  EXPECT_EQ(kf.advance_fix(), FixResult::kPending);                                    // gated
+  EXPECT_EQ(kf.queue_fix(Vec3{0.02f, 0, 0}, now - 10000), FixResult::kRejectedBusy);  // gated
+  EXPECT_EQ(kf.fuse_position(Vec3{0.02f, 0, 0}, now - 10000), FixResult::kRejectedBusy);
   EXPECT_EQ(kf.health().rejected_busy, 3u);
   kf.predict(Vec3{}, now += kStepUs);
-  EXPECT_EQ(kf.advance_fix(), FixResult::Fused);
+  EXPECT_EQ(kf.advance_fix(), FixResult::kFused);
   EXPECT_GT(kf.position().x, 0.0f);  // pulled towards the fix
   // A reset, new parameters and a gap each forget a fix in progress (its D h belongs to what is gone).
-  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now - 5000), FixResult::Pending);
+  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now - 5000), FixResult::kPending);
   kf.reset(Vec3{}, Vec3{}, now);
   EXPECT_FALSE(kf.fix_in_progress());
-  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now), FixResult::Pending);
-  EXPECT_EQ(kf.advance_fix(), FixResult::Pending);
+  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now), FixResult::kPending);
+  EXPECT_EQ(kf.advance_fix(), FixResult::kPending);
   kf.set_params(kf.params());
   EXPECT_FALSE(kf.fix_in_progress());
   kf.predict(Vec3{}, now += kStepUs);
-  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now), FixResult::Pending);
+  EXPECT_EQ(kf.queue_fix(Vec3{0.01f, 0, 0}, now), FixResult::kPending);
   kf.predict(Vec3{}, now += 600000);  // a gap
   EXPECT_FALSE(kf.fix_in_progress());
   EXPECT_EQ(kf.health().dropped_pending, 3u);
@@ -695,7 +695,7 @@ TEST(PositionFilter, NeesIsChiSquareConsistent) {
   // estimation error squared, averaged over the Monte Carlo runs, must sit inside its chi-square band.
   for (const double delay : {0.0, 0.1}) {
     PositionFilterParams p;
-    p.process_noise = ProcessNoise::ThesisDiagonal;
+    p.process_noise = ProcessNoise::kThesisDiagonal;
     p.q_pos = 0.01f;
     p.q_vel = 0.2f;
     p.fix_sigma_xy = 0.03f;
@@ -737,7 +737,7 @@ TEST(PositionFilter, NeesIsChiSquareConsistent) {
           pending.push_back({now, now + delay_us, y});
         }
         while (!pending.empty() && static_cast<int32_t>(pending.front().arrival - now) <= 0) {
-          EXPECT_EQ(kf.fuse_position(fvec(pending.front().y), pending.front().capture), FixResult::Fused);
+          EXPECT_EQ(kf.fuse_position(fvec(pending.front().y), pending.front().capture), FixResult::kFused);
           pending.erase(pending.begin());
         }
         double e = 0;
@@ -928,18 +928,18 @@ TEST(PositionFilter, RefusesFixesItCannotPlace) {
   PositionFilterParams p = tuned();
   p.reset_after_rejections = 3;
   Filter kf(p);
-  EXPECT_EQ(kf.fuse_position(Vec3{}, 0), FixResult::RejectedInvalid);  // clock not started
+  EXPECT_EQ(kf.fuse_position(Vec3{}, 0), FixResult::kRejectedInvalid);  // clock not started
   kf.predict(Vec3{}, 1000);
-  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, 1000), FixResult::Initialized);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, 1000), FixResult::kInitialized);
   EXPECT_FLOAT_EQ(kf.position().y, 2.0f);
   uint32_t now = 1000;
   for (int k = 0; k < 50; ++k) kf.predict(Vec3{}, now += kStepUs);  // 0.5 s later, filter at rest
   // 240 ms old: inside the 250 ms history; 300 ms old: too old.
-  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 300000), FixResult::RejectedTooOld);
-  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 240000), FixResult::Fused);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 300000), FixResult::kRejectedTooOld);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 240000), FixResult::kFused);
   // Older than the last fused fix: out of order.
-  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 245000), FixResult::RejectedOutOfOrder);
-  EXPECT_EQ(kf.fuse_position(Vec3{std::nanf(""), 0, 0}, now), FixResult::RejectedInvalid);
+  EXPECT_EQ(kf.fuse_position(Vec3{1, 2, 3}, now - 245000), FixResult::kRejectedOutOfOrder);
+  EXPECT_EQ(kf.fuse_position(Vec3{std::nanf(""), 0, 0}, now), FixResult::kRejectedInvalid);
   // Non-finite input and a clock that does not advance are skipped.
   const Vec3 before = kf.position();
   kf.predict(Vec3{std::nanf(""), 0, 0}, now + kStepUs);
@@ -949,16 +949,16 @@ TEST(PositionFilter, RefusesFixesItCannotPlace) {
   // A vision frame that jumped 3 m: rejected three times, then taken as a reset.
   for (int k = 0; k < 3; ++k) {
     kf.predict(Vec3{}, now += kStepUs);
-    EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::RejectedGate);
+    EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::kRejectedGate);
   }
   kf.predict(Vec3{}, now += kStepUs);
-  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::Initialized);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::kInitialized);
   EXPECT_FLOAT_EQ(kf.position().x, 4.0f);
   EXPECT_EQ(kf.health().resets, 1u);
   // Fixes captured before the reset are refused.
   kf.predict(Vec3{}, now += kStepUs);
-  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now - 2 * kStepUs), FixResult::RejectedTooOld);
-  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::Fused);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now - 2 * kStepUs), FixResult::kRejectedTooOld);
+  EXPECT_EQ(kf.fuse_position(Vec3{4, 2, 3}, now), FixResult::kFused);
 }
 
 TEST(PositionFilter, RunsForHoursAcrossTheClockWrapAndVisionOutages) {
@@ -979,7 +979,7 @@ TEST(PositionFilter, RunsForHoursAcrossTheClockWrapAndVisionOutages) {
     if (k % 10 == 0 && !outage) {
       ++offered;
       // After the outage the dead-reckoned state is lost: the first fix resets, the rest fuse.
-      const FixResult expected = k == outage_end ? FixResult::Initialized : FixResult::Fused;
+      const FixResult expected = k == outage_end ? FixResult::kInitialized : FixResult::kFused;
       ASSERT_EQ(kf.fuse_position(Vec3{0.01f, 0.0f, 0.0f}, now - 50000), expected) << "step " << k;
     }
   }
@@ -1098,7 +1098,7 @@ TEST(PositionFilter, SharedVerticalCovarianceAgreesWithTheSeparateOne) {
   EXPECT_EQ(a.last_gain_p(2), gain_before);
   const uint32_t t = run.t_us.back() + kStepUs;
   a.predict(Vec3{}, t);
-  ASSERT_EQ(a.fuse_position(a.position(), t), FixResult::Fused);
+  ASSERT_EQ(a.fuse_position(a.position(), t), FixResult::kFused);
   EXPECT_GT(a.covariance(2).pp, a.covariance(0).pp);  // the noisier axis keeps more uncertainty
 }
 
@@ -1119,7 +1119,7 @@ TEST(PositionFilter, BiasCovarianceStepMatchesPhiPPhiTInDouble) {
     kf.predict(Vec3{}, now);
     kf.reset(Vec3{}, Vec3{}, now);
     kf.predict(Vec3{}, now += kStepUs);
-    ASSERT_EQ(kf.fuse_position(Vec3{}, now - 4000), FixResult::Fused);  // off-diagonal terms from the start
+    ASSERT_EQ(kf.fuse_position(Vec3{}, now - 4000), FixResult::kFused);  // off-diagonal terms from the start
     const auto to_matrix = [](const quad::est::AxisCovariance& c) {
       Eigen::Matrix3d m;
       m << c.pp, c.pv, c.pb, c.pv, c.vv, c.vb, c.pb, c.vb, c.bb;

@@ -113,7 +113,7 @@ TEST(Replay, SyntheticFlightThroughTheWholeChain) {
   quad::replay::ReplayOptions o;
   o.observer.mag_ref_ned = quad_test::from_eigen(sim.field());
   o.observer.mag_ref_from_init = false;
-  o.position.process_noise = quad::est::ProcessNoise::WhiteAcceleration;
+  o.position.process_noise = quad::est::ProcessNoise::kWhiteAcceleration;
   o.position.q_accel = 0.01f;
   o.position.fix_sigma_xy = o.position.fix_sigma_z = 0.01f;
   std::ostringstream out;

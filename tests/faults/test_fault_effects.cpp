@@ -8,7 +8,10 @@
 #include "quad/link/mavlink.h"
 #include "quad/sim/faults.h"
 #include "quad/sim/frames.h"
+#include "quad/sim/camera_model.h"
+#include "quad/sim/station_calibration.h"
 #include "quad/sim/stereo_camera.h"
+#include "quad/sim/vehicle.h"
 #include "quad/sim/vision_fix.h"
 #include "quad/vision/stereo_calibration.h"
 #include "quad/vision/stereo_locator.h"
@@ -144,12 +147,24 @@ TEST(FaultEffects, SimulatedFixLateScaledOrOfADecoy) {
 
 Eigen::Quaterniond level() { return Eigen::Quaterniond::Identity(); }
 
+// The shipped vehicle's cameras, as the simulator renders them.
+SimStereoRig shipped_rig(const CameraParams& params) {
+  VehicleParams vp;
+  vp.model_path = QUAD_SIM_SOURCE_DIR "/models/quad_c.xml";
+  Vehicle vehicle(vp);
+  return stereo_rig_from_model(vehicle.model(), params, vp.model_path);
+}
+
 TEST(FaultEffects, SecondStarOnTheRenderedFloorIsStarLike) {
   CameraParams params;
   params.distractors = 0;  // a copy touching a distractor would merge with it into another shape
-  StereoCameraRenderer with(params, make_floor_scene(params, Rng(4, "floor")), Rng(4, "camera"));
-  StereoCameraRenderer without(params, make_floor_scene(params, Rng(4, "floor")), Rng(4, "camera"));
-  vis::StereoStarLocator locator(vis::rectify(with.rig()), vis::LocatorSettings{});
+  const SimStereoRig rig = shipped_rig(params);
+  StereoCameraRenderer with(params, rig, make_floor_scene(params, Rng(4, "floor")), Rng(4, "camera"));
+  StereoCameraRenderer without(params, rig, make_floor_scene(params, Rng(4, "floor")), Rng(4, "camera"));
+  // The station knows the cameras as in a flight: from chessboards the simulator renders (cached).
+  const std::string calibration = station_calibration_file(rig, params, {QUAD_VISION_STATION, "calibrate"},
+                                                           QUAD_TEST_CALIBRATION_CACHE, [](const std::string&) {});
+  vis::StereoStarLocator locator(vis::load_calibration(calibration), vis::LocatorSettings{});
   const Eigen::Vector3d p(0.0, 0.0, -1.5);
   const Eigen::Vector2d decoy(0.5, 0.3);
   cv::Mat l1, r1, l2, r2;
@@ -167,9 +182,10 @@ TEST(FaultEffects, SecondStarOnTheRenderedFloorIsStarLike) {
   without.render(p, level(), true, l2, r2);
   const vis::StarFix fix = locator.locate(l1, r1);
   ASSERT_TRUE(fix.found);
-  const cv::Vec3d b = vis::camera_to_body(vis::thesis_camera_mount(), fix.p_left);
+  const Eigen::Vector3d b =
+      rig.left_mount.R_BC * Eigen::Vector3d(fix.p_left[0], fix.p_left[1], fix.p_left[2]) + rig.left_mount.t_BC;
   const Eigen::Vector3d expected = star_in_body_frd(p - Eigen::Vector3d(decoy.x(), decoy.y(), 0.0), level());
-  EXPECT_LT((Eigen::Vector3d(b[0], b[1], b[2]) - expected).norm(), 0.03);
+  EXPECT_LT((b - expected).norm(), 0.03);
 
   // Removed, the floor is the original again (both renderers drew the same noise).
   with.set_decoy(std::nullopt);

@@ -120,7 +120,7 @@ TEST(StateEstimator, CalibratesConvergesAndTakesAFix) {
   ASSERT_TRUE(est.position_from_star(Vec3{0.0f, 0.0f, 1.5f}, t_us - 30000, &p));
   EXPECT_NEAR(p.z, -1.5f, 1e-4f);
   const quad::est::FixResult r = est.fuse_fix(p, t_us - 30000);
-  EXPECT_TRUE(r == quad::est::FixResult::Initialized || r == quad::est::FixResult::Fused);
+  EXPECT_TRUE(r == quad::est::FixResult::kInitialized || r == quad::est::FixResult::kFused);
   EXPECT_NEAR(est.position().z, -1.5f, 0.01f);
 }
 

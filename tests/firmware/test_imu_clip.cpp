@@ -212,8 +212,8 @@ TEST(FirmwareAppClipping, ClippingLongerThanTheHoldLandsThroughTheEstimatorFails
 
 }  // namespace
 
-// The guard compares bit patterns and stops adding to its quiet time once past the burst gap: against
-// the float implementation it replaced (written out here), outputs, flags, counters and health must be
+// The guard stops adding to its quiet time once past the burst gap: against the plain implementation
+// written out here (which keeps adding), outputs, flags, counters and health must be
 // identical on random sequences with samples at, just below and just above the limits, non-finite ones,
 // and every configuration kind (including a zero hold and odd ranges).
 namespace {
@@ -264,7 +264,7 @@ struct ReferenceGuard {
 
 }  // namespace
 
-TEST(ImuClipGuard, BitPatternGuardMatchesTheFloatImplementation) {
+TEST(ImuClipGuard, GuardMatchesTheReferenceImplementation) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float inf = std::numeric_limits<float>::infinity();
   struct Config { float g, a, h; };

@@ -413,9 +413,9 @@ TEST(ParamTable, FindComparesTheFirstSixteenCharacters) {
   EXPECT_EQ(quad::fw::param_find("TEL_SYS_HZ"), quad::fw::kTelSysHz) << "the last name";
 }
 
-// Every entry of param_fields.h's tables against the member-by-member assignments they replaced in
-// FlightApp::apply_params(): each parameter holds a value no other parameter holds, so a wrong id or a
-// wrong offset shows as a field with another parameter's value (or its default).
+// Every entry of param_fields.h's tables against member-by-member assignments written out here: each
+// parameter holds a value no other parameter holds, so a wrong id or a wrong offset shows as a field
+// with another parameter's value (or its default).
 class ParamFields : public ::testing::Test {
  protected:
   void SetUp() override {

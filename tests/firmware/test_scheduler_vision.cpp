@@ -293,9 +293,8 @@ TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
-// The application's checks built on the bit-pattern comparisons (app_checks.h; the comparisons
-// themselves: tests/math/test_float_bits.cpp): each must return exactly what the float expression it
-// replaces returns.
+// The application's checks (app_checks.h): each must return exactly what the float expression in its
+// comment returns.
 
 #include <cmath>
 #include <cstring>
@@ -305,7 +304,6 @@ TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
 #include "float_cases.h"
 #include "quad/estimation/calibration.h"
 #include "quad/firmware/app_checks.h"
-#include "quad/math/float_bits.h"
 
 using quad_test::bits_of;
 using quad_test::interesting_floats;

@@ -1,6 +1,5 @@
 // Test helpers for the link codec: random message values and byte-exact message comparison.
-#ifndef QUAD_TESTS_LINK_MESSAGE_TESTING_H
-#define QUAD_TESTS_LINK_MESSAGE_TESTING_H
+#pragma once
 
 #include <cmath>
 #include <cstdint>
@@ -67,5 +66,3 @@ std::vector<uint8_t> payload_of(const Msg& msg) {
 }  // namespace testing
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_TESTS_LINK_MESSAGE_TESTING_H

@@ -1,8 +1,7 @@
 // Test fixture for tests that run a node-mavlink peer script from tools/node (node and its node_modules
 // are required: when missing the test fails with a message pointing to `make setup`, it does not skip).
 // The build defines QUAD_NODE_EXECUTABLE and QUAD_NODE_DIR (tests/link/CMakeLists.txt).
-#ifndef QUAD_TESTS_LINK_NODE_PEER_H
-#define QUAD_TESTS_LINK_NODE_PEER_H
+#pragma once
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -69,5 +68,3 @@ class NodePeerTest : public ::testing::Test {
 }  // namespace testing
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_TESTS_LINK_NODE_PEER_H

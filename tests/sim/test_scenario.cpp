@@ -19,7 +19,7 @@ std::string error_of(const std::string& yaml) {
 }
 
 TEST(Scenario, EveryShippedScenarioLoads) {
-  for (const char* name : {"hover", "steps", "square", "gusts", "faults"}) {
+  for (const char* name : {"hover", "steps", "square", "gusts", "faults", "flight", "flight_plain"}) {
     const Scenario s = load_scenario(std::string(QUAD_SIM_SOURCE_DIR) + "/scenarios/" + name + ".yaml");
     EXPECT_EQ(s.name, name);
     EXPECT_GT(s.duration_s, 10.0);
@@ -65,6 +65,32 @@ TEST(Scenario, AParameterListIsACommandOfItsOwn) {
   EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: false}\n").find("'commands[0].param_list' can only be true"),
             std::string::npos);
   EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: true, land: true}\n").find("'commands[0]' must hold exactly one"),
+TEST(Scenario, CameraKeysAndStationSettingsAreParsed) {
+  const Scenario s = parse_scenario(
+      "name: x\nduration_s: 10\n"
+      "camera: {enabled: true, image_size: [640, 480], left: {fx: 500, fy: 490, cx: 320, cy: 240,\n"
+      "         distortion: [-0.3, 0.1, 0.001, -0.002, 0.0]}, floor_texture: floor.png, interlaced: true,\n"
+      "         exposure_s: 0.004, jpeg_quality: 80, star_inner_ratio: 0.35}\n"
+      "station_settings: {deinterlace: field, min_area_px: 120}\n",
+      "x.yaml", "/scenarios");
+  EXPECT_EQ(s.camera.image_width, 640);
+  EXPECT_EQ(s.camera.image_height, 480);
+  EXPECT_EQ(s.camera.left.fx, 500.0);
+  EXPECT_EQ(s.camera.left.p2, -0.002);
+  EXPECT_EQ(s.camera.right.fx, CameraParams().right.fx);  // untouched: the default
+  EXPECT_EQ(s.camera.floor_texture, "/scenarios/floor.png");
+  EXPECT_TRUE(s.camera.interlaced);
+  EXPECT_EQ(s.camera.exposure_s, 0.004);
+  EXPECT_EQ(s.camera.jpeg_quality, 80);
+  EXPECT_EQ(s.camera.star_inner_ratio, 0.35);
+  ASSERT_EQ(s.station_settings.size(), 2u);
+  EXPECT_EQ(s.station_settings[0], (std::pair<std::string, std::string>("deinterlace", "field")));
+  EXPECT_EQ(s.station_settings[1], (std::pair<std::string, std::string>("min_area_px", "120")));
+  const std::string head = "name: x\nduration_s: 10\n";
+  EXPECT_NE(error_of(head + "camera: {left: {fx: 500, distortion: [0.1, 0.2]}}\n").find("'camera.left.distortion' must be a list of five"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "camera: {jpeg_quality: 101}\n").find("'camera.jpeg_quality' must be in [0, 100]"), std::string::npos);
+  EXPECT_NE(error_of(head + "station_settings: {deinterlace: 'a b'}\n").find("'station_settings.deinterlace' must be a number or a single word"),
             std::string::npos);
 }
 
@@ -83,6 +109,40 @@ TEST(Scenario, ErrorsNameTheFileLineAndKey) {
   EXPECT_NE(error_of(head + "wind: {mean_ned_m_s: [1, 2]}\n").find("'wind.mean_ned_m_s' must be a list of three numbers"),
             std::string::npos);
   EXPECT_NE(error_of("name: [unclosed\n").find("bad.yaml:"), std::string::npos);
+}
+
+// quad_sim --set: a key replaced, a firmware parameter and a map created, a list item by index; a bad
+// path or value names the --set argument.
+TEST(Scenario, OverridesReplaceKeysBeforeTheScenarioIsChecked) {
+  const std::string yaml =
+      "name: x\nduration_s: 10\nradio: {latency_s: 0.004}\ncommands:\n  - {at_s: 3.0, arm: true}\n"
+      "  - {at_s: 8.0, land: true}\n";
+  const Scenario s = parse_scenario(yaml, "o.yaml", ".",
+                                    {parse_override("radio.latency_s=0.02"), parse_override("duration_s=12"),
+                                     parse_override("firmware_params.POS_KP_XY=4"), parse_override("commands.1.at_s=9.5"),
+                                     parse_override("wind.mean_ned_m_s=[1, 0, 0]")});
+  EXPECT_DOUBLE_EQ(s.radio.latency_s, 0.02);
+  EXPECT_DOUBLE_EQ(s.duration_s, 12.0);
+  ASSERT_EQ(s.firmware_params.size(), 1u);
+  EXPECT_EQ(s.firmware_params[0].first, "POS_KP_XY");
+  EXPECT_DOUBLE_EQ(s.firmware_params[0].second, 4.0);
+  ASSERT_EQ(s.commands.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.commands[1].at_s, 9.5);
+  EXPECT_TRUE(s.wind_mean_ned_m_s.isApprox(Eigen::Vector3d(1, 0, 0)));
+
+  auto error = [&](const std::string& o) {
+    try {
+      parse_scenario(yaml, "o.yaml", ".", {parse_override(o)});
+    } catch (const ScenarioError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_NE(error("commands.2.at_s=1").find("--set commands.2.at_s=1"), std::string::npos);
+  EXPECT_NE(error("radio.latency_s.x=1").find("neither a mapping nor a list"), std::string::npos);
+  EXPECT_NE(error("radio.latncy_s=1").find("'radio.latncy_s' is not a known key"), std::string::npos);
+  EXPECT_NE(error("radio.latency_s=abc").find("(with --set radio.latency_s)"), std::string::npos);
+  EXPECT_THROW(parse_override("no_equals_sign"), ScenarioError);
 }
 
 }  // namespace

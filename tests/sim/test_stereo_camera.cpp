@@ -1,16 +1,23 @@
-// The rendered stereo cameras against the vision station that consumes them: the station,
-// calibrated with the rig the views are rendered through, must find the star where the truth says, from
-// many heights and attitudes. Also the camera poses' geometry against the MJCF and the eq. 7.22 mount.
+// The rendered stereo cameras against the vision station that consumes them, as in a flight: chessboards
+// rendered through the simulator's own camera model calibrate the station (`vision_station calibrate`),
+// the calibration recovers the simulator's lenses and baseline, and the station so calibrated finds the
+// star where the truth says, from many heights and attitudes.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 
 #include <opencv2/calib3d.hpp>
 
 #include "quad/sim/frames.h"
+#include "quad/sim/station_calibration.h"
 #include "quad/sim/stereo_camera.h"
 #include "quad/sim/vehicle.h"
 #include "quad/sim/vision_fix.h"
+#include "quad/vision/settings_file.h"
 #include "quad/vision/stereo_calibration.h"
 #include "quad/vision/stereo_locator.h"
 
@@ -24,64 +31,74 @@ Eigen::Quaterniond attitude(double roll, double pitch, double yaw) {
          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
 }
 
-TEST(StereoCamera, LeftCameraSitsAtTheMountAndLooksDown) {
-  // Level vehicle 1.5 m above the origin: the left camera is t_BC = (0.057, −0.057, 0.055) m from the
-  // centre of mass in FRD, looks down (optical axis = NED down), image right = east, image down = south.
-  const CameraPose pose = left_camera_pose(vis::thesis_camera_mount(), Eigen::Vector3d(0, 0, -1.5), attitude(0, 0, 0));
-  const Eigen::Vector3d centre = -pose.R.transpose() * pose.t;
-  EXPECT_NEAR((centre - Eigen::Vector3d(0.057, -0.057, -1.5 + 0.055)).norm(), 0.0, 1e-12);
-  EXPECT_NEAR((pose.R.row(2).transpose() - Eigen::Vector3d(0, 0, 1)).norm(), 0.0, 1e-12);   // z: down
-  EXPECT_NEAR((pose.R.row(0).transpose() - Eigen::Vector3d(0, 1, 0)).norm(), 0.0, 1e-12);   // x: east
-  EXPECT_NEAR((pose.R.row(1).transpose() - Eigen::Vector3d(-1, 0, 0)).norm(), 0.0, 1e-12);  // y: south
+SimStereoRig shipped_rig(const CameraParams& params) {
+  VehicleParams vp;
+  vp.model_path = QUAD_SIM_SOURCE_DIR "/models/quad_c.xml";
+  Vehicle vehicle(vp);
+  return stereo_rig_from_model(vehicle.model(), params, vp.model_path);
 }
 
-TEST(StereoCamera, MjcfCamerasMatchTheThesisMount) {
-  // The MJCF's cam_left / cam_right (MuJoCo camera: looks along −z, y up) at the eq. 7.22 mount.
-  VehicleParams params;
-  params.model_path = QUAD_SIM_SOURCE_DIR "/models/quad_c.xml";
-  Vehicle vehicle(params);
-  vehicle.reset(Eigen::Vector2d::Zero(), 1.0, 0.0);
-  const mjModel* m = vehicle.model();
-  const vis::CameraMount mount = vis::thesis_camera_mount();
-  for (const char* name : {"cam_left", "cam_right"}) {
-    const int id = mj_name2id(m, mjOBJ_CAMERA, name);
-    ASSERT_GE(id, 0) << name;
-    // Camera position in the body (FLU) to FRD.
-    const Eigen::Vector3d pos_frd(m->cam_pos[3 * id], -m->cam_pos[3 * id + 1], -m->cam_pos[3 * id + 2]);
-    const double lateral = std::string(name) == "cam_left" ? mount.t_BC[1] : mount.t_BC[1] + vis::kThesisBaseline;
-    EXPECT_NEAR(pos_frd.x(), mount.t_BC[0], 1e-9) << name;
-    EXPECT_NEAR(pos_frd.y(), lateral, 1e-9) << name;
-    EXPECT_NEAR(pos_frd.z(), mount.t_BC[2], 1e-9) << name;
+// The station's calibration as the simulator makes it for a flight: chessboards rendered through the
+// simulator's cameras, then `vision_station calibrate` (the built executable), cached in the build tree
+// under a key of the cameras and that executable.
+class StereoCamera : public ::testing::Test {
+ protected:
+  static std::string calibration(const std::string& cache) {
+    return station_calibration_file(shipped_rig(CameraParams()), CameraParams(), {QUAD_VISION_STATION, "calibrate"}, cache,
+                                    [](const std::string& line) { std::printf("%s\n", line.c_str()); });
   }
-}
+  static void SetUpTestSuite() { file_ = calibration(QUAD_TEST_CALIBRATION_CACHE); }
+  static std::string file_;
+};
+std::string StereoCamera::file_;
 
-TEST(StereoCamera, ProjectionAgreesWithOpenCv) {
-  const vis::StereoRig rig = vis::thesis_stereo_rig();
-  const double valid = fold_radius(rig.left);
-  EXPECT_NEAR(valid, 1.11, 0.01);  // docs/vision_station.md
-  cv::RNG rng(3);
-  for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d p(rng.uniform(-0.8, 0.8), rng.uniform(-0.6, 0.6), rng.uniform(1.0, 2.0));
-    const auto ours = project_point(rig.left, valid, p);
-    ASSERT_TRUE(ours);
-    std::vector<cv::Point2d> theirs;
-    cv::projectPoints(std::vector<cv::Point3d>{{p.x(), p.y(), p.z()}}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
-                      cv::Mat(rig.left.K), cv::Mat(rig.left.D), theirs);
-    EXPECT_NEAR(ours->x, theirs[0].x, 1e-6);
-    EXPECT_NEAR(ours->y, theirs[0].y, 1e-6);
+TEST_F(StereoCamera, ChessboardCalibrationRecoversTheSimulatorsCameras) {
+  // Calibrated afresh here (an empty cache), not taken from an earlier run.
+  const std::string cache = ::testing::TempDir() + "/sim_calib_" + std::to_string(getpid());
+  std::filesystem::remove_all(cache);
+  const std::string file = calibration(cache);
+  const SimStereoRig rig = shipped_rig(CameraParams());
+  cv::FileStorage fs(file, cv::FileStorage::READ);
+  ASSERT_TRUE(fs.isOpened()) << file;
+  cv::Mat K1, K2, R, T;
+  fs["K1"] >> K1;
+  fs["K2"] >> K2;
+  fs["R"] >> R;
+  fs["T"] >> T;
+  for (const auto& [K, lens] : {std::pair<cv::Mat, LensParams>{K1, rig.left}, {K2, rig.right}}) {
+    std::printf("fx %.2f (true %.2f), fy %.2f (%.2f), cx %.2f (%.2f), cy %.2f (%.2f)\n", K.at<double>(0, 0), lens.fx,
+                K.at<double>(1, 1), lens.fy, K.at<double>(0, 2), lens.cx, K.at<double>(1, 2), lens.cy);
+    EXPECT_NEAR(K.at<double>(0, 0) / lens.fx, 1.0, 0.005);
+    EXPECT_NEAR(K.at<double>(1, 1) / lens.fy, 1.0, 0.005);
+    EXPECT_NEAR(K.at<double>(0, 2), lens.cx, 2.0);
+    EXPECT_NEAR(K.at<double>(1, 2), lens.cy, 2.0);
   }
-  EXPECT_FALSE(project_point(rig.left, valid, Eigen::Vector3d(0.1, 0.1, -1.0)));
+  std::printf("baseline %.5f m (true %.5f)\n", cv::norm(T), rig.baseline_m());
+  EXPECT_NEAR(cv::norm(T) / rig.baseline_m(), 1.0, 0.005);
+  Eigen::Matrix3d Re;
+  for (int i = 0; i < 9; ++i) Re(i / 3, i % 3) = R.at<double>(i / 3, i % 3);
+  EXPECT_LT(Eigen::AngleAxisd(Re.transpose() * rig.R_right_left()).angle() * 180.0 / M_PI, 0.1);
+  // A second request is served from the cache, without recalibrating.
+  const auto before = std::filesystem::last_write_time(file);
+  EXPECT_EQ(calibration(cache), file);
+  EXPECT_EQ(std::filesystem::last_write_time(file), before);
+  // Other cameras are another key.
+  CameraParams other;
+  other.left.fx *= 1.01;
+  EXPECT_THROW(station_calibration_file(shipped_rig(other), other, {"/nonexistent/vision_station", "calibrate"}, cache,
+                                        [](const std::string&) {}),
+               CalibrationError);
+  std::filesystem::remove_all(cache);
 }
 
-TEST(StereoCamera, StationFindsTheRenderedStarWhereTheTruthIs) {
+TEST_F(StereoCamera, CalibratedStationFindsTheRenderedStarWhereTheTruthIs) {
   CameraParams params;
   params.enabled = true;
-  StereoCameraRenderer renderer(params, make_floor_scene(params, Rng(5, "floor")), Rng(5, "camera"));
-  const vis::StereoCalibration calibration = vis::rectify(renderer.rig());
+  StereoCameraRenderer renderer(params, shipped_rig(params), make_floor_scene(params, Rng(5, "floor")), Rng(5, "camera"));
   vis::LocatorSettings settings;
   settings.track_roi = false;
-  vis::StereoStarLocator locator(calibration, settings);
-  const vis::CameraMount mount = vis::thesis_camera_mount();
+  vis::StereoStarLocator locator(vis::load_calibration(file_), settings);
+  const vis::CameraMount mount = vis::thesis_camera_mount();  // the station's default = the MJCF's left camera
   Rng rng(9, "poses");
   int found = 0, trials = 0;
   double worst_relative = 0.0;
@@ -105,10 +122,10 @@ TEST(StereoCamera, StationFindsTheRenderedStarWhereTheTruthIs) {
   EXPECT_LT(worst_relative, 0.02);
 }
 
-TEST(StereoCamera, HiddenStarIsNotFound) {
+TEST_F(StereoCamera, HiddenStarIsNotFound) {
   CameraParams params;
-  StereoCameraRenderer renderer(params, make_floor_scene(params, Rng(5, "floor")), Rng(5, "camera"));
-  vis::StereoStarLocator locator(vis::rectify(renderer.rig()), vis::LocatorSettings{});
+  StereoCameraRenderer renderer(params, shipped_rig(params), make_floor_scene(params, Rng(5, "floor")), Rng(5, "camera"));
+  vis::StereoStarLocator locator(vis::load_calibration(file_), vis::LocatorSettings{});
   cv::Mat left, right;
   renderer.render(Eigen::Vector3d(0, 0, -1.5), attitude(0, 0, 0), false, left, right);
   EXPECT_TRUE(locator.locate(left, right).found);
@@ -116,10 +133,24 @@ TEST(StereoCamera, HiddenStarIsNotFound) {
   EXPECT_FALSE(locator.locate(left, right).found);
 }
 
-TEST(StereoCamera, SameSeedSameImages) {
+TEST(StereoCameraScene, StationReadsTheMountTheSimulatorWrites) {
+  const SimStereoRig rig = shipped_rig(CameraParams());
+  const std::string path = ::testing::TempDir() + "/settings_" + std::to_string(getpid()) + ".yaml";
+  write_station_settings(path, rig.left_mount, {{"min_area_px", "123"}});
+  const vis::StationSettings settings = vis::load_station_settings(path);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(settings.mount.t_BC[i], rig.left_mount.t_BC(i));
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(settings.mount.R_BC(i, j), rig.left_mount.R_BC(i, j));
+  }
+  EXPECT_EQ(settings.locator.detector.min_area_px, 123);
+  std::filesystem::remove(path);
+}
+
+TEST(StereoCameraScene, SameSeedSameImages) {
   CameraParams params;
-  StereoCameraRenderer a(params, make_floor_scene(params, Rng(7, "floor")), Rng(7, "camera"));
-  StereoCameraRenderer b(params, make_floor_scene(params, Rng(7, "floor")), Rng(7, "camera"));
+  const SimStereoRig rig = shipped_rig(params);
+  StereoCameraRenderer a(params, rig, make_floor_scene(params, Rng(7, "floor")), Rng(7, "camera"));
+  StereoCameraRenderer b(params, rig, make_floor_scene(params, Rng(7, "floor")), Rng(7, "camera"));
   cv::Mat la, ra, lb, rb;
   for (int i = 0; i < 3; ++i) {
     a.render(Eigen::Vector3d(0.1, 0, -1.2), attitude(0.05, 0, 0.3), false, la, ra);
@@ -132,12 +163,14 @@ TEST(StereoCamera, SameSeedSameImages) {
   EXPECT_GT(cv::norm(la, lb, cv::NORM_INF), 0.0);
 }
 
-TEST(StereoCamera, FloorSceneShapesDoNotTouch) {
+TEST(StereoCameraScene, FloorSceneShapesDoNotTouch) {
   CameraParams params;
   params.distractors = 12;
   const std::vector<FloorShape> scene = make_floor_scene(params, Rng(11, "floor"));
   ASSERT_EQ(scene.size(), 13u);
+  ASSERT_EQ(scene[0].outline.size(), 8u);
   EXPECT_NEAR(scene[0].outline[0].norm(), 0.20, 1e-12);  // star tip, 0.40 m tip to tip
+  EXPECT_NEAR(scene[0].outline[1].norm(), 0.08, 1e-12);  // inner vertex at 0.4 of the tip radius
   for (size_t i = 1; i < scene.size(); ++i) {
     Eigen::Vector2d c = Eigen::Vector2d::Zero();
     for (const auto& v : scene[i].outline) c += v;

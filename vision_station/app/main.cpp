@@ -1,9 +1,11 @@
 // vision_station: stereo calibration, offline star detection and the live station.
 //   vision_station calibrate --images DIR | --source v4l2:/dev/A,/dev/B [--count N]
 //                            [--board 9x6] [--square 0.025] --out calib.yaml
+//   (--calib takes one calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml)
 //   vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]
 //   vision_station run --calib FILE --source SPEC [--out /dev/ttyUSB0 --baud 57600] [--show]
 //                      [--show-screenshot FILE.png] [--settings FILE] [--timeout-ms 500] [--status-s 1]
+//                      [--stats FILE.json]
 #include <csignal>
 #include <cstdlib>
 #include <cstdio>
@@ -38,10 +40,11 @@ const char* kUsage =
     "  vision_station calibrate (--images DIR | --source v4l2:/dev/A,/dev/B [--count N]) [--board 9x6]\n"
     "                           [--square 0.025] --out calib.yaml\n"
     "  vision_station detect --calib FILE (--left L.png --right R.png | --pairs LIST.csv) [--settings FILE]\n"
-    "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L,R | sim:SOCKET)\n"
+    "  vision_station run --calib FILE --source (files:DIR | v4l2:/dev/A,/dev/B | video:L[@MS],R[@MS] | sim:SOCKET)\n"
     "                     [--out PATH]"
     " [--baud 57600] [--show [--show-screenshot FILE.png]] [--settings FILE]\n"
-    "                     [--timeout-ms 500] [--status-s 1]\n";
+    "                     [--timeout-ms 500] [--status-s 1] [--stats FILE.json]\n"
+    "  --calib takes the station's calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml\n";
 
 // --key value options; flags listed in `flags` take no value.
 std::map<std::string, std::string> parse_options(int argc, char** argv, const std::vector<std::string>& flags) {
@@ -92,8 +95,17 @@ void check_size(const cv::Mat& image, const std::string& path, const StereoCalib
   }
 }
 
+StereoCalibration calibration_from(const std::map<std::string, std::string>& options) {
+  const std::string spec = require(options, "--calib");
+  StereoCalibration calibration = load_calibration(spec);
+  if (calibration.rectification_computed) {
+    std::cerr << "vision_station: " << spec << " has no R1 R2 P1 P2 Q: rectification computed with cv::stereoRectify\n";
+  }
+  return calibration;
+}
+
 int detect(const std::map<std::string, std::string>& options) {
-  const StereoCalibration calibration = load_calibration(require(options, "--calib"));
+  const StereoCalibration calibration = calibration_from(options);
   const StationSettings settings = settings_from(options);
   std::vector<ImagePair> pairs;
   if (options.count("--pairs")) {
@@ -109,8 +121,14 @@ int detect(const std::map<std::string, std::string>& options) {
     const cv::Mat right = read_grey_image(pair.right);
     check_size(left, pair.left, calibration);
     check_size(right, pair.right, calibration);
+    const int64_t start_us = monotonic_us();  // processing only: the images are already decoded
     const StarFix fix = locator.locate(left, right);
-    std::cout << fix_json(fix, settings.mount, pairs.size() > 1 ? pair.left + "," + pair.right : "") << "\n";
+    const double ms = (monotonic_us() - start_us) / 1000.0;
+    std::string json = fix_json(fix, settings.mount, pairs.size() > 1 ? pair.left + "," + pair.right : "");
+    char ms_field[32];
+    std::snprintf(ms_field, sizeof ms_field, ",\"ms\":%.3f}", ms);
+    json.replace(json.size() - 1, 1, ms_field);
+    std::cout << json << "\n";
   }
   return 0;
 }
@@ -201,6 +219,26 @@ struct Status {
   }
 };
 
+// Skew and dropped frames of a two-clock source, for the status line.
+std::string pairing_line(const PairingStats& p) {
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer,
+                "skew ms mean %.1f max %.1f (limit %.1f), unpaired L %llu R %llu, missing L %llu R %llu",
+                p.mean_skew_us() / 1e3, p.max_observed_skew_us() / 1e3, p.max_skew_us / 1e3,
+                static_cast<unsigned long long>(p.unpaired[0]), static_cast<unsigned long long>(p.unpaired[1]),
+                static_cast<unsigned long long>(p.missing[0]), static_cast<unsigned long long>(p.missing[1]));
+  return buffer;
+}
+
+// --stats FILE: the run's totals as one JSON object, written at exit.
+void write_stats(const std::string& path, const Status& total, const std::optional<PairingStats>& pairing) {
+  std::FILE* file = std::fopen(path.c_str(), "w");
+  if (file == nullptr) throw std::runtime_error("--stats: cannot write " + path);
+  std::fprintf(file, "{\"frames\":%d,\"fixes\":%d,\"stalls\":%d,\"pairing\":%s}\n", total.frames, total.fixes,
+               total.stalls, pairing ? pairing->json().c_str() : "null");
+  std::fclose(file);
+}
+
 const char* kWindow = "vision_station";
 
 // The --show window: both views side by side (left | right, raw pixels), the detected contour in red in
@@ -236,14 +274,15 @@ int run(const std::map<std::string, std::string>& options) {
   }
   const std::string screenshot = options.count("--show-screenshot") ? options.at("--show-screenshot") : "";
   if (!screenshot.empty() && !display) throw UsageError("--show-screenshot needs --show");
-  const StereoCalibration calibration = load_calibration(require(options, "--calib"));
+  const StereoCalibration calibration = calibration_from(options);
   const StationSettings settings = settings_from(options);
-  std::unique_ptr<FrameSource> source = make_frame_source(require(options, "--source"));
+  std::unique_ptr<FrameSource> source = make_frame_source(require(options, "--source"), settings.max_pair_skew_ms * 1e3);
+  const std::string stats_path = options.count("--stats") ? options.at("--stats") : "";
   std::unique_ptr<SerialPort> port;
   std::unique_ptr<FixLink> link;
   if (options.count("--out")) {
     port = std::make_unique<SerialPort>(options.at("--out"), static_cast<int>(number(options, "--baud", 57600)));
-    link = std::make_unique<FixLink>(*port, !source->vehicle_clock());
+    link = std::make_unique<FixLink>(*port, !source->vehicle_clock(), settings.send_covariance);
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(number(options, "--timeout-ms", 500)));
   const double status_period_s = number(options, "--status-s", 1.0);
@@ -262,6 +301,7 @@ int run(const std::map<std::string, std::string>& options) {
     if (step.status == ReadStatus::kEnd) break;
     if (step.status == ReadStatus::kNoFrame) {
       ++status.stalls;
+      ++total.stalls;
       if (!stalled) std::cerr << "no fix: no frames for " << timeout.count() << " ms: " << source->health() << "\n";
       stalled = true;
     } else {
@@ -276,6 +316,7 @@ int run(const std::map<std::string, std::string>& options) {
     const int64_t now = monotonic_us();
     if ((now - status_start) * 1e-6 >= status_period_s) {
       std::cerr << status.line((now - status_start) * 1e-6);
+      if (const auto pairing = source->pairing_stats()) std::cerr << ", " << pairing_line(*pairing);
       if (link) {
         std::cerr << ", sent " << link->frames_sent() << " dropped " << link->frames_dropped()
                   << (link->synchronised() ? ", timesync offset " + std::to_string(link->offset_us()) + " us"
@@ -287,6 +328,7 @@ int run(const std::map<std::string, std::string>& options) {
     }
   }
   std::cerr << "total: " << total.frames << " frames, " << total.fixes << " fixes\n";
+  if (!stats_path.empty()) write_stats(stats_path, total, source->pairing_stats());
   if (!screenshot.empty()) {
     // Proof that the window was on screen, and the exact picture it showed last.
     if (shown.empty()) throw std::runtime_error("--show-screenshot: no frame was displayed");

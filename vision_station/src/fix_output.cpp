@@ -27,9 +27,20 @@ std::string fix_json(const StarFix& fix, const CameraMount& mount, const std::st
   char buffer[512];
   std::snprintf(buffer, sizeof buffer,
                 "\"found\":true,\"x\":%.5f,\"y\":%.5f,\"z\":%.5f,\"sigma\":[%.5f,%.5f,%.5f],"
-                "\"body_frd\":[%.5f,%.5f,%.5f],\"disparity_px\":%.3f,\"row_difference_px\":%.3f}",
+                "\"body_frd\":[%.5f,%.5f,%.5f],\"disparity_px\":%.3f,\"row_difference_px\":%.3f",
                 fix.p_left[0], fix.p_left[1], fix.p_left[2], fix.sigma_left[0], fix.sigma_left[1], fix.sigma_left[2],
                 b[0], b[1], b[2], fix.disparity_px, fix.row_difference_px);
+  out += buffer;
+  if (!fix.pose.valid) return out + ",\"q\":null,\"attitude_sigma_rad\":null}";
+  const cv::Matx33d R_BS = star_attitude_in_body(mount.R_BC, fix.pose.R_CS);
+  const cv::Vec4d q = quaternion_from_rotation(R_BS);
+  const cv::Matx33d cov = mount.R_BC * fix.pose.attitude_cov_C * mount.R_BC.t();
+  const double tilt = std::acos(std::min(1.0, std::fabs(R_BS(2, 2))));
+  std::snprintf(buffer, sizeof buffer,
+                ",\"q\":[%.6f,%.6f,%.6f,%.6f],\"attitude_sigma_rad\":[%.6f,%.6f,%.6f],\"tilt_deg\":%.3f,"
+                "\"pose_rms_px\":%.3f}",
+                q[0], q[1], q[2], q[3], std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)),
+                tilt * 180.0 / CV_PI, fix.pose.rms_px);
   return out + buffer;
 }
 
@@ -46,7 +57,33 @@ mavlink::LandingTarget landing_target(const StarFix& fix, const CameraMount& mou
   m.y = static_cast<float>(b[1]);
   m.z = static_cast<float>(b[2]);
   m.q[0] = 1.0f;
+  if (fix.pose.valid) {
+    const cv::Vec4d q = quaternion_from_rotation(star_attitude_in_body(mount.R_BC, fix.pose.R_CS));
+    for (int i = 0; i < 4; ++i) m.q[i] = static_cast<float>(q[i]);
+  }
+  m.type = mavlink::kLandingTargetTypeVisionFiducial;
   m.position_valid = 1;
+  return m;
+}
+
+namespace {
+
+void upper_triangle(const cv::Matx33d& m, float out[6]) {
+  const int rows[6] = {0, 0, 0, 1, 1, 2}, cols[6] = {0, 1, 2, 1, 2, 2};
+  for (int i = 0; i < 6; ++i) out[i] = static_cast<float>(m(rows[i], cols[i]));
+}
+
+}  // namespace
+
+mavlink::LandingTargetCovariance landing_target_covariance(const StarFix& fix, const CameraMount& mount,
+                                                           uint64_t vehicle_time_us) {
+  mavlink::LandingTargetCovariance m;
+  m.time_usec = vehicle_time_us;
+  upper_triangle(mount.R_BC * fix.cov_left * mount.R_BC.t(), m.position_covariance);
+  if (fix.pose.valid) {
+    upper_triangle(mount.R_BC * fix.pose.attitude_cov_C * mount.R_BC.t(), m.attitude_covariance);
+    m.attitude_valid = 1;
+  }
   return m;
 }
 
@@ -109,8 +146,8 @@ size_t SerialPort::read_some(uint8_t* data, size_t capacity) {
   return n > 0 ? static_cast<size_t>(n) : 0;
 }
 
-FixLink::FixLink(SerialPort& port, bool timesync)
-    : port_(port), sender_(1, mavlink::kCompIdVisualInertialOdometry), timesync_(timesync) {}
+FixLink::FixLink(SerialPort& port, bool timesync, bool covariance)
+    : port_(port), sender_(1, mavlink::kCompIdVisualInertialOdometry), timesync_(timesync), covariance_(covariance) {}
 
 void FixLink::poll(int64_t now_us) {
   if (!timesync_) return;
@@ -153,6 +190,11 @@ bool FixLink::send(const StarFix& fix, const CameraMount& mount, int64_t capture
   const size_t n = sender_.encode(message, out, sizeof out);
   if (n > 0 && port_.write_all(out, n)) {
     ++sent_;
+    if (covariance_) {
+      const mavlink::LandingTargetCovariance cov = landing_target_covariance(fix, mount, message.time_usec);
+      uint8_t cov_out[mavlink::max_frame_length<mavlink::LandingTargetCovariance>()];
+      port_.write_all(cov_out, sender_.encode(cov, cov_out, sizeof cov_out));
+    }
     return true;
   }
   ++dropped_;

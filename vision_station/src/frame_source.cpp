@@ -1,6 +1,9 @@
 #include "quad/vision/frame_source.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
 #include <atomic>
 #include <condition_variable>
 #include <filesystem>
@@ -12,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "quad/vision/frame_pairer.h"
 #include "quad/vision/pair_list.h"
 #include "quad/vision/sim_source.h"
 
@@ -67,19 +71,38 @@ class FilesSource : public FrameSource {
   size_t next_ = 0;
 };
 
-// Two cv::VideoCapture streams (v4l2 devices or video files). A thread grabs both (grab() close together,
-// then retrieve(), to keep the pair in step) and hands the newest pair over; read() waits at most the
-// timeout, so a stalled camera yields kNoFrame instead of blocking the station. Live devices that fail
-// are reopened every half second; video files deliver every pair in order.
+cv::Mat to_grey(const cv::Mat& image) {
+  cv::Mat out;
+  if (image.channels() == 1) {
+    out = image.clone();
+  } else {
+    cv::cvtColor(image, out, cv::COLOR_BGR2GRAY);  // thesis step 1: greyscale
+  }
+  return out;
+}
+
+// Two cv::VideoCapture streams (v4l2 devices or video files), each with its own clock: every frame is
+// stamped with its capture time and a FramePairer pairs left and right by nearest time, refusing pairs
+// further apart than the skew limit. Live devices: one thread per camera, stamped with the driver's
+// buffer time (CAP_PROP_POS_MSEC, CLOCK_MONOTONIC in OpenCV's V4L2 backend) or the grab time, the
+// newest pair kept; a failing device is reopened every half second. Video files: one thread reads the
+// stream that is behind, stamps each frame with its presentation time (CAP_PROP_POS_MSEC) plus the
+// file's start offset, and hands over every pair in order. read() waits at most its timeout, so a
+// stalled camera yields kNoFrame instead of blocking the station.
 class CaptureSource : public FrameSource {
  public:
-  CaptureSource(std::string left, std::string right, bool live)
-      : paths_{std::move(left), std::move(right)}, live_(live) {
-    open();
-    if (!live_ && (!captures_[0].isOpened() || !captures_[1].isOpened())) {
-      throw FrameSourceError("video: cannot open '" + paths_[captures_[0].isOpened() ? 1 : 0] + "'");
+  CaptureSource(std::array<std::string, 2> paths, std::array<double, 2> offsets_ms, bool live, double max_skew_us)
+      : paths_(std::move(paths)), offsets_us_{offsets_ms[0] * 1e3, offsets_ms[1] * 1e3}, live_(live),
+        pairer_(max_skew_us), start_us_(monotonic_us()) {
+    for (int i = 0; i < 2; ++i) open(i);
+    if (!live_) {
+      for (int i = 0; i < 2; ++i) {
+        if (!captures_[i].isOpened()) throw FrameSourceError("video: cannot open '" + paths_[i] + "'");
+      }
+      workers_.emplace_back([this] { file_loop(); });
+    } else {
+      for (int i = 0; i < 2; ++i) workers_.emplace_back([this, i] { camera_loop(i); });
     }
-    worker_ = std::thread([this] { loop(); });
   }
   ~CaptureSource() override {
     {
@@ -87,7 +110,7 @@ class CaptureSource : public FrameSource {
       stop_ = true;
     }
     cv_.notify_all();
-    worker_.join();
+    for (std::thread& worker : workers_) worker.join();
   }
 
   ReadStatus read(StereoFrame& frame, std::chrono::milliseconds timeout) override {
@@ -102,81 +125,133 @@ class CaptureSource : public FrameSource {
 
   std::string health() const override {
     std::lock_guard<std::mutex> lock(mutex_);
-    return problem_;
+    std::string out;
+    for (const std::string& p : problem_) out += (out.empty() || p.empty() ? "" : "; ") + p;
+    return out;
+  }
+
+  std::optional<PairingStats> pairing_stats() const override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pairer_.stats();
   }
 
  private:
-  void open() {
-    for (int i = 0; i < 2; ++i) {
-      captures_[i].release();
-      if (live_) {
-        captures_[i].open(paths_[i], cv::CAP_V4L2);
-      } else {
-        // FFmpeg reads every common container; OpenCV's own MJPEG reader covers the rest without
-        // probing camera backends.
-        if (!captures_[i].open(paths_[i], cv::CAP_FFMPEG)) captures_[i].open(paths_[i], cv::CAP_OPENCV_MJPEG);
-      }
+  void open(int i) {
+    captures_[i].release();
+    if (live_) {
+      captures_[i].open(paths_[i], cv::CAP_V4L2);
+    } else {
+      // FFmpeg reads every common container and reports each frame's presentation time, gaps included
+      // (OpenCV's own MJPEG reader counts frames instead).
+      captures_[i].open(paths_[i], cv::CAP_FFMPEG);
     }
   }
 
-  void set_problem(std::string problem) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    problem_ = std::move(problem);
-  }
-
-  void loop() {
-    cv::Mat images[2];
-    uint64_t sequence = 0;
-    while (!stop_) {
-      const bool opened = captures_[0].isOpened() && captures_[1].isOpened();
-      const bool grabbed = opened && captures_[0].grab() && captures_[1].grab();
-      const int64_t t = monotonic_us();
-      if (!grabbed || !captures_[0].retrieve(images[0]) || !captures_[1].retrieve(images[1])) {
-        if (!live_) {
-          std::lock_guard<std::mutex> lock(mutex_);
-          ended_ = true;
-          cv_.notify_all();
-          return;
-        }
-        set_problem(std::string(opened ? "a camera stopped delivering frames" : "cannot open the cameras") + " (" +
-                    paths_[0] + ", " + paths_[1] + "); retrying");
-        std::this_thread::sleep_for(std::chrono::milliseconds(500));
-        open();
-        continue;
-      }
-      StereoFrame frame;
-      for (int i = 0; i < 2; ++i) {
-        cv::Mat& out = i == 0 ? frame.left : frame.right;
-        if (images[i].channels() == 1) {
-          out = images[i].clone();
-        } else {
-          cv::cvtColor(images[i], out, cv::COLOR_BGR2GRAY);  // thesis step 1: greyscale
-        }
-      }
-      frame.capture_time_us = t;
-      frame.sequence = ++sequence;
-      std::unique_lock<std::mutex> lock(mutex_);
-      // Files deliver every pair (wait until the last one was taken); live cameras keep only the newest.
+  // Under the lock: hands over the pairs the pairer has. Files wait until the last one was taken; live
+  // cameras keep only the newest.
+  void deliver_pairs(std::unique_lock<std::mutex>& lock, bool flush) {
+    while (auto pair = pairer_.pop(flush)) {
       if (!live_) cv_.wait(lock, [this] { return !fresh_ || stop_; });
+      if (stop_) return;
+      StereoFrame frame;
+      frame.left = std::move(pair->first.image);
+      frame.right = std::move(pair->second.image);
+      frame.skew_us = pair->second.time_us - pair->first.time_us;
+      // The pair's capture time: the middle of its two exposures, on the station clock.
+      const int64_t middle = (pair->first.time_us + pair->second.time_us) / 2;
+      frame.capture_time_us = live_ ? middle : start_us_ + middle;
+      frame.sequence = ++sequence_;
+      frame.label = live_ ? "" : paths_[0] + "@" + std::to_string(pair->first.time_us / 1000.0) + "ms," + paths_[1] +
+                                     "@" + std::to_string(pair->second.time_us / 1000.0) + "ms";
       latest_ = std::move(frame);
       fresh_ = true;
-      problem_.clear();
       cv_.notify_all();
     }
   }
 
-  std::string paths_[2];
+  void camera_loop(int i) {
+    cv::Mat image;
+    while (!stop_) {
+      if (!captures_[i].isOpened() || !captures_[i].grab()) {
+        set_problem(i, std::string(i == 0 ? "left" : "right") + " camera " + paths_[i] +
+                           (captures_[i].isOpened() ? " stopped delivering frames" : " cannot be opened") +
+                           "; retrying");
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        open(i);
+        continue;
+      }
+      int64_t t = monotonic_us();
+      const double driver_ms = captures_[i].get(cv::CAP_PROP_POS_MSEC);
+      if (driver_ms > 0.0 && std::fabs(driver_ms * 1e3 - static_cast<double>(t)) < 2e6) {
+        t = static_cast<int64_t>(driver_ms * 1e3);
+      }
+      if (!captures_[i].retrieve(image)) continue;
+      set_problem(i, "");
+      std::unique_lock<std::mutex> lock(mutex_);
+      pairer_.push(i, TimedFrame{to_grey(image), t});
+      deliver_pairs(lock, false);
+    }
+  }
+
+  void file_loop() {
+    cv::Mat image;
+    bool ended[2] = {false, false};
+    int64_t last[2] = {std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::min()};
+    while (!stop_) {
+      // Read the stream that is behind, so that both queues stay short.
+      const int i = ended[0] ? 1 : ended[1] ? 0 : (last[0] <= last[1] ? 0 : 1);
+      if (ended[0] && ended[1]) break;
+      if (!captures_[i].grab() || !captures_[i].retrieve(image)) {
+        ended[i] = true;
+        continue;
+      }
+      last[i] = static_cast<int64_t>(captures_[i].get(cv::CAP_PROP_POS_MSEC) * 1e3 + offsets_us_[i]);
+      std::unique_lock<std::mutex> lock(mutex_);
+      pairer_.push(i, TimedFrame{to_grey(image), last[i]});
+      deliver_pairs(lock, false);
+    }
+    std::unique_lock<std::mutex> lock(mutex_);
+    deliver_pairs(lock, true);
+    if (!stop_) cv_.wait(lock, [this] { return !fresh_ || stop_; });
+    ended_ = true;
+    cv_.notify_all();
+  }
+
+  void set_problem(int i, std::string problem) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    problem_[i] = std::move(problem);
+  }
+
+  std::array<std::string, 2> paths_;
+  double offsets_us_[2];
   bool live_;
   cv::VideoCapture captures_[2];
-  std::thread worker_;
+  std::vector<std::thread> workers_;
   std::atomic<bool> stop_{false};
   mutable std::mutex mutex_;
   std::condition_variable cv_;
+  FramePairer pairer_;
+  int64_t start_us_;
+  uint64_t sequence_ = 0;
   StereoFrame latest_;
   bool fresh_ = false;
   bool ended_ = false;
-  std::string problem_;
+  std::string problem_[2];
 };
+
+// "PATH@MS": a video file whose first frame was captured MS milliseconds after the common time origin.
+std::pair<std::string, double> path_and_offset(const std::string& text) {
+  const size_t at = text.rfind('@');
+  if (at != std::string::npos && at + 1 < text.size()) {
+    try {
+      size_t used = 0;
+      const double ms = std::stod(text.substr(at + 1), &used);
+      if (used == text.size() - at - 1 && std::isfinite(ms)) return {text.substr(0, at), ms};
+    } catch (const std::exception&) {
+    }
+  }
+  return {text, 0.0};
+}
 
 std::pair<std::string, std::string> split_pair(const std::string& spec, const std::string& rest) {
   const size_t comma = rest.find(',');
@@ -188,18 +263,22 @@ std::pair<std::string, std::string> split_pair(const std::string& spec, const st
 
 }  // namespace
 
-std::unique_ptr<FrameSource> make_frame_source(const std::string& spec) {
+std::unique_ptr<FrameSource> make_frame_source(const std::string& spec, double max_skew_us) {
   const size_t colon = spec.find(':');
   const std::string scheme = colon == std::string::npos ? "" : spec.substr(0, colon);
   const std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
   if (scheme == "files") return std::make_unique<FilesSource>(rest);
   if (scheme == "v4l2") {
     auto [left, right] = split_pair(spec, rest);
-    return std::make_unique<CaptureSource>(left, right, true);
+    return std::make_unique<CaptureSource>(std::array<std::string, 2>{left, right}, std::array<double, 2>{0.0, 0.0},
+                                           true, max_skew_us);
   }
   if (scheme == "video") {
     auto [left, right] = split_pair(spec, rest);
-    return std::make_unique<CaptureSource>(left, right, false);
+    const auto [left_path, left_ms] = path_and_offset(left);
+    const auto [right_path, right_ms] = path_and_offset(right);
+    return std::make_unique<CaptureSource>(std::array<std::string, 2>{left_path, right_path},
+                                           std::array<double, 2>{left_ms, right_ms}, false, max_skew_us);
   }
   if (scheme == "sim") {
     if (rest.empty()) throw FrameSourceError("source '" + spec + "': needs the simulator's socket path, sim:PATH");

@@ -30,7 +30,15 @@ StationSettings load_station_settings(const std::string& path) {
       {"max_row_difference_px", &l.max_row_difference_px}, {"min_range_m", &l.min_range_m},
       {"max_range_m", &l.max_range_m}, {"centroid_sigma_px", &l.centroid_sigma_px}, {"track_roi", &l.track_roi},
       {"roi_growth", &l.roi_growth}, {"roi_margin_px", &l.roi_margin_px},
-      {"undistort_iterations", &l.undistort_iterations}};
+      {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
+      {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
+      {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms},
+      {"robust_window_px", &d.robust_window_px}, {"robust_min_ratio", &d.robust_min_ratio},
+      {"robust_max_ratio", &d.robust_max_ratio},
+      {"robust_low_ratio", &d.robust_low_ratio}, {"max_elongation", &d.shape.max_elongation},
+      {"max_profile_rms", &d.shape.max_profile_rms}, {"min_fourfold", &d.shape.min_fourfold},
+      {"max_other_harmonic", &d.shape.max_other_harmonic}, {"min_shape_solidity", &d.shape.min_solidity},
+      {"max_shape_solidity", &d.shape.max_solidity}};
   for (const cv::FileNode& node : fs.root()) {
     const std::string key = node.name();
     if (key == "camera_to_body_R" || key == "camera_to_body_t") {
@@ -44,6 +52,15 @@ StationSettings load_station_settings(const std::string& path) {
         s.mount.t_BC = cv::Vec3d(m.reshape(1, 3));
       } else {
         throw std::runtime_error(path + ": key '" + key + "' must be a " + (key.back() == 'R' ? "3x3" : "3x1") + " matrix");
+      }
+      continue;
+    }
+    if (key == "method" || key == "deinterlace") {  // the two words-valued settings
+      const std::string word = node.isString() ? static_cast<std::string>(node) : "";
+      const bool ok = key == "method" ? parse_detector_method(word, d.method) : parse_deinterlace(word, d.deinterlace);
+      if (!ok) {
+        throw std::runtime_error(path + ": key '" + key + "' must be " +
+                                 (key == "method" ? "thesis or robust" : "none, field or blend"));
       }
       continue;
     }

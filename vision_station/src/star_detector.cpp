@@ -33,9 +33,31 @@ std::array<double, 7> hu_log(const cv::Moments& moments) {
 
 }  // namespace
 
+const char* to_string(DetectorMethod method) { return method == DetectorMethod::kThesis ? "thesis" : "robust"; }
+
+const char* to_string(Deinterlace deinterlace) {
+  return deinterlace == Deinterlace::kNone ? "none" : deinterlace == Deinterlace::kField ? "field" : "blend";
+}
+
+bool parse_detector_method(const std::string& text, DetectorMethod& out) {
+  if (text == "thesis") out = DetectorMethod::kThesis;
+  else if (text == "robust") out = DetectorMethod::kRobust;
+  else return false;
+  return true;
+}
+
+bool parse_deinterlace(const std::string& text, Deinterlace& out) {
+  if (text == "none") out = Deinterlace::kNone;
+  else if (text == "field") out = Deinterlace::kField;
+  else if (text == "blend") out = Deinterlace::kBlend;
+  else return false;
+  return true;
+}
+
 StarDetector::StarDetector(const DetectorSettings& settings, const PointRectifier& rectifier)
     : settings_(settings),
       rectifier_(rectifier),
+      shape_test_(settings.inner_ratio, settings.shape),
       kernel_(cv::getStructuringElement(cv::MORPH_RECT,
                                         cv::Size(settings.morphology_kernel_px, settings.morphology_kernel_px))) {
   ideal_hu_log_ = hu_log(cv::moments(ideal_star_contour(settings.inner_ratio)));
@@ -106,17 +128,82 @@ bool StarDetector::midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, co
   return true;
 }
 
+void StarDetector::make_view(const cv::Mat& gray, const cv::Rect& roi) {
+  const int first = roi.y + (settings_.deinterlace == Deinterlace::kNone ? 0 : (roi.y & 1));  // even frame row
+  const int rows = roi.br().y - first;
+  switch (settings_.deinterlace) {
+    case Deinterlace::kNone:
+      view_ = gray(roi);
+      view_row_scale_ = 1.0f;
+      view_origin_ = cv::Point2f(static_cast<float>(roi.x), static_cast<float>(roi.y));
+      break;
+    case Deinterlace::kField:  // every other row of the frame, without a copy
+      view_ = cv::Mat((rows + 1) / 2, roi.width, CV_8UC1, const_cast<uchar*>(gray.ptr(first) + roi.x), gray.step[0] * 2);
+      view_row_scale_ = 2.0f;
+      view_origin_ = cv::Point2f(static_cast<float>(roi.x), static_cast<float>(first));
+      break;
+    case Deinterlace::kBlend:  // the mean of each row pair, centred between the two rows
+      cv::resize(gray(cv::Rect(roi.x, first, roi.width, rows & ~1)), blend_, cv::Size(roi.width, rows / 2), 0, 0,
+                 cv::INTER_AREA);
+      view_ = blend_;
+      view_row_scale_ = 2.0f;
+      view_origin_ = cv::Point2f(static_cast<float>(roi.x), first + 0.5f);
+      break;
+  }
+  roi_border_[0] = roi.x > 0;
+  roi_border_[1] = roi.y > 0;
+  roi_border_[2] = roi.br().x < gray.cols;
+  roi_border_[3] = roi.br().y < gray.rows;
+}
+
+void StarDetector::to_frame(const std::vector<cv::Point>& view_points, cv::Point2f view_scale,
+                            std::vector<cv::Point2f>& frame) const {
+  // view_scale maps the points' own grid (the view, or its half-resolution copy) to view pixels, with the
+  // pixel centres kept: v = s·p + (s − 1)/2.
+  frame.resize(view_points.size());
+  const float ox = 0.5f * (view_scale.x - 1.0f), oy = 0.5f * (view_scale.y - 1.0f);
+  for (size_t i = 0; i < view_points.size(); ++i) {
+    const float vx = view_scale.x * view_points[i].x + ox, vy = view_scale.y * view_points[i].y + oy;
+    frame[i] = cv::Point2f(view_origin_.x + vx, view_origin_.y + view_row_scale_ * vy);
+  }
+}
+
+void StarDetector::rectify(const std::vector<cv::Point>& view_points, cv::Point2f view_scale,
+                           std::vector<cv::Point2f>& out) {
+  to_frame(view_points, view_scale, frame_points_);
+  table_.map(frame_points_, out);
+}
+
+bool StarDetector::touches_border(const cv::Rect& box, cv::Size view_size, int margin) const {
+  // Image borders: within `margin` pixels (thesis filter 1: a star cut by the edge can look like a better
+  // star). ROI borders that are not image borders: touching means possibly cut by the ROI.
+  const int m[4] = {roi_border_[0] ? 1 : margin, roi_border_[1] ? 1 : margin, roi_border_[2] ? 1 : margin,
+                    roi_border_[3] ? 1 : margin};
+  return box.x < m[0] || box.y < m[1] || box.br().x > view_size.width - m[2] || box.br().y > view_size.height - m[3];
+}
+
 std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times) {
   CV_Assert(gray.type() == CV_8UC1);
   const cv::Rect image_rect(0, 0, gray.cols, gray.rows);
   roi = roi.empty() ? image_rect : (roi & image_rect);
+  if (roi.width < 8 || roi.height < 8) return {};
+  if (table_.image_size() != gray.size()) table_ = RectifyTable(rectifier_, gray.size());
+  make_view(gray, roi);
+  std::vector<StarCandidate> candidates =
+      settings_.method == DetectorMethod::kThesis ? detect_thesis(times) : detect_robust(times);
+  std::sort(candidates.begin(), candidates.end(),
+            [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
+  return candidates;
+}
+
+std::vector<StarCandidate> StarDetector::detect_thesis(DetectorTimes* times) {
   std::vector<StarCandidate> candidates;
-  if (roi.empty()) return candidates;
+  const cv::Rect view_rect(0, 0, view_.cols, view_.rows);
 
   // Steps 1–4: threshold, then erode, dilate twice, erode (thesis sec. 8.1) to smooth the edges and
   // remove salt noise.
   const Clock::time_point t0 = Clock::now();
-  threshold(gray(roi));
+  threshold(view_);
   cv::erode(binary_, scratch_, kernel_);
   cv::dilate(scratch_, binary_, kernel_, cv::Point(-1, -1), 2);
   cv::erode(binary_, scratch_, kernel_);
@@ -124,30 +211,20 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
   const Clock::time_point t1 = Clock::now();
 
   // Step 5: outer contours of the white shapes, then the filters.
-  cv::findContours(binary_, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, roi.tl());
+  cv::findContours(binary_, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   const DetectorSettings& s = settings_;
-  // Borders of the ROI that are not image borders: a contour touching one may be cut by the ROI.
-  const bool roi_left = roi.x > 0, roi_top = roi.y > 0;
-  const bool roi_right = roi.br().x < gray.cols, roi_bottom = roi.br().y < gray.rows;
+  const double row_scale = view_row_scale_;
   std::vector<cv::Point2f> polygon, hull;
   std::vector<cv::Point> refined_contour;
   double rectify_us = 0.0;
   for (std::vector<cv::Point>& contour : contours_) {
     const cv::Rect box = cv::boundingRect(contour);
-    // Filter 1: away from the image edge (a star cut by the edge can look like a better star).
-    if (box.x < s.edge_margin_px || box.y < s.edge_margin_px || box.br().x > gray.cols - s.edge_margin_px ||
-        box.br().y > gray.rows - s.edge_margin_px) {
-      continue;
-    }
-    if ((roi_left && box.x <= roi.x) || (roi_top && box.y <= roi.y) || (roi_right && box.br().x >= roi.br().x) ||
-        (roi_bottom && box.br().y >= roi.br().y)) {
-      continue;
-    }
-    if (!(cv::contourArea(contour) > s.raw_area_prefilter * s.min_area_px)) continue;
+    if (touches_border(box, view_.size(), s.edge_margin_px)) continue;  // filter 1
+    if (!(cv::contourArea(contour) * row_scale > s.raw_area_prefilter * s.min_area_px)) continue;
 
     StarCandidate c;
     const Clock::time_point r0 = Clock::now();
-    rectifier_.apply(contour, c.rectified);
+    rectify(contour, cv::Point2f(1.0f, 1.0f), c.rectified);
     rectify_us += microseconds(r0, Clock::now());
     // Filter 2: area (rectified pixels).
     const cv::Moments moments = cv::moments(c.rectified);
@@ -172,20 +249,20 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
     // Sub-pixel centroid from the moments of the rectified polygon (input of eq. 8.2–8.4), on the
     // mid-level contour when refinement is on.
     cv::Moments centroid_moments = moments;
-    if (s.refine_midpoint && midpoint_contour(gray, roi, box, refined_contour)) {
+    std::vector<cv::Point>* raw = &contour;
+    if (s.refine_midpoint && midpoint_contour(view_, view_rect, box, refined_contour)) {
       const Clock::time_point r1 = Clock::now();
-      rectifier_.apply(refined_contour, c.rectified);
+      rectify(refined_contour, cv::Point2f(1.0f, 1.0f), c.rectified);
       rectify_us += microseconds(r1, Clock::now());
       centroid_moments = cv::moments(c.rectified);
-      contour.swap(refined_contour);
+      raw = &refined_contour;
     }
     c.centroid = cv::Point2d(centroid_moments.m10 / centroid_moments.m00, centroid_moments.m01 / centroid_moments.m00);
-    c.box = box;
-    c.contour = std::move(contour);
+    to_frame(*raw, cv::Point2f(1.0f, 1.0f), frame_points_);
+    for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
+    c.box = cv::boundingRect(c.contour);
     candidates.push_back(std::move(c));
   }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
   if (times != nullptr) {
     times->threshold_morphology_us += microseconds(t0, t1);
     times->contours_filters_us += microseconds(t1, Clock::now()) - rectify_us;

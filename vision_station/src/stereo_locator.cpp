@@ -17,6 +17,9 @@ double microseconds(Clock::time_point a, Clock::time_point b) {
 // Candidates considered per view when pairing left with right.
 constexpr size_t kMaxCandidatesPerView = 3;
 
+// Contour points per view the pose is fitted to (star_pose.h).
+constexpr size_t kMaxPoseContourPoints = 240;
+
 }  // namespace
 
 cv::Vec3d camera_to_body(const CameraMount& mount, const cv::Vec3d& p_camera) {
@@ -32,7 +35,27 @@ StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const
     : calibration_(calibration),
       settings_(settings),
       left_detector_(settings.detector, PointRectifier(calibration, 0, settings.undistort_iterations)),
-      right_detector_(settings.detector, PointRectifier(calibration, 1, settings.undistort_iterations)) {}
+      right_detector_(settings.detector, PointRectifier(calibration, 1, settings.undistort_iterations)),
+      left_near_(calibration, 0),
+      right_near_(calibration, 1) {}
+
+std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray, const StarCandidate& star,
+                                                            const NearRectifier& rectifier) const {
+  // Neighbouring edge points share pixels and carry nearly the same information: at most
+  // kMaxPoseContourPoints evenly spaced points per view keep a near star as cheap as a far one.
+  const size_t n = std::min(star.contour.size(), star.rectified.size());
+  const size_t stride = std::max<size_t>((n + kMaxPoseContourPoints - 1) / kMaxPoseContourPoints, 1);
+  std::vector<cv::Point> sampled;
+  std::vector<cv::Point2f> guesses;
+  for (size_t i = 0; i < n; i += stride) {
+    sampled.push_back(star.contour[i]);
+    guesses.push_back(star.rectified[i]);  // the detector's rectified copy of the same raw pixel
+  }
+  const std::vector<cv::Point2f> raw = subpixel_edges(gray, sampled);
+  std::vector<cv::Point2f> rectified(raw.size());
+  for (size_t i = 0; i < raw.size(); ++i) rectified[i] = rectifier.rectified(raw[i], guesses[i]);
+  return rectified;
+}
 
 void StereoStarLocator::reset_tracking() {
   last_left_box_ = cv::Rect();
@@ -119,6 +142,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       const double s2 = settings_.centroid_sigma_px * settings_.centroid_sigma_px;
       const cv::Matx33d cov = R1t * (s2 * J * J.t()) * R1t.t();
       fix.sigma_left = cv::Vec3d(std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)));
+      fix.cov_left = cov;
       fix.left_rectified = pl;
       fix.right_rectified = pr;
       fix.disparity_px = d;
@@ -127,6 +151,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.right_contour = r.candidates[best_j].contour;
       fix.used_roi = l.used_roi && r.used_roi;
       fix.found = true;
+      if (settings_.estimate_pose) {
+        best_left_ = l.candidates[best_i];
+        best_right_ = r.candidates[best_j];
+      }
       last_left_box_ = l.candidates[best_i].box;
       last_right_box_ = r.candidates[best_j].box;
     }
@@ -142,6 +170,15 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();
+  if (fix.found && settings_.estimate_pose) {
+    StarPoseSettings pose_settings = settings_.pose;
+    pose_settings.inner_ratio = settings_.detector.inner_ratio;
+    const Clock::time_point t0 = Clock::now();
+    const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, best_left_, left_near_);
+    const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, best_right_, right_near_);
+    fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
+    fix.times.pose_us = microseconds(t0, Clock::now());
+  }
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;
   fix.times.rectify_points_us = left_times.rectify_points_us + right_times.rectify_points_us;

@@ -18,19 +18,44 @@ MagFitResult refuse(MagFitResult r, const std::string& why) {
   return r;
 }
 
+// Why the samples cannot be fitted at all (too few, not finite, no field norm), or an empty string.
+std::string unusable_samples(const std::vector<Eigen::Vector3d>& samples, const MagFitOptions& options) {
+  const int n = static_cast<int>(samples.size());
+  if (n < std::max(options.min_samples, 9)) {
+    return "magnetometer fit: " + std::to_string(n) + " samples, at least " +
+           std::to_string(std::max(options.min_samples, 9)) + " needed";
+  }
+  for (int i = 0; i < n; ++i) {
+    if (!samples[i].allFinite()) return "magnetometer fit: sample " + std::to_string(i) + " is not finite";
+  }
+  if (!(options.field_norm > 0.0)) return "magnetometer fit: field_norm must be positive";
+  return "";
+}
+
+// Fit quality (RMS of |W (m - b)| / |m_I| - 1) and coverage (the least eigenvalue of the scatter of the
+// corrected directions) on the corrected samples, into r.
+void measure_fit(const std::vector<Eigen::Vector3d>& samples, const MagFitOptions& options, const Eigen::Vector3d& b,
+                 const Eigen::Matrix3d& w, MagFitResult& r) {
+  const int n = static_cast<int>(samples.size());
+  double sq = 0.0;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& m : samples) {
+    const Eigen::Vector3d v = w * (m - b);
+    const double len = v.norm();
+    sq += std::pow(len / options.field_norm - 1.0, 2);
+    if (len > 0.0) scatter += (v / len) * (v / len).transpose();
+  }
+  r.residual_rms = std::sqrt(sq / n);
+  r.coverage = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter / n).eigenvalues().minCoeff();
+}
+
 }  // namespace
 
 MagFitResult fit_magnetometer(const std::vector<Eigen::Vector3d>& samples, const MagFitOptions& options) {
   MagFitResult r;
   const int n = static_cast<int>(samples.size());
-  if (n < std::max(options.min_samples, 9)) {
-    return refuse(r, "magnetometer fit: " + std::to_string(n) + " samples, at least " +
-                         std::to_string(std::max(options.min_samples, 9)) + " needed");
-  }
-  for (int i = 0; i < n; ++i) {
-    if (!samples[i].allFinite()) return refuse(r, "magnetometer fit: sample " + std::to_string(i) + " is not finite");
-  }
-  if (!(options.field_norm > 0.0)) return refuse(r, "magnetometer fit: field_norm must be positive");
+  const std::string unusable = unusable_samples(samples, options);
+  if (!unusable.empty()) return refuse(r, unusable);
 
   // Centre and scale the data first so that the nine columns of eq. 7.17 are of similar size and the
   // right-hand side of eq. 7.16 (C10 normalised to 1) is safe: the origin is then inside the ellipsoid.
@@ -74,17 +99,7 @@ MagFitResult fit_magnetometer(const std::vector<Eigen::Vector3d>& samples, const
   const Eigen::Matrix3d w = options.field_norm * eig_e.eigenvectors() *
                             eig_e.eigenvalues().cwiseSqrt().asDiagonal() * eig_e.eigenvectors().transpose();
 
-  // Fit quality and coverage, on the corrected samples.
-  double sq = 0.0;
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const auto& m : samples) {
-    const Eigen::Vector3d v = w * (m - b);
-    const double len = v.norm();
-    sq += std::pow(len / options.field_norm - 1.0, 2);
-    if (len > 0.0) scatter += (v / len) * (v / len).transpose();
-  }
-  r.residual_rms = std::sqrt(sq / n);
-  r.coverage = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter / n).eigenvalues().minCoeff();
+  measure_fit(samples, options, b, w, r);
   r.offset = b;
   r.soft_iron = w;
   for (int i = 0; i < 3; ++i) {

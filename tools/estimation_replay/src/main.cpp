@@ -74,18 +74,18 @@ int main(int argc, char** argv) {
       {"-o", [&](auto&, auto& v) { output = v; }},
       {"--filter",
        [&](auto& k, auto& v) {
-         static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::Conditioned},
-                                                                     {"unconditioned", AttitudeFilter::Unconditioned},
-                                                                     {"mahony", AttitudeFilter::Mahony},
-                                                                     {"linear", AttitudeFilter::Linear}};
+         static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::kConditioned},
+                                                                     {"unconditioned", AttitudeFilter::kUnconditioned},
+                                                                     {"mahony", AttitudeFilter::kMahony},
+                                                                     {"linear", AttitudeFilter::kLinear}};
          const auto it = names.find(v);
          if (it == names.end()) usage_error(k + ": unknown filter '" + v + "'");
          o.filter = it->second;
        }},
       {"--propagator",
        [&](auto& k, auto& v) {
-         if (v == "exact") o.observer.propagator = quad::est::Propagator::Exact;
-         else if (v == "second-order") o.observer.propagator = quad::est::Propagator::SecondOrder;
+         if (v == "exact") o.observer.propagator = quad::est::Propagator::kExact;
+         else if (v == "second-order") o.observer.propagator = quad::est::Propagator::kSecondOrder;
          else usage_error(k + ": unknown propagator '" + v + "'");
        }},
       {"--k1", [&](auto& k, auto& v) { o.observer.k1 = number(k, v); }},
@@ -110,8 +110,8 @@ int main(int argc, char** argv) {
        }},
       {"--noise-model",
        [&](auto& k, auto& v) {
-         if (v == "thesis") o.position.process_noise = quad::est::ProcessNoise::ThesisDiagonal;
-         else if (v == "white") o.position.process_noise = quad::est::ProcessNoise::WhiteAcceleration;
+         if (v == "thesis") o.position.process_noise = quad::est::ProcessNoise::kThesisDiagonal;
+         else if (v == "white") o.position.process_noise = quad::est::ProcessNoise::kWhiteAcceleration;
          else usage_error(k + ": unknown noise model '" + v + "'");
        }},
       {"--q-pos", [&](auto& k, auto& v) { o.position.q_pos = number(k, v); }},
@@ -200,7 +200,7 @@ int main(int argc, char** argv) {
   std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
             << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
             << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
-  if (o.filter == AttitudeFilter::Conditioned || o.filter == AttitudeFilter::Unconditioned) {
+  if (o.filter == AttitudeFilter::kConditioned || o.filter == AttitudeFilter::kUnconditioned) {
     std::cerr << "; observer: " << s.observer.skipped << " samples skipped, " << s.observer.accel_rejected
               << " accelerometer and " << s.observer.mag_rejected << " magnetometer samples not used";
   }

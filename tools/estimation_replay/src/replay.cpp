@@ -17,40 +17,40 @@ class Attitude {
  public:
   explicit Attitude(const ReplayOptions& o) : kind_(o.filter), mahony_(o.mahony), linear_(o.linear) {
     est::ObserverParams p = o.observer;
-    p.innovation = kind_ == AttitudeFilter::Unconditioned ? est::Innovation::Unconditioned : est::Innovation::Conditioned;
+    p.innovation = kind_ == AttitudeFilter::kUnconditioned ? est::Innovation::kUnconditioned : est::Innovation::kConditioned;
     observer_.set_params(p);
   }
 
   bool initialize(const Vec3& a, const Vec3& m) {
     switch (kind_) {
-      case AttitudeFilter::Mahony: return mahony_.initialize(a, m);
-      case AttitudeFilter::Linear: return linear_.initialize(a, m);
+      case AttitudeFilter::kMahony: return mahony_.initialize(a, m);
+      case AttitudeFilter::kLinear: return linear_.initialize(a, m);
       default: return observer_.initialize(a, m);
     }
   }
   void update(const Vec3& g, const Vec3& a, const Vec3& m, bool mag_valid, float dt) {
     switch (kind_) {
-      case AttitudeFilter::Mahony: mahony_.update(g, a, m, mag_valid, dt); break;
-      case AttitudeFilter::Linear: linear_.update(g, a, m, mag_valid, dt); break;
+      case AttitudeFilter::kMahony: mahony_.update(g, a, m, mag_valid, dt); break;
+      case AttitudeFilter::kLinear: linear_.update(g, a, m, mag_valid, dt); break;
       default: observer_.update(g, a, m, mag_valid, dt); break;
     }
   }
   Quat attitude() const {
     switch (kind_) {
-      case AttitudeFilter::Mahony: return mahony_.attitude();
-      case AttitudeFilter::Linear: return linear_.attitude();
+      case AttitudeFilter::kMahony: return mahony_.attitude();
+      case AttitudeFilter::kLinear: return linear_.attitude();
       default: return observer_.attitude();
     }
   }
   Vec3 gyro_bias() const {
     switch (kind_) {
-      case AttitudeFilter::Mahony: return mahony_.gyro_bias();
-      case AttitudeFilter::Linear: return Vec3{};  // the linear filter has no bias estimate
+      case AttitudeFilter::kMahony: return mahony_.gyro_bias();
+      case AttitudeFilter::kLinear: return Vec3{};  // the linear filter has no bias estimate
       default: return observer_.gyro_bias();
     }
   }
   const est::ObserverHealth& health() const { return observer_.health(); }
-  bool uses_observer() const { return kind_ == AttitudeFilter::Conditioned || kind_ == AttitudeFilter::Unconditioned; }
+  bool uses_observer() const { return kind_ == AttitudeFilter::kConditioned || kind_ == AttitudeFilter::kUnconditioned; }
 
  private:
   AttitudeFilter kind_;

@@ -9,10 +9,10 @@
 
 namespace quad::replay {
 
-enum class AttitudeFilter { Conditioned, Unconditioned, Mahony, Linear };
+enum class AttitudeFilter { kConditioned, kUnconditioned, kMahony, kLinear };
 
 struct ReplayOptions {
-  AttitudeFilter filter = AttitudeFilter::Conditioned;
+  AttitudeFilter filter = AttitudeFilter::kConditioned;
   est::ObserverParams observer;             // Conditioned / Unconditioned (innovation set from `filter`)
   est::MahonyParams mahony;
   est::LinearComplementaryParams linear;

@@ -13,25 +13,9 @@
 namespace quad {
 namespace ctrl {
 
-// Comparisons by bit pattern. A float comparison is a library call on the AVR (operands moved into
-// place, then the soft-float compare); these are four byte compares. The sign-magnitude bit pattern of
-// a float read as a signed 32-bit integer orders like the float itself whenever at least one operand
-// is positive (> +0), NaN aside: every negative float, -0 included, reads as a negative integer.
-// So for b > 0: a < b  <=>  float_order(a) < float_order(b), for every non-NaN a.
-inline int32_t float_order(float x) {
-  int32_t i;
-  memcpy(&i, &x, sizeof i);
-  return i;
-}
-
-// x > 0 and finite, for the parameter checks (validate()): a positive finite float is exactly one whose
-// bit pattern, read as a signed integer, lies strictly between 0 (+0) and 0x7F800000 (+inf); NaN, -0
-// and every negative value fall outside. Out of line on the AVR (one call instead of a finiteness test
-// and a soft-float comparison at each of the ~30 checks).
-QUAD_MATH_FN bool positive_finite(float x) {
-  const int32_t i = float_order(x);
-  return i > 0 && i < 0x7F800000L;
-}
+// x > 0 and finite, for the parameter checks (validate()). Out of line on the AVR (one call instead of a
+// finiteness test and a soft-float comparison at each of the ~30 checks).
+QUAD_MATH_FN bool positive_finite(float x) { return is_finite(x) && x > 0.0f; }
 QUAD_MATH_FN bool positive_finite(const Vec3& v) {
   return positive_finite(v.x) && positive_finite(v.y) && positive_finite(v.z);
 }
@@ -56,21 +40,15 @@ QUAD_MATH_FN bool positive_finite(const Vec3& v) {
 inline float tanh_approx(float x) {
   constexpr float kClamp = 3.647f;
   const float x2 = x * x;  // the common small cases first: no clamp comparisons (software on the AVR)
-  // x2 >= +0 (or NaN), so its comparisons are by bit pattern (float_order); a NaN passes the two small
-  // branches like a float comparison would and comes back as NaN.
-  const int32_t x2_bits = float_order(x2);
-  if (x2_bits < float_order(0.0036f)) return x - x * x2 * (1.0f / 3.0f);
-  if (x2_bits < float_order(0.025f)) return x + x * x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f));
-  if (x2_bits >= float_order(kClamp * kClamp)) {  // |x| >= 3.647: one comparison for both signs
-    if (x2_bits > 0x7F800000L) return x;  // NaN
-    return float_order(x) < 0 ? -1.0f : 1.0f;
-  }
+  if (x2 < 0.0036f) return x - x * x2 * (1.0f / 3.0f);
+  if (x2 < 0.025f) return x + x * x2 * (-1.0f / 3.0f + x2 * (2.0f / 15.0f));
+  if (x2 >= kClamp * kClamp) return x < 0.0f ? -1.0f : 1.0f;  // |x| >= 3.647: one comparison for both signs
+  // (A NaN x gets here and comes back as NaN.)
   const float num = x * (945.0f + x2 * (105.0f + x2));
   const float den = 945.0f + x2 * (420.0f + x2 * 15.0f);
   const float r = num / den;
-  // |r| <= 1 (round-off near the clamp could exceed it by an ulp): by the bit pattern, sign kept.
-  const int32_t r_bits = float_order(r);
-  if ((r_bits & 0x7FFFFFFFL) > float_order(1.0f)) return r_bits < 0 ? -1.0f : 1.0f;
+  // |r| <= 1 (round-off near the clamp could exceed it by an ulp), sign kept.
+  if (absf(r) > 1.0f) return r < 0.0f ? -1.0f : 1.0f;
   return r;
 }
 

@@ -65,6 +65,12 @@ class ThrustAttitude {
 
  private:
   Quat yaw_quat(float yaw_d);  // cached: the trigonometry runs only when yaw_d changes
+  void command_within_limits(float h_x, float h_y, float h_sq, float a_z, float a_z_sq, const Quat& yaw,
+                             AttitudeCommand& cmd) const;
+  void command_at_tilt_limit(float h_x, float h_y, float h_sq, float a_z, float tilt_cap, const Quat& yaw,
+                             AttitudeCommand& cmd) const;
+  static void compose(float p_x, float p_y, float w_c, float w_s, float k_c, float k_s, float h_x, float h_y, float a_z,
+                      AttitudeCommand& cmd);
 
   // (No member initialisers: set_params() sets them all, and every constructor but the Unset one calls it.)
   ThrustAttitudeParams params_;

@@ -4,7 +4,7 @@
 //   quad::est::StationaryCalibrator cal;            // default stillness limits
 //   for each sample in the window: cal.add(gyro_frd, accel_frd);
 //   quad::est::ImuBias bias;
-//   if (cal.result(bias) == quad::est::CalibrationStatus::Ok) { gyro -= bias.gyro; accel -= bias.accel; }
+//   if (cal.result(bias) == quad::est::CalibrationStatus::kOk) { gyro -= bias.gyro; accel -= bias.accel; }
 //
 // Usage, magnetometer (the fit itself runs on the host, see quad/estimation/mag_fit.h):
 //   quad::est::MagCalibration mc{offset, soft_iron};
@@ -33,12 +33,12 @@ struct StillnessLimits {
 };
 
 enum class CalibrationStatus : uint8_t {
-  Ok,
-  TooFewSamples,
-  NonFinite,     // a sample was not finite
-  Moved,         // gyro or accelerometer spread too large
-  Turning,       // gyro mean beyond max_gyro_mean
-  NotLevel,      // accelerometer mean too far from (0, 0, -g)
+  kOk,
+  kTooFewSamples,
+  kNonFinite,    // a sample was not finite
+  kMoved,        // gyro or accelerometer spread too large
+  kTurning,      // gyro mean beyond max_gyro_mean
+  kNotLevel,     // accelerometer mean too far from (0, 0, -g)
 };
 
 // Accumulates a window of samples; the statistics are taken about the first sample so that the

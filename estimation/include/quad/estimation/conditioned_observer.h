@@ -30,14 +30,14 @@ namespace est {
 
 // How the attitude is carried over one sample period.
 enum class Propagator : uint8_t {
-  Exact,        // cos/sinc of eq. 4.14 (two transcendental calls)
-  SecondOrder,  // thesis sec. 4.3: second-order Taylor terms, no trigonometry (the APM 2.5 form)
+  kExact,        // cos/sinc of eq. 4.14 (two transcendental calls)
+  kSecondOrder,  // thesis sec. 4.3: second-order Taylor terms, no trigonometry (the APM 2.5 form)
 };
 
 // Which innovation drives the observer.
 enum class Innovation : uint8_t {
-  Conditioned,    // eq. 4.7-4.9: the magnetometer only turns the estimate about the estimated vertical
-  Unconditioned,  // eq. 4.3-4.4 (Mahony's explicit filter): the magnetometer also tilts the estimate
+  kConditioned,    // eq. 4.7-4.9: the magnetometer only turns the estimate about the estimated vertical
+  kUnconditioned,  // eq. 4.3-4.4 (Mahony's explicit filter): the magnetometer also tilts the estimate
 };
 
 struct ObserverParams {
@@ -50,8 +50,8 @@ struct ObserverParams {
   float delta = 0.03f;    // bound on the gyro bias norm, rad/s
   // Unconditioned mode only: the integral gain k_I of eq. 4.4 (b' = -k_I sigma_R).
   float k_i = 0.03125f;
-  Innovation innovation = Innovation::Conditioned;
-  Propagator propagator = Propagator::SecondOrder;
+  Innovation innovation = Innovation::kConditioned;
+  Propagator propagator = Propagator::kSecondOrder;
   // Earth field in NED, in the magnetometer's units. Ignored when mag_ref_from_init is set: initialize()
   // then takes it from the first sample with magnetic north as the x axis (seed 001's "SAC" convention).
   Vec3 mag_ref_ned{0.42f, 0.0f, 0.91f};
@@ -126,6 +126,9 @@ class ConditionedObserver {
   void cache_propagation(float dt);
   bool step_ok(const Vec3& gyro, float dt);
   bool commit(const Quat& q_next, const Vec3& b_next, const Vec3& rate);
+  bool gravity_direction(const Vec3& accel, Vec3& u_meas);
+  void add_heading_innovation(const Vec3& mag, const Vec3& u_hat, const Vec3& axis, Vec3& sigma_r, Vec3& db) const;
+  void add_bias_pullback(Vec3& db) const;
 
   ObserverParams params_;
   Vec3 v_ref_;            // v_I: eq. 4.7 (conditioned) or 4.3a (unconditioned)

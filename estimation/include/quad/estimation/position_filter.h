@@ -63,12 +63,12 @@ Vec3 kinematic_acceleration(const Quat& q_ib, const Vec3& specific_force_frd);
 Vec3 kinematic_acceleration(const Mat3& r_ib, const Vec3& specific_force_frd);
 
 enum class ProcessNoise : uint8_t {
-  ThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
-  WhiteAcceleration,  // continuous white acceleration of spectral density q_accel (q_p = 0)
+  kThesisDiagonal,     // eq. 8.12: q_p on position, q_v on velocity (table 8.1: both 1)
+  kWhiteAcceleration,  // continuous white acceleration of spectral density q_accel (q_p = 0)
 };
 
 struct PositionFilterParams {
-  ProcessNoise process_noise = ProcessNoise::ThesisDiagonal;
+  ProcessNoise process_noise = ProcessNoise::kThesisDiagonal;
   float q_pos = 1.0f;        // sigma^2_{q,p}, m^2/s            (ThesisDiagonal)
   float q_vel = 1.0f;        // sigma^2_{q,v}, (m/s)^2/s        (ThesisDiagonal)
   float q_accel = 1.0f;      // sigma_a^2, (m/s^2)^2/Hz         (WhiteAcceleration)
@@ -91,14 +91,14 @@ struct PositionFilterParams {
 };
 
 enum class FixResult : uint8_t {
-  Fused,          // used at its capture time
-  Initialized,    // first fix, or a reset (repeated rejections, or lost after an outage): position set to the fix
-  RejectedGate,   // innovation outside the Mahalanobis gate
-  RejectedTooOld, // captured before the oldest history entry or before the last reset
-  RejectedOutOfOrder,  // captured before the last fused fix
-  RejectedInvalid,     // non-finite, or fused before the first predict
-  RejectedBusy,        // queue_fix() while another fix is still in progress
-  Pending,             // queued, or gated and waiting for its update (queue_fix() / advance_fix())
+  kFused,               // used at its capture time
+  kInitialized,         // first fix, or a reset (repeated rejections, or lost after an outage): position set to the fix
+  kRejectedGate,        // innovation outside the Mahalanobis gate
+  kRejectedTooOld,      // captured before the oldest history entry or before the last reset
+  kRejectedOutOfOrder,  // captured before the last fused fix
+  kRejectedInvalid,     // non-finite, or fused before the first predict
+  kRejectedBusy,        // queue_fix() while another fix is still in progress
+  kPending,             // queued, or gated and waiting for its update (queue_fix() / advance_fix())
 };
 
 struct PositionFilterHealth {
@@ -171,7 +171,7 @@ class PositionFilterCore {
   const PositionFilterHealth& health() const { return health_; }
   // History entries (the oldest ones) from before the last fold of the accumulated correction, which get
   // the old-epoch correction on lookup (0: no old epoch). Diagnostics and tests.
-  uint16_t old_epoch_entries() const { return old_left_; }
+  uint16_t old_epoch_entries() const { return old_epoch_left_; }
 
  protected:
   PositionFilterCore(HistoryEntry* storage, uint16_t capacity, const PositionFilterParams& params);
@@ -190,14 +190,14 @@ class PositionFilterCore {
   };
 
   // Index into p_, q_ and gain_ of an axis' covariance class: 0 for x and y, 1 for z unless z shares.
-  int covariance_class(int axis) const { return axis == 2 && !one_class_ ? 1 : 0; }
-  int class_count() const { return one_class_ ? 1 : 2; }
+  int covariance_class(int axis) const { return axis == 2 && !z_shares_xy_covariance_ ? 1 : 0; }
+  int class_count() const { return z_shares_xy_covariance_ ? 1 : 2; }
   // Whether an axis, or a covariance class, carries the bias state; where it does not, b and its
   // corrections stay zero.
   bool has_bias(int axis) const { return axis == 2 ? params_.z_accel_bias : params_.xy_accel_bias; }
   bool class_has_bias(int c) const { return c == 0 ? params_.xy_accel_bias : params_.z_accel_bias; }
   // Spectral densities of position, velocity and, per covariance class, the bias (0 if it has none).
-  bool white() const { return params_.process_noise == ProcessNoise::WhiteAcceleration; }
+  bool white() const { return params_.process_noise == ProcessNoise::kWhiteAcceleration; }
   float qp() const { return white() ? 0.0f : params_.q_pos; }
   float qv() const { return white() ? params_.q_accel : params_.q_vel; }
   float qb(int c) const {
@@ -212,6 +212,9 @@ class PositionFilterCore {
   float correction_position(int axis, float dt) const;
   void initialize_from_fix(const Vec3& p_ned, uint32_t capture_us);
   void set_step(int32_t step_us);
+  bool fix_resets() const;
+  void capture_gain_terms(float tau, float h1, float h2, float w[2][3]);
+  bool within_gate(const Vec3& y, const float p_s[3], float nu[3]);
   void propagate(const Vec3& u, int32_t step_us);
   FixResult accept_fix(const Vec3& p_ned);  // the checks of every fix: Pending when it may go on
   FixResult gate_fix(const Vec3& p_ned, uint32_t capture_us);
@@ -227,11 +230,12 @@ class PositionFilterCore {
   float half_dt_;                            // q_dt_ / 2
   float h_dt_;                               // q_dt_^2 / 2 (bias states only)
   AxisState x_[3];
-  AxisCovariance p_[2];                      // horizontal (x and y), vertical (p_[1] unused while one_class_)
-  bool one_class_ = false;                   // z's covariance is identical to x's and y's
-  Correction corr_[3];                       // accumulated correction, carried to now (t_us_)
-  // Correction of the old epoch, frozen at the time of its newest entry (the fold): valid while old_left_ > 0.
-  FrozenCorrection corr_old_[3];
+  AxisCovariance p_[2];  // horizontal (x and y), vertical (p_[1] unused while z_shares_xy_covariance_)
+  bool z_shares_xy_covariance_ = false;  // z's covariance is identical to x's and y's: one class
+  Correction correction_[3];             // accumulated correction, carried to now (t_us_)
+  // Correction of the old epoch, frozen at the time of its newest entry (the fold): valid while
+  // old_epoch_left_ > 0.
+  FrozenCorrection old_epoch_correction_[3];
   uint32_t inv_span_us_ = 0;                 // history spacing whose reciprocal inv_span_ holds (0: none)
   float inv_span_;
   // Last correction gain, carried to now; while a fix is gated (kFixGated) its D h, the gain times S.
@@ -248,7 +252,7 @@ class PositionFilterCore {
   uint16_t capacity_;
   uint16_t head_ = 0;   // index of the next entry to write
   uint16_t count_ = 0;  // valid entries
-  uint16_t old_left_ = 0;  // the oldest old_left_ entries predate the last fold (old epoch; 0: none)
+  uint16_t old_epoch_left_ = 0;  // the oldest old_epoch_left_ entries predate the last fold (old epoch; 0: none)
   // The fix in progress (queue_fix(), advance_fix()): queued, its position and capture time; gated, its
   // innovations, 1 / S per class and the time it was gated at (the same storage: the AVR's RAM).
   enum FixStage : uint8_t { kFixIdle, kFixQueued, kFixGated };

@@ -121,8 +121,9 @@ class FlightApp {
   const mavlink::Parser& parser(uint8_t port) const { return link_.parser(port); }
   const RadioSigning& radio_signing() const { return link_.radio_signing(); }
   uint32_t now_us() const { return now_us_; }
-  // What the mode machine and SYS_STATUS see of the vehicle.
-  ModeInputs mode_inputs() const;
+  // What the mode machine and SYS_STATUS see of the vehicle. with_throttle false leaves rc_throttle at 0:
+  // only commands read it (ModeMachine::update() does not), and its conversion costs the AVR a division.
+  ModeInputs mode_inputs(bool with_throttle = true) const;
 
   // The ground link's handler (ground_link.h).
   void hil_frame(const mavlink::Frame& frame);

@@ -1,9 +1,10 @@
 // The flight application's per-iteration checks, written to avoid software float work on the AVR.
 //
 // Each returns exactly what the float expression in its comment returns (tests/firmware/
-// test_scheduler_vision.cpp, "AppChecks", compares them on boundary and random inputs): comparisons on
-// bit patterns (float_bits.h), and norms skipped when one axis already decides the comparison. They
-// live here rather than in app.cpp so that the tests can reach them.
+// test_scheduler_vision.cpp, "AppChecks", compares them on boundary and random inputs): norms are
+// skipped when one axis already decides the comparison, and the per-axis speed and force tests compare
+// bit patterns (float_bits.h: together 1 970 cycles off the longest iteration of the 200 Hz PIL flight).
+// They live here rather than in the application so that the tests can reach them.
 #pragma once
 
 #include <stdint.h>
@@ -34,8 +35,8 @@ inline float step_dt(bool clock_started, uint32_t elapsed_us, uint32_t period_us
 }
 
 // Bit i set: the shaped setpoint moves along axis i (its tracking lag is not an offset to learn, nor is
-// the vehicle hovering), absf(v_d[i]) >= kTrimMovingSpeed on the bit patterns (float_bits.h; false for
-// NaN, as the float comparison). One out-of-line copy for hovering() and the trim's learn flags.
+// the vehicle hovering): absf(v_d[i]) >= kTrimMovingSpeed (false for NaN). One out-of-line copy for
+// hovering() and the trim's learn flags.
 inline __attribute__((noinline)) uint8_t moving_axes(const Vec3& v_d) {
   return static_cast<uint8_t>((abs_at_least(v_d.x, kTrimMovingSpeed) ? 1u : 0u) |
                               (abs_at_least(v_d.y, kTrimMovingSpeed) ? 2u : 0u) |
@@ -64,21 +65,22 @@ inline bool healthy_speed(const Vec3& v) {
 
 // The specific-force plausibility test norm_sq(a) > sqf(0.3f * kGravity) (8.66), without the norm when
 // |a_z| >= 3 (gravity is mostly along body z: its square alone is >= 9, and a sum of non-negative floats
-// is at least each term). The caller has checked that a is finite, so abs_bits() orders like absf().
+// is at least each term). The caller has checked that a is finite.
 constexpr float kSureForce = 3.0f;
 inline bool plausible_force(const Vec3& a) {
-  if (abs_bits(a.z) >= float_bits(kSureForce)) return true;
+  if (abs_at_least(a.z, kSureForce)) return true;
   return norm_sq(a) > sqf(0.3f * kGravity);
 }
 
 // MAG_OFS zero and MAG_SI the identity (the parameters' defaults): thesis eq. 7.5 returns the field
 // itself (W (m - b) = m for every finite field, but for the sign of an exact zero component; a
-// non-finite field stays non-finite). The twelve parameters are consecutive: offsets, then W by rows.
+// non-finite field stays non-finite; a -0 parameter counts as zero, which changes only the sign of an
+// exact zero component). The twelve parameters are consecutive: offsets, then W by rows.
 static_assert(kMagSiXX == kMagOfsX + 3 && kMagSiZZ == kMagOfsX + 11, "MAG_OFS_*, MAG_SI_* order");
 inline bool identity_calibration(const Params& p) {
   for (uint8_t i = 0; i < 12; ++i) {
-    const uint32_t expected = i == 3 || i == 7 || i == 11 ? 0x3F800000u : 0u;  // 1.0f on W's diagonal
-    if (float_bits(p.get(static_cast<uint8_t>(kMagOfsX + i))) != expected) return false;
+    const float expected = i == 3 || i == 7 || i == 11 ? 1.0f : 0.0f;  // 1 on W's diagonal
+    if (p.get(static_cast<uint8_t>(kMagOfsX + i)) != expected) return false;
   }
   return true;
 }

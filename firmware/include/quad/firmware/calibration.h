@@ -49,7 +49,7 @@ class BootCalibration {
   bool started_ = false;
   bool done_ = false;
   uint16_t rejected_ = 0;
-  est::CalibrationStatus rejection_ = est::CalibrationStatus::Ok;
+  est::CalibrationStatus rejection_ = est::CalibrationStatus::kOk;
   CalibrationResult result_;
 };
 

@@ -7,7 +7,7 @@
 // plain member calls resolved at compile time (receive() is a template): no virtual dispatch.
 //
 // The handler provides:
-//   void hil_frame(const mavlink::Frame&)                   HIL_SENSOR (the HIL runner decodes it)
+//   void hil_frame(const mavlink::Frame&)                   HIL_SENSOR (the HIL bridge decodes it)
 //   Transition mode_command(Command)                         a command for the mode machine
 //   void report_transition(const Transition&)                after the command's ACK
 //   void rc_input(const ctrl::RcSticks&, uint32_t, const RcSwitches*)
@@ -131,6 +131,12 @@ void GroundLink::receive(uint8_t port, const uint8_t* data, uint16_t length, Han
   parsers_[port].feed(data, length, [this, port, &h](const mavlink::Frame& frame) {
     // The radio is where strangers can talk: its frames pass the signature check first (counted).
     if (port == hal::kUart2 && !mavlink::accepted(radio_.check(frame))) return;
+    // HIL_SENSOR runs a whole iteration: outside dispatch(), so its message locals are not on the stack
+    // under it (the ATmega2560's RAM budget counts the peak stack).
+    if (frame.message_id == mavlink::HilSensor::kId) {
+      h.hil_frame(frame);
+      return;
+    }
     dispatch(port, frame, h);
   });
 }
@@ -139,9 +145,6 @@ template <class Handler>
 void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h) {
   namespace mav = ::quad::mavlink;
   switch (frame.message_id) {
-    case mav::HilSensor::kId:
-      h.hil_frame(frame);
-      break;
     case mav::CommandLong::kId: {
       mav::CommandLong msg;
       if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_command(port, msg, h);

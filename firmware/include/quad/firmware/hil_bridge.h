@@ -17,9 +17,17 @@ class HilBridge {
   void connect(FlightApp& app, AppIo& io);
   uint32_t sensor_frames() const { return sensor_frames_; }
 
+  // One HIL_SENSOR as the iteration takes it.
+  struct Sample {
+    uint64_t time_usec;
+    hal::ImuSample imu;
+    hal::MagSample mag;
+    bool mag_new;
+  };
+
  private:
   static void on_frame(void* bridge, const mavlink::Frame& frame);
-  void on_sensor(const mavlink::HilSensor& msg);
+  void on_sample(const Sample& s);
   void send_actuators(uint64_t time_usec);
 
   FlightApp* app_ = nullptr;

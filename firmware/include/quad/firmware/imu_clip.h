@@ -18,7 +18,6 @@
 #include <stdint.h>
 
 #include "quad/hal/hal.h"
-#include "quad/math/float_bits.h"
 #include "quad/math/math.h"
 
 namespace quad {
@@ -51,9 +50,9 @@ class ImuClipGuard {
   uint32_t bursts() const { return bursts_; }
 
  private:
-  // kClipFraction * range as the pattern |x| is compared with (float_bits.h; imu_clip.cpp limit_bits()).
-  uint32_t gyro_limit_ = 0u;
-  uint32_t accel_limit_ = 0u;
+  // kClipFraction * range (+0 for one not above zero): a reading with |x| at or above it is clipped.
+  float gyro_limit_ = 0.0f;
+  float accel_limit_ = 0.0f;
   float hold_s_ = 0.0f;
   Vec3 last_good_gyro_;
   float clipping_for_s_ = 0.0f;  // since the last sample with no clipped axis

@@ -2,8 +2,7 @@
 // no final XOR. MAVLink v2 runs it over the frame from the length byte to the end of the payload, then
 // over the message's CRC_EXTRA byte (a hash of its definition, so peers with different definitions of
 // the same id reject each other's frames).
-#ifndef QUAD_LINK_CRC_H
-#define QUAD_LINK_CRC_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -38,5 +37,3 @@ inline uint16_t crc_accumulate(const uint8_t* data, size_t length, uint16_t crc)
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_CRC_H

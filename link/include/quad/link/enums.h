@@ -1,6 +1,5 @@
 // The MAVLink enumeration values this system uses (values from the MAVLink common/minimal dialects).
-#ifndef QUAD_LINK_ENUMS_H
-#define QUAD_LINK_ENUMS_H
+#pragma once
 
 #include <stdint.h>
 
@@ -67,5 +66,3 @@ constexpr uint64_t kHilActuatorControlsFlagLockstep = 1;
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_ENUMS_H

@@ -11,8 +11,7 @@
 //         10..   payload (fields in wire order, trailing zero bytes dropped)
 //         +2     CRC-16/MCRF4XX over bytes 1..end of payload, then over the message's CRC_EXTRA
 //         +13    signature block when incompat_flags & 0x01: link id, 48-bit timestamp, 48-bit signature
-#ifndef QUAD_LINK_FRAME_H
-#define QUAD_LINK_FRAME_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -160,5 +159,3 @@ class Sender {
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_FRAME_H

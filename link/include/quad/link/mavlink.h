@@ -28,8 +28,7 @@
 // Text fields (param_id, text): mav::copy_text(msg.param_id, "ATT_KP"), mav::text_equals(msg.param_id, "ATT_KP").
 //
 // See docs/mavlink.md for the wire details and what the parser counts.
-#ifndef QUAD_LINK_MAVLINK_H
-#define QUAD_LINK_MAVLINK_H
+#pragma once
 
 #include "quad/link/crc.h"
 #include "quad/link/enums.h"
@@ -40,5 +39,3 @@
 #include "quad/link/signing.h"
 #include "quad/link/text.h"
 #include "quad/link/wire.h"
-
-#endif  // QUAD_LINK_MAVLINK_H

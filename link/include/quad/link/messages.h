@@ -10,8 +10,7 @@
 // Every field defaults to zero (HEARTBEAT's mavlink_version to 3, as the protocol requires), so
 // `HilSensor msg{};` or `HilSensor msg;` is a valid all-zero message. char arrays are not NUL-terminated
 // when full (MAVLink convention); a shorter string is NUL-padded.
-#ifndef QUAD_LINK_MESSAGES_H
-#define QUAD_LINK_MESSAGES_H
+#pragma once
 
 #include <stdint.h>
 
@@ -518,5 +517,3 @@ static_assert(lengths_match_fields<Statustext>(), "STATUSTEXT layout");
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_MESSAGES_H

@@ -27,8 +27,7 @@
 //     quad::mavlink::HilSensor sensor;
 //     if (quad::mavlink::decode(frame, sensor)) { ... }
 //   });
-#ifndef QUAD_LINK_PARSER_H
-#define QUAD_LINK_PARSER_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -142,5 +141,3 @@ class Parser {
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_PARSER_H

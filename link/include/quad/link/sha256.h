@@ -9,8 +9,7 @@
 //   hash.update(frame, n);
 //   uint8_t digest[quad::mavlink::kSha256DigestLength];
 //   hash.finish(digest);
-#ifndef QUAD_LINK_SHA256_H
-#define QUAD_LINK_SHA256_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -48,5 +47,3 @@ void sha256(const uint8_t* data, size_t length, uint8_t digest[kSha256DigestLeng
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_SHA256_H

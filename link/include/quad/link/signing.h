@@ -22,8 +22,7 @@
 //   verifier.set_require_signed(true);
 //   size_t n = mav::encode_signed(sender, signer, msg, buf, sizeof buf);
 //   parser.feed(data, length, [&](const mav::Frame& f) { if (mav::accepted(verifier.check(f))) use(f); });
-#ifndef QUAD_LINK_SIGNING_H
-#define QUAD_LINK_SIGNING_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -195,5 +194,3 @@ class SignatureVerifier {
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_SIGNING_H

@@ -1,7 +1,6 @@
 // MAVLink char-array fields (param_id[16], text[50]): NUL-padded, and not NUL-terminated when full.
 // These helpers write and compare them without ever reading past the field or the C string.
-#ifndef QUAD_LINK_TEXT_H
-#define QUAD_LINK_TEXT_H
+#pragma once
 
 #include <stddef.h>
 
@@ -39,5 +38,3 @@ bool text_equals(const char (&field)[N], const char* text) {
 
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_TEXT_H

@@ -4,8 +4,7 @@
 // Every target of this project (AVR, Cortex-M, x86-64) is little-endian, as MAVLink's wire format is, so
 // a field is packed with memcpy of its object representation: no alignment assumptions, no shifts of
 // 64-bit values on the 8-bit AVR. The #error below stops a big-endian port from silently going wrong.
-#ifndef QUAD_LINK_WIRE_H
-#define QUAD_LINK_WIRE_H
+#pragma once
 
 #include <stddef.h>
 #include <stdint.h>
@@ -82,5 +81,3 @@ constexpr SizeCounter count_fields() {
 }  // namespace wire
 }  // namespace mavlink
 }  // namespace quad
-
-#endif  // QUAD_LINK_WIRE_H

@@ -33,9 +33,12 @@ struct SessionOptions {
   // radio to UART2; what the firmware sends on UART2 comes out there. Empty: no ground port.
   std::string ground_port_link;
   // The vision station command, used when the scenario renders the cameras (`camera: {enabled: true}`):
-  // the sim appends --calib FILE --source sim:SOCKET --out PTY --baud B --status-s 10 --timeout-ms 60000
+  // the sim appends --calib FILE --settings FILE --source sim:SOCKET --out PTY --baud B --status-s 10 --timeout-ms 60000
   // (quad/sim/station_loop.h).
   std::vector<std::string> station_argv;
+  // The station's calibration file; empty: `vision_station calibrate` on chessboards the simulator
+  // renders, cached in station_calibration_cache (empty: station_calibration/ beside the station).
+  std::string station_calibration, station_calibration_cache;
   const std::atomic<bool>* stop = nullptr; // set (e.g. by SIGINT) to end the run early
 };
 

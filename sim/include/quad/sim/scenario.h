@@ -78,18 +78,37 @@ struct VisionParams {
   bool enabled = true;
 };
 
-// The rendered stereo cameras (`camera:`, quad/sim/stereo_camera.h).
+// One camera's lens in OpenCV's pinhole model: focal lengths and principal point (px), distortion
+// (k1, k2, p1, p2, k3) applied to normalised undistorted coordinates (quad/sim/camera_model.h).
+struct LensParams {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
+};
+
+// The rendered stereo cameras (`camera:`; quad/sim/stereo_camera.h, quad/sim/camera_model.h). The
+// mounts come from the MJCF's cam_left / cam_right; lenses and image size from here. Defaults: the
+// thesis' table 7.1 cameras (fx = s·f with the cell aspect s = 1.059 of eq. 7.26a, fy = f).
 struct CameraParams {
   bool enabled = false;               // true: rendered cameras and the vision station replace the simulated fix
-  double star_tip_to_tip_m = 0.40;    // the marker (the vision station's star, inner ratio 0.4)
+  int image_width = 728, image_height = 488;
+  LensParams left{483.3276, 456.4, 331.4, 211.4, -0.5176, 0.3257, 0.0, 0.0, -0.1186};
+  LensParams right{488.7285, 461.5, 341.6, 244.4, -0.4976, 0.2730, 0.0, 0.0, -0.0791};
+  double star_tip_to_tip_m = 0.40;    // the marker: a four-pointed star ...
+  double star_inner_ratio = 0.4;      // ... whose inner vertices lie at this fraction of the tip radius
   int distractors = 8;                // dark squares, discs and triangles scattered around the star
   double floor_grey = 205.0;          // albedo of the floor (0..255 at nominal exposure)
+  std::string floor_texture;          // a photograph laid on the floor (empty: a plain floor)
+  double floor_texture_m = 1.5;       // side of the photograph on the floor (tiled, mirrored)
+  double floor_texture_contrast = 0.15;  // the photograph's grey sigma as a fraction of floor_grey
   double star_grey = 40.0;            // albedo of the star
-  double noise_grey = 3.0;            // Gaussian sensor noise, grey levels (σ)
-  double exposure_variation = 0.10;   // frame-to-frame exposure wander (relative σ of a slow random walk)
+  double noise_grey = 3.0;            // Gaussian sensor noise, grey levels (sigma)
+  double exposure_variation = 0.10;   // frame-to-frame exposure wander (relative sigma of a slow random walk)
   double vignetting = 0.25;           // brightness lost at the image corners
+  double exposure_s = 0.0;            // shutter time per field: motion blur (0: instantaneous)
+  bool interlaced = false;            // even rows exposed 1/60 s before odd rows (analog video fields)
+  int jpeg_quality = 0;               // JPEG-compress each image at this quality (0: uncompressed)
   double frame_loss = 0.0;            // fraction of captured pairs that never reach the station
-  double calibration_focal_error = 0.0;  // the station's focal lengths are (1 + this) x the true ones
+  double calibration_focal_error = 0.0;  // the station's focal lengths are (1 + this) x the calibrated ones
 };
 
 struct Scenario {
@@ -111,6 +130,9 @@ struct Scenario {
 
   VisionParams vision;
   CameraParams camera;
+  // Extra keys for the vision station's settings file (name -> number or word), written beside the
+  // camera mount the simulator puts there (quad/sim/station_loop.h).
+  std::vector<std::pair<std::string, std::string>> station_settings;
   MotorParams motor;
   ImuParams imu;
   MagParams mag;
@@ -133,8 +155,19 @@ struct Scenario {
   Eigen::Vector3d wind_at(double t) const;
 };
 
-Scenario load_scenario(const std::string& path);
+// One scenario key replaced before the scenario is checked (quad_sim --set KEY=VALUE): `key` is a dotted
+// path, list items by index (`radio.latency_s`, `firmware_params.POS_KP_XY`, `commands.3.at_s`), `value`
+// a YAML value (`0.01`, `[1, 0, 0]`, `{at_s: 40, land: true}`). A missing map key is created.
+struct ScenarioOverride {
+  std::string key;
+  std::string value;
+};
+// "KEY=VALUE" to an override; throws ScenarioError when there is no '=' or no key.
+ScenarioOverride parse_override(const std::string& key_equals_value);
+
+Scenario load_scenario(const std::string& path, const std::vector<ScenarioOverride>& overrides = {});
 // Parses YAML text; `name` stands for the file in error messages and `base_dir` resolves relative paths.
-Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir);
+Scenario parse_scenario(const std::string& yaml_text, const std::string& name, const std::string& base_dir,
+                        const std::vector<ScenarioOverride>& overrides = {});
 
 }  // namespace quad::sim

@@ -44,11 +44,20 @@ struct StationFigures {
   uint64_t late_answers = 0;           // processing time > the configured latency
 };
 
+struct StationLoopOptions {
+  std::string calibration_file;   // the station's calibration; empty: from rendered chessboards (cached)
+  std::string calibration_cache;  // where those are cached; empty: station_calibration/ beside the station
+  std::function<void(const std::string&)> progress = [](const std::string&) {};
+};
+
 class StationLoop {
  public:
-  // Starts the station (`station_argv` + --calib --source --out --baud --status-s --timeout-ms) with the thesis rig's calibration
-  // written to RUN/station_calib.yaml, and waits (10 s at most) for it to connect.
-  StationLoop(const Scenario& scenario, const std::string& out_dir, const std::vector<std::string>& station_argv);
+  // Starts the station (`station_argv` + --calib --settings --source --out --baud --status-s --timeout-ms)
+  // with RUN/station_calib.yaml (made by `vision_station calibrate` on chessboards rendered through
+  // `rig`, quad/sim/station_calibration.h) and RUN/station_settings.yaml (the left camera's mount and
+  // the scenario's station_settings), and waits (10 s at most) for it to connect.
+  StationLoop(const Scenario& scenario, const SimStereoRig& rig, const std::string& out_dir,
+              const std::vector<std::string>& station_argv, const StationLoopOptions& options = StationLoopOptions());
   ~StationLoop();
   StationLoop(const StationLoop&) = delete;
   StationLoop& operator=(const StationLoop&) = delete;
@@ -71,6 +80,11 @@ class StationLoop {
     double capture_t;
     Eigen::Vector3d star_body_frd;  // truth at capture
   };
+  struct Timed {
+    double t;
+    VehiclePose pose;
+  };
+  VehiclePose pose_at(double t) const;  // interpolated in the recent history
   void send_pair(uint64_t sequence, double t);
   void collect(const Pending& pending, const RadioSink& to_radio);
   void read_exact(void* data, size_t length, const char* what);
@@ -88,6 +102,7 @@ class StationLoop {
   double next_capture_t_ = 0.0;
   uint64_t next_sequence_ = 0;
   std::deque<Pending> pending_;
+  std::deque<Timed> history_;
   cv::Mat left_, right_;
   StationFigures figures_;
 };

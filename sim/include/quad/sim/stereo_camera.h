@@ -1,16 +1,18 @@
-// The vehicle's two downward cameras, rendered: the floor plane with the four-pointed star at
-// the NED origin and distractor shapes, seen through the thesis' stereo rig (table 7.1 intrinsics with
-// their lens distortion, eq. 7.22 mount, eq. 7.34 relative rotation) — the same OpenCV camera model the
-// vision station undistorts with (quad/vision/thesis_rig.h), so its undistortion is exercised exactly.
+// The vehicle's two downward cameras, rendered: the floor plane (plain grey or a photograph) with the
+// four-pointed star at the NED origin and distractor shapes, seen through the simulator's own camera
+// model (quad/sim/camera_model.h: lenses from the scenario, mounts from the MJCF).
 //
 // The cameras see only the floor (they look straight down between the landing gear), so each view is
 // rendered exactly rather than rasterised by OpenGL: every floor shape's outline is projected through
-// the distorting camera model and filled with 4 × 4 supersampling (anti-aliased edges at true sub-pixel
-// positions), then lighting fall-off, the frame's exposure and Gaussian sensor noise are applied.
-// A 728 × 488 pair costs about 1.4 ms of CPU this way (bench_sim BM_RenderStereoPair); the OSMesa
-// (llvmpipe) chase-camera recorder took about 0.1 s per 640 × 360 frame in the same flight.
+// the distorting lens and filled with 4 × 4 supersampling (anti-aliased edges at true sub-pixel
+// positions); a floor photograph is sampled through the inverse lens per pixel. Then the analog camera
+// and its capture chain: interlaced fields exposed 1/60 s apart (each at the vehicle's pose of its own
+// time), motion blur over the shutter time, lighting fall-off, the frame's exposure, Gaussian sensor
+// noise and JPEG compression. A plain 728 × 488 pair costs about 1.7 ms of CPU, with the floor
+// photograph and interlacing about 14 ms (bench_sim BM_RenderStereoPair/0, /1).
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -18,75 +20,92 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "quad/sim/camera_model.h"
+#include "quad/sim/floor_texture.h"
 #include "quad/sim/rng.h"
 #include "quad/sim/scenario.h"
-#include "quad/vision/thesis_rig.h"
 
 namespace quad::sim {
 
-
-// A dark shape on the floor: outline in NED metres (north, east) on the plane d = 0, and its albedo.
+// A dark shape on a plane: outline in metres (on the floor: NED north, east with down = 0), and its albedo.
 struct FloorShape {
   std::vector<Eigen::Vector2d> outline;
   double grey = 40.0;
 };
 
-// The star at the origin (shapes[0], tips along north and east) and `distractors` shapes 0.5 to 2.5 m
-// away that do not overlap it or each other, placed by `rng`.
+// The landing star: four tips at `tip_to_tip / 2` along ±north and ±east, inner vertices at
+// `inner_ratio` of that radius half-way between them, counter-clockwise from north.
+std::vector<Eigen::Vector2d> landing_star_outline(double tip_to_tip, double inner_ratio);
+
+// The star at the origin (shapes[0]) and `distractors` shapes 0.5 to 2.5 m away that do not overlap it
+// or each other, placed by `rng`.
 std::vector<FloorShape> make_floor_scene(const CameraParams& params, Rng rng);
 
-// One camera's pose: p_camera = R · p_ned + t (OpenCV camera axes: x right, y down, z along the view).
-struct CameraPose {
-  Eigen::Matrix3d R;
-  Eigen::Vector3d t;
+// Paints `shapes[first..]` seen from `pose` (plane to camera) through `lens` onto `albedo` (CV_32F),
+// each blended by its anti-aliased pixel coverage. `canvas` and `coverage` are work buffers.
+void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose& pose, const std::vector<FloorShape>& shapes,
+                  size_t first, cv::Mat& albedo, cv::Mat& canvas, cv::Mat& coverage);
+
+struct VehiclePose {
+  Eigen::Vector3d p_ned;
+  Eigen::Quaterniond q_ib;
 };
-
-// Left camera from the vehicle's NED position and attitude through the mount (eq. 7.22:
-// p_B = R_BC p_C + t_BC); right camera from the left through the rig (x_right = R x_left + T).
-CameraPose left_camera_pose(const quad::vision::CameraMount& mount, const Eigen::Vector3d& p_ned,
-                            const Eigen::Quaterniond& q_ib);
-CameraPose right_camera_pose(const quad::vision::StereoRig& rig, const CameraPose& left);
-
-// Projects a camera-frame point through the camera model (forward OpenCV radial distortion). Points
-// beyond the radius where the lens polynomial folds back are pulled in radially onto 0.97 of it (they
-// lie outside the image anyway); nullopt behind the camera.
-std::optional<cv::Point2d> project_point(const quad::vision::CameraIntrinsics& camera, double valid_radius,
-                                         const Eigen::Vector3d& p_camera);
-
-// The undistorted normalised radius at which r·(1 + k1 r² + k2 r⁴ + k3 r⁶) stops growing.
-double fold_radius(const quad::vision::CameraIntrinsics& camera);
+// The vehicle's pose at a (past) simulated time.
+using PoseAtTime = std::function<VehiclePose(double t)>;
 
 class StereoCameraRenderer {
  public:
-  StereoCameraRenderer(const CameraParams& params, std::vector<FloorShape> scene, Rng rng);
+  StereoCameraRenderer(const CameraParams& params, const SimStereoRig& rig, std::vector<FloorShape> scene, Rng rng);
 
-  // Renders both views (CV_8UC1, the rig's image size) of the vehicle at p_ned / q_ib. With `hide_star`
-  // the marker is not drawn (a star covered or out of sight: the vision_dropout fault).
+  // Renders both views (CV_8UC1, the rig's image size) of a frame completed at time `t`: the last (or
+  // only) field is exposed up to `t`, an interlaced frame's first field (even rows) up to t − 1/60 s.
+  // With `hide_star` the marker is not drawn (a star covered or out of sight: the vision_dropout fault).
+  void render(const PoseAtTime& pose_at, double t, bool hide_star, cv::Mat& left, cv::Mat& right);
+  // A vehicle holding still at p_ned / q_ib.
   void render(const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool hide_star, cv::Mat& left,
               cv::Mat& right);
+
+  // Both views of a flat target (e.g. a chessboard: `shapes` in the target's plane over a `background`
+  // grey) whose plane-to-left-camera pose is `target_in_left`, with the same lenses, lighting, noise and
+  // compression as the flight images, at nominal exposure.
+  void render_target(const CameraPose& target_in_left, const std::vector<FloorShape>& shapes, double background,
+                     cv::Mat& left, cv::Mat& right);
 
   // A second star-like shape, the star's copy centred at `north_east` (m), drawn from now on; nullopt
   // removes it (fault campaign: a decoy entering the view).
   void set_decoy(const std::optional<Eigen::Vector2d>& north_east);
 
-  const quad::vision::StereoRig& rig() const { return rig_; }
+  const SimStereoRig& rig() const { return rig_; }
   const std::vector<FloorShape>& scene() const { return scene_; }
+  // Sub-exposures of the last view rendered (motion blur: 1 when still or with no shutter time).
+  int last_blur_samples() const { return last_blur_samples_; }
 
  private:
-  void render_view(const quad::vision::CameraIntrinsics& camera, double valid_radius, const CameraPose& pose,
-                   bool hide_star, double exposure, const cv::Mat& lighting, cv::Mat& out);
+  struct View {
+    LensParams lens;
+    CameraMountModel mount;
+    double valid_radius = 0.0;
+    cv::Mat lighting;  // CV_32F vignetting, per pixel
+    cv::Mat rays;      // CV_32FC2 normalised undistorted (x, y) per pixel, NaN beyond the lens' fold
+  };
+  View make_view(const LensParams& lens, const CameraMountModel& mount) const;
+  // The floor's rows first_row, first_row + row_step, ... (the shapes are painted whole).
+  void floor_albedo(const View& view, const VehiclePose& pose, bool hide_star, int first_row, int row_step, cv::Mat& albedo);
+  int blur_samples(const View& view, const VehiclePose& start, const VehiclePose& end) const;
+  void render_view(const View& view, const PoseAtTime& pose_at, double t, bool hide_star, double exposure, cv::Mat& out);
+  void expose(const View& view, const cv::Mat& albedo, double exposure, cv::Mat& out);
 
   CameraParams p_;
+  SimStereoRig rig_;
   std::vector<FloorShape> scene_;
   size_t scene_shapes_;  // the scene without the decoy
   Rng rng_;
-  quad::vision::StereoRig rig_;
-  quad::vision::CameraMount mount_;
-  double valid_left_, valid_right_;
-  cv::Mat lighting_left_, lighting_right_;  // CV_32F vignetting, per pixel
-  std::vector<int8_t> noise_;               // a table of Gaussian samples, read from a random offset per view
+  View left_, right_;
+  std::optional<FloorTexture> texture_;
+  std::vector<int8_t> noise_;  // a table of Gaussian samples, read from a random offset per view
   double exposure_walk_ = 0.0;
-  cv::Mat albedo_, canvas_, coverage_;      // work buffers
+  int last_blur_samples_ = 1;
+  cv::Mat albedo_, sum_, canvas_, coverage_;  // work buffers
 };
 
 }  // namespace quad::sim

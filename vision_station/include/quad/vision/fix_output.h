@@ -5,18 +5,27 @@
 #include <cstdint>
 #include <string>
 
+#include "quad/link/dialect_pose.h"
 #include "quad/link/mavlink.h"
 #include "quad/vision/stereo_locator.h"
 
 namespace quad::vision {
 
-// {"found":true,"x":..,"y":..,"z":..,"sigma":[..],"body_frd":[..],"disparity_px":..} (left camera frame,
-// OpenCV axes, metres) or {"found":false}; `label` is added as "pair" when not empty.
+// {"found":true,"x":..,"y":..,"z":..,"sigma":[..],"body_frd":[..],"disparity_px":..,"q":[w,x,y,z],
+// "attitude_sigma_rad":[..],"tilt_deg":..} (x y z sigma: left camera frame, OpenCV axes, metres; q: the
+// star's axes in the body FRD frame, attitude_sigma_rad about the body axes, tilt_deg between the star's
+// normal and the body z axis; q and attitude_sigma_rad null without a pose) or {"found":false}; `label`
+// is added as "pair" when not empty.
 std::string fix_json(const StarFix& fix, const CameraMount& mount, const std::string& label);
 
 // LANDING_TARGET: x, y, z the star relative to the vehicle in body FRD (eq. 7.22), angles and distance
 // from the left camera, time_usec the capture time on the vehicle clock.
+// With a pose: q = the star's axes in body FRD (star_attitude_in_body), type VISION_FIDUCIAL.
 mavlink::LandingTarget landing_target(const StarFix& fix, const CameraMount& mount, uint64_t vehicle_time_us);
+
+// The covariances of the same fix in body FRD: position (from the centroid triangulation) and attitude.
+mavlink::LandingTargetCovariance landing_target_covariance(const StarFix& fix, const CameraMount& mount,
+                                                           uint64_t vehicle_time_us);
 
 // A serial port in termios raw mode, non-blocking.
 class SerialPort {
@@ -39,7 +48,8 @@ class SerialPort {
 // sent or answered and time_usec is the capture time as is.
 class FixLink {
  public:
-  explicit FixLink(SerialPort& port, bool timesync = true);
+  // With `covariance`, each LANDING_TARGET is followed by its LANDING_TARGET_COVARIANCE.
+  explicit FixLink(SerialPort& port, bool timesync = true, bool covariance = true);
   void poll(int64_t now_us);  // reads replies, sends the periodic request
   bool send(const StarFix& fix, const CameraMount& mount, int64_t capture_time_us);
   bool synchronised() const { return synchronised_; }
@@ -53,6 +63,7 @@ class FixLink {
   mavlink::Parser parser_;
   int64_t last_request_us_ = -1;
   bool timesync_ = true;
+  bool covariance_ = true;
   bool synchronised_ = false;
   int64_t offset_ns_ = 0;
   uint64_t sent_ = 0, dropped_ = 0;

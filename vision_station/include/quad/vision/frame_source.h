@@ -2,7 +2,8 @@
 // parses the command-line spec:
 //   files:DIR                  image pairs in DIR (pairs.csv with columns left,right, or left*/right* names)
 //   v4l2:/dev/videoA,/dev/videoB  two capture devices
-//   video:LEFT.mp4,RIGHT.mp4   two video files
+//   video:LEFT.avi[@MS],RIGHT.avi[@MS]  two video files; @MS: the time of the file's first frame on a
+//                              common clock (default 0), for recordings that started apart
 //   sim:ENDPOINT               the simulator's rendered cameras, lockstep over a Unix socket (sim_source.h)
 #pragma once
 
@@ -12,13 +13,19 @@
 #include <stdexcept>
 #include <string>
 
+#include <optional>
+
 #include <opencv2/core.hpp>
+
+#include "quad/vision/frame_pairer.h"
 
 namespace quad::vision {
 
 struct StereoFrame {
   cv::Mat left, right;          // CV_8UC1
-  int64_t capture_time_us = 0;  // station monotonic clock (steady_clock), or the source's own clock
+  int64_t capture_time_us = 0;  // station monotonic clock (steady_clock), or the source's own clock;
+                                // for two clocked cameras the middle of the pair's two capture times
+  int64_t skew_us = 0;          // right − left capture time (sources that stamp each camera)
   uint64_t sequence = 0;
   std::string label;            // e.g. the file names, for messages
 };
@@ -47,10 +54,13 @@ class FrameSource {
   virtual void answered(bool /*fix_found*/, uint64_t /*fixes_sent_total*/) {}
   // True when capture_time_us is already on the vehicle's clock (the simulator's): no TIMESYNC needed.
   virtual bool vehicle_clock() const { return false; }
+  // Pairing of two independently clocked cameras (v4l2, video): skews, unpaired and missing frames.
+  virtual std::optional<PairingStats> pairing_stats() const { return std::nullopt; }
 };
 
 // Throws FrameSourceError with a message naming the problem (unknown scheme, missing files...).
-std::unique_ptr<FrameSource> make_frame_source(const std::string& spec);
+// max_skew_us: the pairing limit of two-camera sources (<= 0: half the measured frame period).
+std::unique_ptr<FrameSource> make_frame_source(const std::string& spec, double max_skew_us = 0.0);
 
 int64_t monotonic_us();
 

@@ -5,7 +5,12 @@
 //   edge_margin_px min_area_px raw_area_prefilter min_aspect ideal_vertex_count vertex_count_tolerance
 //   polygon_epsilon min_hu_distance max_hu_distance inner_ratio min_solidity max_solidity
 //   max_row_difference_px min_range_m max_range_m centroid_sigma_px track_roi roi_growth roi_margin_px
-//   undistort_iterations
+//   undistort_iterations estimate_pose pose_max_rms_px pose_min_edge_sigma_px
+//   send_covariance (1: LANDING_TARGET_COVARIANCE after each LANDING_TARGET)
+//   max_pair_skew_ms (left/right capture times further apart are no pair; 0: half the frame period)
+//   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
+//   robust_max_ratio robust_low_ratio max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
+//   max_shape_solidity
 //   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
 #pragma once
 
@@ -18,6 +23,8 @@ namespace quad::vision {
 struct StationSettings {
   LocatorSettings locator;
   CameraMount mount = thesis_camera_mount();
+  bool send_covariance = true;
+  double max_pair_skew_ms = 0.0;  // 0: half the measured frame period
 };
 
 StationSettings load_station_settings(const std::string& path);  // throws std::runtime_error

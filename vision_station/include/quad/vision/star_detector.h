@@ -1,22 +1,43 @@
-// Four-pointed-star detection in one greyscale image (thesis sec. 8.1, steps 1–5 and filters 1–5).
-//
-// The thesis ran its filters on rectified frames. Here the contours are found in the raw frame and only
-// their points are undistorted and rectified (PointRectifier); filters 2–5 and the centroid then work on
-// the rectified polygon, so the strong barrel distortion near the image edge does not squash the star
-// out of the aspect or Hu limits.
+// Four-pointed-star detection in one greyscale image. Two methods (DetectorSettings::method):
+//  - thesis: the pipeline of thesis sec. 8.1 (steps 1–5, filters 1–5) with the project's threshold,
+//    solidity filter and mid-level refinement; the documented baseline.
+//  - robust (default): segmentation on a half-resolution copy against the local floor brightness, the
+//    affine-invariant radial-profile shape test (star_shape.h), then the mid-level contour at full
+//    resolution for the centroid. Survives textured floors, blur, compression and the analog link's
+//    faults (docs/vision_station.md).
+// Both find contours in the raw frame and rectify only their points, through a RectifyTable, so the
+// strong barrel distortion near the image edge does not squash the star out of the filters.
+// Interlaced sources: Deinterlace picks one field or the blend of both; contour rows are mapped back to
+// frame rows (2·row, or 2·row + ½) before rectification, so the geometry is the frame's.
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "quad/vision/point_rectifier.h"
+#include "quad/vision/rectify_table.h"
+#include "quad/vision/star_shape.h"
 
 namespace quad::vision {
 
+enum class DetectorMethod { kThesis, kRobust };
+// none: progressive frames; field: the even rows only (the first field, one instant, half the pixels);
+// blend: the mean of each row pair (both fields, two instants 1/60 s apart).
+enum class Deinterlace { kNone, kField, kBlend };
+
+const char* to_string(DetectorMethod method);
+const char* to_string(Deinterlace deinterlace);
+bool parse_detector_method(const std::string& text, DetectorMethod& out);
+bool parse_deinterlace(const std::string& text, Deinterlace& out);
+
 // Every threshold of the detector. Defaults are the thesis' values (sec. 8.1) unless marked (project).
 struct DetectorSettings {
+  DetectorMethod method = DetectorMethod::kRobust;  // (project) chosen on the evaluation sets
+  Deinterlace deinterlace = Deinterlace::kField;    // (project) chosen on the evaluation sets
+
   // Threshold (project): the floor brightness is estimated as the local maximum over a window larger
   // than the star's dark core on a 1/cell-size image; Otsu on the image/floor ratio picks the contrast
   // threshold, clamped to [min, max] so that an empty floor does not split its own noise.
@@ -47,6 +68,14 @@ struct DetectorSettings {
   // h2..h7 ≈ 0, so I1 compares h1 only).
   double min_solidity = 0.42;
   double max_solidity = 0.75;
+
+  // Robust method (project). Floor brightness: local maximum over this window (frame pixels) on a
+  // 1/8-size copy; Otsu on the image/floor ratio, clamped to [min, max], is the contrast threshold.
+  int robust_window_px = 160;
+  double robust_min_ratio = 0.25;
+  double robust_max_ratio = 0.8;
+  double robust_low_ratio = 0.55;  // second, lower level: this fraction of the first (not below min)
+  StarShapeLimits shape;
 };
 
 // One contour that passed every filter.
@@ -56,7 +85,7 @@ struct StarCandidate {
   cv::Rect box;                         // raw bounding box
   cv::Point2d centroid;                 // rectified, from the polygon's moments (sub-pixel)
   double area = 0.0;                    // rectified pixels²
-  double hu_distance = 0.0;
+  double hu_distance = 0.0;             // shape distance, smaller is better: Hu I1 (thesis) or profile RMS (robust)
   double solidity = 0.0;
   int vertices = 0;
 };
@@ -81,11 +110,27 @@ class StarDetector {
 
   const DetectorSettings& settings() const { return settings_; }
 
-  // The binary image of the last call (inside its ROI) and its threshold ratio, for display and tests.
+  // The binary image of the last call (inside its ROI, in the deinterlaced view; the half-resolution copy
+  // for the robust method) and its threshold ratio, for display and tests.
   const cv::Mat& last_binary() const { return binary_; }
   double last_threshold_ratio() const { return threshold_ratio_; }
 
  private:
+  // The deinterlaced view of gray(roi) and how its pixel coordinates map back to frame pixels.
+  void make_view(const cv::Mat& gray, const cv::Rect& roi);
+  void to_frame(const std::vector<cv::Point>& view_points, cv::Point2f view_scale, std::vector<cv::Point2f>& frame) const;
+  void rectify(const std::vector<cv::Point>& view_points, cv::Point2f view_scale, std::vector<cv::Point2f>& out);
+  // True when the contour's box touches a border of the view that is not inside the image margin.
+  bool touches_border(const cv::Rect& box, cv::Size view_size, int margin) const;
+
+  std::vector<StarCandidate> detect_thesis(DetectorTimes* times);
+  std::vector<StarCandidate> detect_robust(DetectorTimes* times);
+  cv::Point2f coarse_scale() const;  // view pixels per pixel of the half-resolution copy (x, y)
+  void robust_floor();
+  void robust_threshold(double ratio);
+  void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
+  bool robust_refine(const cv::Rect& coarse_box, StarCandidate& c);
+
   void threshold(const cv::Mat& gray);
   // The mid-level contour of an accepted candidate (raw pixels), or false to keep the original.
   bool midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, const cv::Rect& box, std::vector<cv::Point>& out);
@@ -93,6 +138,16 @@ class StarDetector {
 
   DetectorSettings settings_;
   PointRectifier rectifier_;
+  RectifyTable table_;
+  StarShapeTest shape_test_;
+  cv::Mat view_;                   // deinterlaced gray(roi)
+  cv::Mat blend_;                  // storage of the blended view
+  cv::Point2f view_origin_;        // frame pixel of view pixel (0, 0)
+  float view_row_scale_ = 1.0f;    // frame rows per view row
+  bool roi_border_[4] = {};        // left, top, right, bottom edges of the view are ROI (not image) edges
+  bool image_border_[4] = {};
+  cv::Mat coarse_, coarse_floor_, coarse_threshold_;
+  std::vector<cv::Point2f> frame_points_;
   std::array<double, 7> ideal_hu_log_{};  // sign(h)·log10|h| of the ideal star, 0 where |h| is negligible
   cv::Mat kernel_;
   cv::Mat small_, background_, ratio_, threshold_small_, threshold_full_;

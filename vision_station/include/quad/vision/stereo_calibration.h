@@ -22,6 +22,7 @@ struct StereoCalibration {
   cv::Matx33d R1, R2;
   cv::Matx34d P1, P2;
   cv::Matx44d Q;
+  bool rectification_computed = false;  // the file had no R1 R2 P1 P2 Q: load_calibration computed them
 
   double rectified_focal() const { return P1(0, 0); }
   // Rectified baseline in metres (P2(0,3) = −f·b for a horizontal rig).
@@ -31,8 +32,10 @@ struct StereoCalibration {
 // Computes the rectification of a rig (cv::stereoRectify with CALIB_ZERO_DISPARITY, default alpha).
 StereoCalibration rectify(const StereoRig& rig);
 
-// Writes / reads the YAML file. load_calibration throws CalibrationFileError naming the file and the
-// missing or malformed key.
+// Writes / reads the YAML file. load_calibration takes one file, or OpenCV's stereo_calib sample pair
+// "INTRINSICS.yml,EXTRINSICS.yml" (M1 D1 M2 D2 + R T ...; K1/K2 and M1/M2 are accepted as synonyms);
+// without R1 R2 P1 P2 Q the rectification is computed (rectification_computed). Throws
+// CalibrationFileError naming the file and the missing or malformed key.
 void save_calibration(const StereoCalibration& calibration, const std::string& path);
 StereoCalibration load_calibration(const std::string& path);
 

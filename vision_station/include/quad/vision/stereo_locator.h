@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "quad/vision/star_detector.h"
+#include "quad/vision/star_pose.h"
 #include "quad/vision/stereo_calibration.h"
 
 namespace quad::vision {
@@ -22,6 +23,8 @@ struct LocatorSettings {
   double roi_growth = 1.6;             // ROI = last contour box scaled by this about its centre ...
   int roi_margin_px = 24;              // ... plus this margin on every side
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
+  bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
+  StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
@@ -30,8 +33,9 @@ struct StageTimes {
   double contours_filters_us = 0.0;
   double rectify_points_us = 0.0;
   double triangulation_us = 0.0;
+  double pose_us = 0.0;
   double total_us() const {
-    return threshold_morphology_us + contours_filters_us + rectify_points_us + triangulation_us;
+    return threshold_morphology_us + contours_filters_us + rectify_points_us + triangulation_us + pose_us;
   }
 };
 
@@ -39,6 +43,8 @@ struct StarFix {
   bool found = false;
   cv::Vec3d p_left;                   // star in the left camera frame (OpenCV axes), metres
   cv::Vec3d sigma_left;               // 1-σ of each coordinate from the centroid noise
+  cv::Matx33d cov_left = cv::Matx33d::zeros();  // the full covariance of p_left, m²
+  StarPose pose;                      // the star's attitude (valid when its eight vertices were fitted)
   cv::Point2d left_rectified;         // rectified centroids, pixels
   cv::Point2d right_rectified;
   double disparity_px = 0.0;
@@ -78,12 +84,18 @@ class StereoStarLocator {
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
                          DetectorTimes* times);
 
+  // A candidate's sub-pixel edge points, rectified.
+  std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,
+                                           const NearRectifier& rectifier) const;
+
   StereoCalibration calibration_;
   LocatorSettings settings_;
   StarDetector left_detector_;
   StarDetector right_detector_;
   cv::Rect last_left_box_;
   cv::Rect last_right_box_;
+  NearRectifier left_near_, right_near_;
+  StarCandidate best_left_, best_right_;  // the paired candidates of the last frame, for the pose
 };
 
 }  // namespace quad::vision

@@ -1,0 +1,49 @@
+// The project's dialect message that travels beside LANDING_TARGET: the covariances of the star fix
+// (docs/mavlink.md, "Star pose"). Message ids 43000-43099 are the project's range: no dialect of MAVLink's
+// all.xml allocates them. Definition: link/mavlink/quad_pose.xml; CRC_EXTRA (92) and the wire order
+// (8-byte, then 4-byte, then 1-byte fields) are those mavlink-mappings-gen (tools/node) computes from it.
+// Header only, freestanding, in the codec's style (messages.h).
+#pragma once
+
+#include <stdint.h>
+
+#include "quad/link/frame.h"
+#include "quad/link/wire.h"
+
+namespace quad {
+namespace mavlink {
+
+// LANDING_TARGET.type for a printed marker (MAVLink common LANDING_TARGET_TYPE_VISION_FIDUCIAL).
+constexpr uint8_t kLandingTargetTypeVisionFiducial = 2;
+
+// LANDING_TARGET_COVARIANCE (43000). Symmetric 3x3 matrices as their upper triangle xx xy xz yy yz zz.
+struct LandingTargetCovariance {
+  static constexpr uint32_t kId = 43000;
+  static constexpr uint8_t kCrcExtra = 92;
+  static constexpr uint8_t kBaseLength = 58;
+  static constexpr uint8_t kLength = 58;
+  static constexpr const char* kName = "LANDING_TARGET_COVARIANCE";
+  uint64_t time_usec = 0;               // the LANDING_TARGET's time_usec
+  float position_covariance[6] = {};    // m², LANDING_TARGET x y z (body FRD)
+  float attitude_covariance[6] = {};    // rad², small rotation of the star frame about the body FRD axes
+  uint8_t target_num = 0;               // the LANDING_TARGET's target_num
+  uint8_t attitude_valid = 0;           // 1 when LANDING_TARGET.q and attitude_covariance hold a pose
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.time_usec); io(m.position_covariance); io(m.attitude_covariance); io(m.target_num); io(m.attitude_valid);
+  }
+};
+static_assert(wire::count_fields<LandingTargetCovariance>().length == LandingTargetCovariance::kLength,
+              "LANDING_TARGET_COVARIANCE layout");
+
+// The codec's messages plus LANDING_TARGET_COVARIANCE, for parsers that must check its frames.
+inline bool pose_message_info(uint32_t message_id, MessageInfo* info) {
+  if (message_id == LandingTargetCovariance::kId) {
+    *info = message_info<LandingTargetCovariance>();
+    return true;
+  }
+  return find_message_info(message_id, info);
+}
+
+}  // namespace mavlink
+}  // namespace quad

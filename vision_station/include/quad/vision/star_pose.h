@@ -1,0 +1,79 @@
+// The star's full pose from its outline in both rectified views: the contour moved onto the grey-level
+// edge (sub-pixel) and split into its eight edges, whose intersections are the vertices; the vertices
+// matched left to right and triangulated; a rigid fit (Kabsch) of the star model to them starts a
+// Gauss-Newton fit of rotation, position and size, first to the 32 rectified vertex coordinates (u, v in
+// each view), then to the distances of the edge points from the projected star edges. The inverse normal
+// matrix times the edge points' error variance is the covariance.
+//
+// Star axes (docs/mavlink.md, "Star pose"): origin at the centre, z normal to the star pointing away
+// from the cameras (into the floor), x through a tip, y = z × x through the next tip. The star is
+// 4-fold symmetric: the tip that is x is chosen where the pose is expressed in the body frame
+// (star_attitude_in_body: the tip nearest the vehicle's forward axis).
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "quad/vision/stereo_calibration.h"
+
+namespace quad::vision {
+
+struct StarPoseSettings {
+  double inner_ratio = 0.4;           // inner vertex radius / tip radius of the star model
+  double tip_radius_m = 0.20;         // start value only: the fit estimates the size
+  // Floor of the edge-point error the covariance assumes. The residual scatter (~0.06 px on clean
+  // images) misses the mid-level crossing's bias, which depends on the edge's sub-pixel phase and is
+  // the same for neighbouring points: ~0.15 px.
+  double min_edge_sigma_px = 0.15;
+  double max_rms_px = 1.5;            // a fit worse than this (8 vertices, both views) is no pose
+};
+
+struct StarPose {
+  bool valid = false;
+  cv::Matx33d R_CS = cv::Matx33d::eye();       // star axes (columns) in the left camera frame
+  cv::Vec3d t_C;                               // star centre in the left camera frame, metres
+  cv::Matx33d attitude_cov_C = cv::Matx33d::zeros();  // rad², small rotation of the star, left camera axes
+  cv::Matx33d position_cov_C = cv::Matx33d::zeros();  // m²
+  double size_ratio = 1.0;                     // fitted tip radius / tip_radius_m
+  double rms_px = 0.0;                         // vertex reprojection RMS after the fit
+  double edge_sigma_px = 0.0;                  // the edge-point error the covariance assumes
+};
+
+// The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile
+// crosses the middle between its darkest and brightest values within ±3 px (sub-pixel, raw pixels).
+std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour);
+
+// One camera's map between raw and rectified pixels, for points already known to within a pixel or so:
+// Newton steps on the forward map (rectified → raw: the rectifying rotation undone, then OpenCV's lens
+// model), far cheaper than cv::undistortPoints' fixed-point iterations from scratch.
+class NearRectifier {
+ public:
+  NearRectifier(const StereoCalibration& calibration, int camera);
+  cv::Point2d raw(const cv::Point2d& rectified) const;
+  // The rectified point whose raw pixel is `raw`, starting from `guess`.
+  cv::Point2d rectified(const cv::Point2d& raw, cv::Point2d guess) const;
+
+ private:
+  cv::Matx33d K_;
+  cv::Vec<double, 5> D_;
+  cv::Matx33d back_;  // rectified pixel → ray in the camera frame: Rᵀ·(P's left 3x3)⁻¹
+};
+
+// The eight vertices of a star contour (rectified pixels, in contour order, a tip first), each the
+// intersection of the lines fitted to its two edges. False when the contour is not an 8-gon.
+bool find_star_vertices(const std::vector<cv::Point2f>& contour, std::array<cv::Point2d, 8>& vertices);
+
+// The pose from the two rectified contours of one star (StarCandidate::rectified).
+StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right,
+                            const StereoCalibration& calibration, const StarPoseSettings& settings);
+
+// Star axes in the body frame, R_BS = R_BC · R_CS, with the 4-fold symmetry resolved: x is the tip
+// nearest the body's forward axis.
+cv::Matx33d star_attitude_in_body(const cv::Matx33d& R_BC, const cv::Matx33d& R_CS);
+
+// Hamilton quaternion (w, x, y, z) of a rotation matrix, w >= 0.
+cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R);
+
+}  // namespace quad::vision

@@ -1,0 +1,166 @@
+// The robust method of StarDetector (star_detector.h): segmentation on a half-resolution copy, the
+// radial-profile shape test, the mid-level contour at full resolution.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "quad/vision/star_detector.h"
+
+namespace quad::vision {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double microseconds(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::micro>(b - a).count();
+}
+
+}  // namespace
+
+cv::Point2f StarDetector::coarse_scale() const {
+  // The half-resolution copy has square pixels of 2 × 2 frame pixels: a field view only halves columns.
+  return cv::Point2f(2.0f, view_row_scale_ > 1.0f ? 1.0f : 2.0f);
+}
+
+void StarDetector::robust_floor() {
+  // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
+  // the brightest surface), on a 1/8-size copy, smoothed and brought back to the half-resolution copy.
+  // The contrast level ρ comes from the image (Otsu on the image/floor ratio), clamped.
+  const DetectorSettings& s = settings_;
+  const cv::Point2f scale = coarse_scale();
+  // Halving only the columns (field views): INTER_LINEAR at exactly ×½ averages each pixel pair, like
+  // INTER_AREA, but takes OpenCV's vectorised path (INTER_AREA's fast path needs equal integer scales).
+  cv::resize(view_, coarse_, cv::Size(std::max(1, view_.cols / 2), std::max(1, static_cast<int>(view_.rows / scale.y))), 0,
+             0, scale.y > 1.0f ? cv::INTER_AREA : cv::INTER_LINEAR);
+  cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
+  const int window = std::max(1, s.robust_window_px / 8) | 1;
+  cv::dilate(small_, background_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)));
+  cv::blur(background_, background_, cv::Size(3, 3));
+  cv::divide(small_, background_, ratio_, 255.0);
+  const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
+  threshold_ratio_ = std::clamp(otsu, s.robust_min_ratio, s.robust_max_ratio);
+  cv::resize(background_, coarse_floor_, coarse_.size(), 0, 0, cv::INTER_LINEAR);
+}
+
+void StarDetector::robust_threshold(double ratio) {
+  // Star-coloured: darker than ratio × the local floor; then an opening against salt, snow and thin texture.
+  coarse_floor_.convertTo(coarse_threshold_, CV_8U, ratio);
+  cv::compare(coarse_, coarse_threshold_, scratch_, cv::CMP_LT);  // inverted: dark becomes 255
+  cv::erode(scratch_, binary_, kernel_);
+  cv::dilate(binary_, scratch_, kernel_);
+  std::swap(binary_, scratch_);
+}
+
+bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
+  const cv::Point2f scale = coarse_scale();
+  const int sx = static_cast<int>(scale.x), sy = static_cast<int>(scale.y);
+  // The mid-level edge may lie a little outside the coarse edge: grow by 12 frame pixels on every side.
+  const int gx = 6, gy = 12 / (sy * static_cast<int>(view_row_scale_));
+  const cv::Rect grown = cv::Rect(coarse_box.x - gx, coarse_box.y - gy, coarse_box.width + 2 * gx,
+                                  coarse_box.height + 2 * gy) & cv::Rect(0, 0, coarse_.cols, coarse_.rows);
+  const cv::Rect region = cv::Rect(grown.x * sx, grown.y * sy, grown.width * sx, grown.height * sy) &
+                          cv::Rect(0, 0, view_.cols, view_.rows);
+  // The star's own grey: the mean of its coarse interior (eroded once more when that leaves enough).
+  cv::erode(binary_(grown), interior_, kernel_);
+  if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
+  const double star_grey = cv::mean(coarse_(grown), interior_)[0];
+  // The local floor: the mean of the region's ring outside the star (dilated twice), taken from the pixels
+  // around this star only, so a full-frame and an ROI search measure the same mid-level.
+  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  cv::bitwise_not(refine_scratch_, refine_scratch_);
+  if (cv::countNonZero(refine_scratch_) < 8) return false;
+  const double floor_grey = cv::mean(coarse_(grown), refine_scratch_)[0];
+  const double mid_level = 0.5 * (floor_grey + star_grey);
+  cv::compare(view_(region), cv::Scalar(mid_level), refine_binary_, cv::CMP_LT);
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
+  const std::vector<cv::Point>* best = nullptr;
+  double best_area = 0.0;
+  for (const std::vector<cv::Point>& contour : refine_contours_) {
+    const double area = cv::contourArea(contour);
+    if (area > best_area) {
+      best_area = area;
+      best = &contour;
+    }
+  }
+  if (best == nullptr) return false;
+  // Touching the region's border means the mid-level shape merged with something: keep the coarse one.
+  const cv::Rect box = cv::boundingRect(*best);
+  if (box.x <= region.x || box.y <= region.y || box.br().x >= region.br().x || box.br().y >= region.br().y) return false;
+  std::vector<cv::Point2f> rectified;
+  rectify(*best, cv::Point2f(1.0f, 1.0f), rectified);
+  const cv::Moments m = cv::moments(rectified);
+  // The coarse contour of the low level is thinner than the mid-level one; a merge shows as a failed shape.
+  if (!(std::fabs(m.m00) > 0.5 * c.area && std::fabs(m.m00) < 2.5 * c.area)) return false;
+  if (!shape_test_.score(rectified).is_star) return false;
+  c.rectified.swap(rectified);
+  c.area = std::fabs(m.m00);
+  c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
+  to_frame(*best, cv::Point2f(1.0f, 1.0f), frame_points_);
+  return true;
+}
+
+std::vector<StarCandidate> StarDetector::detect_robust(DetectorTimes* times) {
+  // Two contrast levels: the image's own (Otsu) and a low one that only the darkest objects pass, so a
+  // star inside a shadow or next to dark texture, merged with it at the first level, separates at the
+  // second. A star found at both levels is kept once (the better shape).
+  std::vector<StarCandidate> candidates;
+  const Clock::time_point t0 = Clock::now();
+  robust_floor();
+  double threshold_us = microseconds(t0, Clock::now()), refine_us = 0.0;
+  const double levels[2] = {threshold_ratio_, std::max(settings_.robust_min_ratio, settings_.robust_low_ratio * threshold_ratio_)};
+  for (double level : levels) {
+    const Clock::time_point l0 = Clock::now();
+    robust_threshold(level);
+    threshold_us += microseconds(l0, Clock::now());
+    robust_candidates(candidates, refine_us);
+  }
+  if (times != nullptr) {
+    times->threshold_morphology_us += threshold_us;
+    times->contours_filters_us += microseconds(t0, Clock::now()) - threshold_us - refine_us;
+    times->rectify_points_us += refine_us;
+  }
+  return candidates;
+}
+
+void StarDetector::robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us) {
+  cv::findContours(binary_, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  const DetectorSettings& s = settings_;
+  const cv::Point2f scale = coarse_scale();
+  const double px_area = scale.x * scale.y * view_row_scale_;  // frame pixels² per coarse pixel
+  for (const std::vector<cv::Point>& contour : contours_) {
+    if (contour.size() < 8) continue;
+    const cv::Rect box = cv::boundingRect(contour);
+    if (touches_border(box, binary_.size(), std::max(1, s.edge_margin_px / 2))) continue;  // cut by the edge
+    if (!(cv::contourArea(contour) * px_area > s.raw_area_prefilter * s.min_area_px)) continue;
+    StarCandidate c;
+    rectify(contour, scale, c.rectified);
+    const cv::Moments m = cv::moments(c.rectified);
+    c.area = std::fabs(m.m00);
+    if (!(c.area > s.min_area_px)) continue;
+    const StarShapeScore score = shape_test_.score(c.rectified);
+    if (!score.is_star) continue;
+    c.hu_distance = score.profile_rms;
+    c.solidity = score.solidity;
+    c.vertices = 8;
+    c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
+    // The same star from the other level: keep the better shape.
+    auto same = std::find_if(candidates.begin(), candidates.end(), [&](const StarCandidate& o) {
+      return cv::norm(o.centroid - c.centroid) < 0.25 * std::sqrt(std::min(o.area, c.area));
+    });
+    if (same != candidates.end() && same->hu_distance <= c.hu_distance) continue;
+    const Clock::time_point r0 = Clock::now();
+    if (!(s.refine_midpoint && robust_refine(box, c))) to_frame(contour, scale, frame_points_);
+    refine_us += microseconds(r0, Clock::now());
+    for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
+    c.box = cv::boundingRect(c.contour);
+    if (same != candidates.end()) *same = std::move(c);
+    else candidates.push_back(std::move(c));
+  }
+}
+
+}  // namespace quad::vision
