@@ -65,6 +65,9 @@ TEST(Scenario, AParameterListIsACommandOfItsOwn) {
   EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: false}\n").find("'commands[0].param_list' can only be true"),
             std::string::npos);
   EXPECT_NE(error_of(head + "  - {at_s: 1, param_list: true, land: true}\n").find("'commands[0]' must hold exactly one"),
+            std::string::npos);
+}
+
 TEST(Scenario, CameraKeysAndStationSettingsAreParsed) {
   const Scenario s = parse_scenario(
       "name: x\nduration_s: 10\n"
