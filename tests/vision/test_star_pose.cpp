@@ -119,6 +119,7 @@ TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
   const StereoCalibration calibration = rectify(station_rig);
   LocatorSettings settings;
   settings.track_roi = false;
+  settings.detector.deinterlace = Deinterlace::kNone;  // the pairs are drawn progressive
   StereoStarLocator locator(calibration, settings);
 
   cv::RNG rng(20261202);
@@ -218,6 +219,7 @@ TEST(StarPose, LandingTargetCarriesTheAttitudeAndItsCovarianceMessage) {
   // −60, 30, 120, 210 deg from body x: the tip nearest forward is at +30 deg.
   const LevelScene scene = level_scene(rig, 30.0 * CV_PI / 180.0, 1.2, rng);
   LocatorSettings settings;
+  settings.detector.deinterlace = Deinterlace::kNone;  // drawn progressive
   StereoStarLocator locator(rectify(station_rig_of(rig)), settings);
   const StarFix fix = locator.locate(scene.left, scene.right);
   ASSERT_TRUE(fix.found);
