@@ -27,14 +27,31 @@
 #include <simavr/avr_spi.h>
 #include <simavr/avr_twi.h>
 #include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
 #include <simavr/sim_io.h>
 #include <simavr/sim_irq.h>
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 namespace parts {
+
+// An ATmega2560 at 16 MHz with the image of `elf` loaded, run as fast as the host allows (no wall-clock
+// pacing); nullptr when the image or the part cannot be had.
+inline avr_t* load_atmega2560(const char* elf) {
+  elf_firmware_t fw;
+  std::memset(&fw, 0, sizeof fw);
+  if (elf_read_firmware(elf, &fw) != 0) return nullptr;
+  avr_t* avr = avr_make_mcu_by_name("atmega2560");
+  if (!avr) return nullptr;
+  avr_init(avr);
+  avr->frequency = 16000000;
+  avr->sleep = [](avr_t*, avr_cycle_count_t) {};
+  avr_load_firmware(avr, &fw);
+  return avr;
+}
 
 // ATmega2560 data-space addresses of the registers the parts look at.
 constexpr uint16_t kSpcr = 0x4C, kSpsr = 0x4D, kTwbr = 0xB8, kTwsr = 0xB9;

@@ -94,15 +94,8 @@ struct Board {
   size_t ppm_edge = 0;
 
   bool load() {
-    elf_firmware_t fw;
-    std::memset(&fw, 0, sizeof fw);
-    if (elf_read_firmware(BOARD_ELF, &fw) != 0) return false;
-    avr = avr_make_mcu_by_name("atmega2560");
+    avr = parts::load_atmega2560(BOARD_ELF);
     if (!avr) return false;
-    avr_init(avr);
-    avr->frequency = 16000000;
-    avr->sleep = [](avr_t*, avr_cycle_count_t) {};  // no wall-clock pacing
-    avr_load_firmware(avr, &fw);
     // The paint: all of SRAM, before the first instruction (the start-up code then writes data and bss).
     for (uint32_t a = kRamStart; a <= avr->ramend; ++a) avr->data[a] = kPaint;
     uint32_t flags = 0;

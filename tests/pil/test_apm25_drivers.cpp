@@ -84,15 +84,8 @@ struct Board {
   parts::Simavr16TwiFix twi_fix;  // the TWI master as the datasheet has it (emulated_parts.h)
 
   bool load() {
-    elf_firmware_t fw;
-    std::memset(&fw, 0, sizeof fw);
-    if (elf_read_firmware(DRIVER_SMOKE_ELF, &fw) != 0) return false;
-    avr = avr_make_mcu_by_name("atmega2560");
+    avr = parts::load_atmega2560(DRIVER_SMOKE_ELF);
     if (!avr) return false;
-    avr_init(avr);
-    avr->frequency = 16000000;
-    avr->sleep = [](avr_t*, avr_cycle_count_t) {};  // no wall-clock pacing
-    avr_load_firmware(avr, &fw);
     uint32_t flags = 0;
     avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
     avr_irq_register_notify(

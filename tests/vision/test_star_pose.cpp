@@ -20,7 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "quad/link/dialect_pose.h"
+#include "quad/link/dialect.h"
 #include "quad/link/parser.h"
 
 #include "quad/vision/fix_output.h"
@@ -239,7 +239,7 @@ TEST(StarPose, LandingTargetCarriesTheAttitudeAndItsCovarianceMessage) {
   uint8_t out[mavlink::max_frame_length<mavlink::LandingTargetCovariance>()];
   const size_t n = sender.encode(cov, out, sizeof out);
   ASSERT_GT(n, 0u);
-  mavlink::Parser parser(mavlink::pose_message_info);
+  mavlink::Parser parser(mavlink::dialect_message_info);
   bool decoded = false;
   parser.feed(out, n, [&](const mavlink::Frame& frame) {
     mavlink::LandingTargetCovariance back;

@@ -9,6 +9,20 @@
 #include "quad/vision/ideal_star.h"
 
 namespace quad::vision {
+
+const std::vector<cv::Point>* largest_contour(const std::vector<std::vector<cv::Point>>& contours) {
+  const std::vector<cv::Point>* best = nullptr;
+  double best_area = 0.0;
+  for (const std::vector<cv::Point>& contour : contours) {
+    const double area = cv::contourArea(contour);
+    if (area > best_area) {
+      best_area = area;
+      best = &contour;
+    }
+  }
+  return best;
+}
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -108,15 +122,7 @@ bool StarDetector::midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, co
   cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
   cv::erode(refine_binary_, refine_scratch_, kernel_);
   cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
-  double best_area = 0.0;
-  const std::vector<cv::Point>* best = nullptr;
-  for (const std::vector<cv::Point>& contour : refine_contours_) {
-    const double area = cv::contourArea(contour);
-    if (area > best_area) {
-      best_area = area;
-      best = &contour;
-    }
-  }
+  const std::vector<cv::Point>* best = largest_contour(refine_contours_);
   if (best == nullptr) return false;
   // Touching the region's border means the mid-level shape merged with something: keep the original.
   const cv::Rect refined_box = cv::boundingRect(*best);

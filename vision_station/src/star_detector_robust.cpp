@@ -78,15 +78,7 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
   cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
   cv::erode(refine_binary_, refine_scratch_, kernel_);
   cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
-  const std::vector<cv::Point>* best = nullptr;
-  double best_area = 0.0;
-  for (const std::vector<cv::Point>& contour : refine_contours_) {
-    const double area = cv::contourArea(contour);
-    if (area > best_area) {
-      best_area = area;
-      best = &contour;
-    }
-  }
+  const std::vector<cv::Point>* best = largest_contour(refine_contours_);
   if (best == nullptr) return false;
   // Touching the region's border means the mid-level shape merged with something: keep the coarse one.
   const cv::Rect box = cv::boundingRect(*best);

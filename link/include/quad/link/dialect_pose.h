@@ -36,14 +36,5 @@ struct LandingTargetCovariance {
 static_assert(wire::count_fields<LandingTargetCovariance>().length == LandingTargetCovariance::kLength,
               "LANDING_TARGET_COVARIANCE layout");
 
-// The codec's messages plus LANDING_TARGET_COVARIANCE, for parsers that must check its frames.
-inline bool pose_message_info(uint32_t message_id, MessageInfo* info) {
-  if (message_id == LandingTargetCovariance::kId) {
-    *info = message_info<LandingTargetCovariance>();
-    return true;
-  }
-  return find_message_info(message_id, info);
-}
-
 }  // namespace mavlink
 }  // namespace quad

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "quad/link/dialect_pose.h"
+#include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
 #include "quad/vision/stereo_locator.h"
 

@@ -23,6 +23,9 @@
 
 namespace quad::vision {
 
+// The contour of largest area (nullptr when none has any): the refined outline of a candidate.
+const std::vector<cv::Point>* largest_contour(const std::vector<std::vector<cv::Point>>& contours);
+
 enum class DetectorMethod { kThesis, kRobust };
 // none: progressive frames; field: the even rows only (the first field, one instant, half the pixels);
 // blend: the mean of each row pair (both fields, two instants 1/60 s apart).
