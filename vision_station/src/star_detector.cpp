@@ -106,6 +106,16 @@ void StarDetector::threshold(const cv::Mat& gray) {
   cv::compare(gray, threshold_full_, binary_, cv::CMP_LT);  // inverted: dark becomes 255
 }
 
+const std::vector<cv::Point>* StarDetector::mid_level_outline(const cv::Rect& region) {
+  // One opening and one closing of the pixels below the mid-level (refine_binary_), then the largest
+  // outline in the region.
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
+  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
+  return largest_contour(refine_contours_);
+}
+
 bool StarDetector::midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, const cv::Rect& box,
                                     std::vector<cv::Point>& out) {
   constexpr int kGrow = 4;  // the mid-level edge may lie a little outside the Otsu edge
@@ -118,11 +128,7 @@ bool StarDetector::midpoint_contour(const cv::Mat& gray, const cv::Rect& roi, co
   // Floor grey B = threshold / ratio; mid-level = (B + star) / 2.
   threshold_full_(local).convertTo(midpoint_, CV_8U, 0.5 / threshold_ratio_, 0.5 * star_grey);
   cv::compare(gray(region), midpoint_, refine_binary_, cv::CMP_LT);
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
-  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
-  cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
-  const std::vector<cv::Point>* best = largest_contour(refine_contours_);
+  const std::vector<cv::Point>* best = mid_level_outline(region);
   if (best == nullptr) return false;
   // Touching the region's border means the mid-level shape merged with something: keep the original.
   const cv::Rect refined_box = cv::boundingRect(*best);

@@ -74,11 +74,7 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
   const double floor_grey = cv::mean(coarse_(grown), refine_scratch_)[0];
   const double mid_level = 0.5 * (floor_grey + star_grey);
   cv::compare(view_(region), cv::Scalar(mid_level), refine_binary_, cv::CMP_LT);
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
-  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
-  cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
-  const std::vector<cv::Point>* best = largest_contour(refine_contours_);
+  const std::vector<cv::Point>* best = mid_level_outline(region);
   if (best == nullptr) return false;
   // Touching the region's border means the mid-level shape merged with something: keep the coarse one.
   const cv::Rect box = cv::boundingRect(*best);

@@ -133,6 +133,8 @@ class StarDetector {
   void robust_threshold(double ratio);
   void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
   bool robust_refine(const cv::Rect& coarse_box, StarCandidate& c);
+  // The largest outline of refine_binary_ (the pixels of `region` below the mid-level), smoothed.
+  const std::vector<cv::Point>* mid_level_outline(const cv::Rect& region);
 
   void threshold(const cv::Mat& gray);
   // The mid-level contour of an accepted candidate (raw pixels), or false to keep the original.
