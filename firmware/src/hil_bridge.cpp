@@ -35,14 +35,11 @@ void HilBridge::on_frame(void* bridge, const mav::Frame& frame) {
 }
 
 void HilBridge::on_sample(const Sample& s) {
-  ++sensor_frames_;
-  if (stepped_ && s.time_usec == time_usec_) {
+  if (app_->stepped() && s.time_usec == app_->hil_time_usec()) {
     // The simulator repeated a step whose answer it missed: answer again, do not step twice.
     send_actuators(s.time_usec);
     return;
   }
-  stepped_ = true;
-  time_usec_ = s.time_usec;
   app_->hil_step(s.time_usec, s.imu, s.mag_new ? &s.mag : nullptr);
   send_actuators(s.time_usec);
 }

@@ -134,6 +134,9 @@ class FlightApp {
   void position_fix(const Vec3& p_ned, uint32_t capture_us);
   ParamUpdate set_param(uint8_t index, float value);
   uint64_t timesync_us() const { return hil() ? hil_time_usec_ : now_us_; }
+  // An iteration has run; hil_time_usec(): the simulator's time of the last one.
+  bool stepped() const { return clock_started_; }
+  uint64_t hil_time_usec() const { return hil_time_usec_; }
 
  private:
   // Configures every part from p; false (and nothing changed) when a part refuses it, with the name of

@@ -15,7 +15,6 @@ class HilBridge {
  public:
   // Sets io's HIL hook to this bridge, which then steps `app` (call before app.init(io)).
   void connect(FlightApp& app, AppIo& io);
-  uint32_t sensor_frames() const { return sensor_frames_; }
 
   // One HIL_SENSOR as the iteration takes it.
   struct Sample {
@@ -31,9 +30,6 @@ class HilBridge {
   void send_actuators(uint64_t time_usec);
 
   FlightApp* app_ = nullptr;
-  uint64_t time_usec_ = 0;  // the last step's
-  bool stepped_ = false;
-  uint32_t sensor_frames_ = 0;
 };
 
 }  // namespace fw
