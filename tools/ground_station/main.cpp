@@ -2,7 +2,7 @@
 // over a serial port: arm, disarm, switch mode, send a position setpoint, list / read / set parameters,
 // and watch the telemetry. It speaks MAVLink v2 as system 255, component 190 (docs/hil-protocol.md).
 //
-//   quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]
+//   quad_gs --port PATH [--baud N] [--key SECRET] [--tlog FILE] COMMAND [ARGS]
 //     arm | disarm [force] | mode manual|auto|land | land
 //     setpoint NORTH EAST DOWN [YAW_DEG]
 //     params                      every parameter as "NAME VALUE" (the quad_firmware --params format)
@@ -15,6 +15,9 @@
 // received frames whose signature is wrong. SECRET is 64 hex digits (the 32-byte key) or a passphrase,
 // whose SHA-256 is the key (MAVProxy's "signing setup" convention).
 //
+// --tlog FILE records the session as a .tlog (docs/logging.md): every frame sent and received, each
+// with its wall-clock time, the format MAVProxy writes and MAVExplorer reads.
+//
 // Exit status: 0 done, 1 refused or no answer, 2 usage error or the port cannot be opened.
 #include <algorithm>
 #include <cmath>
@@ -22,6 +25,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -32,6 +37,7 @@
 #include "quad/link/mavlink.h"
 #include "quad/link/sha256.h"
 #include "quad/link/signing.h"
+#include "quad/link/tlog.h"
 
 namespace {
 
@@ -43,14 +49,15 @@ constexpr uint32_t kModeManual = 1, kModeAuto = 2, kModeLanding = 3;
 const char* const kModeNames[] = {"DISARMED", "MANUAL", "AUTO", "LANDING"};
 
 const char kUsage[] =
-    "usage: quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]\n"
+    "usage: quad_gs --port PATH [--baud N] [--key SECRET] [--tlog FILE] COMMAND [ARGS]\n"
     "  arm | disarm [force] | mode manual|auto|land | land\n"
     "  setpoint NORTH EAST DOWN [YAW_DEG]   position setpoint in NED metres (AUTO)\n"
     "  params                               list every parameter as 'NAME VALUE'\n"
     "  get NAME | set NAME VALUE            read or set one parameter\n"
     "  watch [SECONDS]                      print status text, mode and position (default 10 s)\n"
     "  signing-setup | signing-off          provision (over USB) or remove the --key on the vehicle\n"
-    "  --key SECRET: sign with this key: 64 hex digits, or a passphrase (key = its SHA-256)\n";
+    "  --key SECRET: sign with this key: 64 hex digits, or a passphrase (key = its SHA-256)\n"
+    "  --tlog FILE: record every frame sent and received (.tlog, as MAVProxy writes it)\n";
 
 // The link id of this tool's signatures (the vehicle tracks streams per link, system and component).
 constexpr uint8_t kSigningLinkId = 0;
@@ -85,12 +92,21 @@ bool key_from_secret(const std::string& secret, mav::SigningKey* key) {
   return true;
 }
 
+// The session's record (--tlog): one stream per direction, so each record is one whole frame.
+struct Record {
+  explicit Record(const std::string& path) : file(path), to_vehicle(file), from_vehicle(file) {}
+  quad::tlog::TlogWriter file;
+  quad::tlog::TlogStream to_vehicle, from_vehicle;
+};
+
 // The link to the vehicle: the host HAL's UART0 on the given device, a parser and our identity.
 class Link {
  public:
-  // With a key every frame is signed and vehicle frames with a wrong signature are dropped.
-  explicit Link(const mav::SigningKey* key)
-      : sender_(255, mav::kCompIdMissionPlanner),
+  // With a key every frame is signed and vehicle frames with a wrong signature are dropped. With a
+  // record every byte sent and read is recorded.
+  Link(const mav::SigningKey* key, Record* record)
+      : record_(record),
+        sender_(255, mav::kCompIdMissionPlanner),
         key_(key != nullptr ? *key : mav::SigningKey{}),
         clock_(signing_now()),
         signer_(key_, clock_, kSigningLinkId),
@@ -102,6 +118,7 @@ class Link {
     uint8_t buf[mav::max_frame_length<Msg>(true)];
     clock_.advance_to(signing_now());
     const size_t n = signing_ ? mav::encode_signed(sender_, signer_, msg, buf, sizeof buf) : sender_.encode(msg, buf, sizeof buf);
+    if (record_) record_->to_vehicle.feed(buf, n, quad::tlog::unix_micros_now());
     size_t done = 0;
     while (done < n) {
       const uint16_t w = quad::hal::serial_write(quad::hal::kUart0, buf + done, static_cast<uint16_t>(n - done));
@@ -122,6 +139,7 @@ class Link {
       uint8_t buf[512];
       uint16_t n;
       while ((n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
+        if (record_) record_->from_vehicle.feed(buf, n, quad::tlog::unix_micros_now());
         parser_.feed(buf, n, [&](const mav::Frame& f) {
           if (f.system_id != kVehicleSystem) return;
           if (signing_ && !mav::accepted(verifier_.check(f))) {
@@ -146,6 +164,7 @@ class Link {
     }
   }
 
+  Record* record_;
   mav::Sender sender_;
   mav::Parser parser_;
   mav::SigningKey key_;
@@ -341,6 +360,25 @@ bool parse_float(const char* s, float* out) {
   return true;
 }
 
+// The command of the command line (checked by main()). 0 done, 1 refused or no answer.
+int run_command(Link& link, const std::vector<std::string>& args, const float* f, const mav::SigningKey& key) {
+  const std::string& cmd = args[0];
+  if (cmd == "arm") return command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
+  if (cmd == "disarm") return command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
+  if (cmd == "land") return command(link, mav::kCmdNavLand, 0.0f, 0.0f);
+  if (cmd == "mode") {
+    const uint32_t mode = args[1] == "manual" ? kModeManual : (args[1] == "auto" ? kModeAuto : kModeLanding);
+    return command(link, mav::kCmdDoSetMode, static_cast<float>(mav::kModeFlagCustomModeEnabled), static_cast<float>(mode));
+  }
+  if (cmd == "setpoint") return send_setpoint(link, f[0], f[1], f[2], args.size() == 5, f[3]);
+  if (cmd == "params") return list_params(link);
+  if (cmd == "get") return get_param(link, args[1]);
+  if (cmd == "set") return set_param(link, args[1], f[0]);
+  if (cmd == "watch") return watch(link, args.size() == 2 ? f[0] : 10.0);
+  if (cmd == "signing-setup" || cmd == "signing-off") return setup_signing(link, key, cmd == "signing-off");
+  return 1;
+}
+
 int usage(const char* why) {
   std::fprintf(stderr, "quad_gs: %s\n%s", why, kUsage);
   return 2;
@@ -352,7 +390,7 @@ int main(int argc, char** argv) {
   quad::hal::host::Config config;
   config.ports[quad::hal::kUart0].baud = 57600;
   std::vector<std::string> args;
-  std::string key_secret;
+  std::string key_secret, tlog_path;
   bool has_key = false;
   mav::SigningKey key{};
   for (int i = 1; i < argc; ++i) {
@@ -366,6 +404,11 @@ int main(int argc, char** argv) {
       key_secret = argv[++i];
       has_key = true;
       if (!key_from_secret(key_secret, &key)) return usage("--key: empty secret");
+      continue;
+    }
+    if (a == "--tlog") {
+      if (i + 1 >= argc) return usage("--tlog: missing value");
+      tlog_path = argv[++i];
       continue;
     }
     if (a == "--port" || a == "--baud") {
@@ -417,26 +460,34 @@ int main(int argc, char** argv) {
     return usage(("unknown command '" + cmd + "'").c_str());
   }
 
+  std::unique_ptr<Record> record;
+  if (!tlog_path.empty()) {
+    try {
+      record = std::make_unique<Record>(tlog_path);
+    } catch (const std::runtime_error& e) {
+      std::fprintf(stderr, "quad_gs: --tlog %s\n", e.what());
+      return 2;
+    }
+  }
   std::string error;
   if (!quad::hal::host::open(config, &error)) {
     std::fprintf(stderr, "quad_gs: %s\n", error.c_str());
     return 2;
   }
-  Link link(has_key && cmd != "signing-setup" ? &key : nullptr);
+  Link link(has_key && cmd != "signing-setup" ? &key : nullptr, record.get());
   int status = 0;
-  if (cmd == "arm") status = command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
-  else if (cmd == "disarm") status = command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
-  else if (cmd == "land") status = command(link, mav::kCmdNavLand, 0.0f, 0.0f);
-  else if (cmd == "mode") {
-    const uint32_t mode = args[1] == "manual" ? kModeManual : (args[1] == "auto" ? kModeAuto : kModeLanding);
-    status = command(link, mav::kCmdDoSetMode, static_cast<float>(mav::kModeFlagCustomModeEnabled), static_cast<float>(mode));
-  } else if (cmd == "setpoint") status = send_setpoint(link, f[0], f[1], f[2], args.size() == 5, f[3]);
-  else if (cmd == "params") status = list_params(link);
-  else if (cmd == "get") status = get_param(link, args[1]);
-  else if (cmd == "set") status = set_param(link, args[1], f[0]);
-  else if (cmd == "watch") status = watch(link, args.size() == 2 ? f[0] : 10.0);
-  else if (cmd == "signing-setup" || cmd == "signing-off") status = setup_signing(link, key, cmd == "signing-off");
+  try {
+    status = run_command(link, args, f, key);
+  } catch (const std::runtime_error& e) {  // the record could not be written
+    std::fprintf(stderr, "quad_gs: %s\n", e.what());
+    status = 1;
+  }
   if (link.rejected() > 0) std::fprintf(stderr, "quad_gs: %u frames with a wrong signature dropped\n", link.rejected());
+  if (record) {
+    record->file.flush();
+    std::fprintf(stderr, "quad_gs: %llu frames recorded in %s\n",
+                 static_cast<unsigned long long>(record->file.records()), tlog_path.c_str());
+  }
   quad::hal::host::close();
   return status;
 }
