@@ -24,6 +24,17 @@ uint8_t put_ram(uint8_t* p, uint8_t n, const char* text) {
 
 }  // namespace
 
+UlogFields& UlogFields::u8(uint8_t v) { return bytes(&v, 1); }
+UlogFields& UlogFields::u32(uint32_t v) { return bytes(&v, sizeof v); }
+UlogFields& UlogFields::u64(uint64_t v) { return bytes(&v, sizeof v); }
+UlogFields& UlogFields::f32(float v) { return bytes(&v, sizeof v); }
+UlogFields& UlogFields::f32(const float* v, uint8_t n) { return bytes(v, static_cast<uint8_t>(n * sizeof(float))); }
+UlogFields& UlogFields::bytes(const void* v, uint8_t n) {
+  memcpy(p_, v, n);
+  p_ += n;
+  return *this;
+}
+
 uint16_t flash_length(FlashText text) {
   uint16_t n = 0;
   while (flash_char(text.p + n) != '\0') ++n;

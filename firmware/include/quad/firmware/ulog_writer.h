@@ -40,23 +40,17 @@ constexpr uint8_t kDataHeaderBytes = kMessageHeaderBytes + 2;  // and the uint16
 constexpr uint8_t data_record_bytes(uint8_t fields) { return static_cast<uint8_t>(kDataHeaderBytes + fields); }
 }  // namespace ulog
 
-// Fills a data record's fields in order (a cursor into the staging buffer).
+// Fills a data record's fields in order (a cursor into the staging buffer). Out of line: one copy of each
+// on the AVR rather than a memcpy per field of every record.
 class UlogFields {
  public:
   explicit UlogFields(uint8_t* p) : p_(p) {}
-  UlogFields& u8(uint8_t v) {
-    *p_++ = v;
-    return *this;
-  }
-  UlogFields& u32(uint32_t v) { return bytes(&v, sizeof v); }
-  UlogFields& u64(uint64_t v) { return bytes(&v, sizeof v); }
-  UlogFields& f32(float v) { return bytes(&v, sizeof v); }
-  UlogFields& f32(const float* v, uint8_t n) { return bytes(v, static_cast<uint8_t>(n * sizeof(float))); }
-  UlogFields& bytes(const void* v, uint8_t n) {
-    memcpy(p_, v, n);
-    p_ += n;
-    return *this;
-  }
+  UlogFields& u8(uint8_t v);
+  UlogFields& u32(uint32_t v);
+  UlogFields& u64(uint64_t v);
+  UlogFields& f32(float v);
+  UlogFields& f32(const float* v, uint8_t n);
+  UlogFields& bytes(const void* v, uint8_t n);
 
  private:
   uint8_t* p_;
