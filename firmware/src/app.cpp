@@ -32,7 +32,8 @@ bool is_failsafe(Reason reason) {
 
 void FlightApp::init(const AppIo& io) {
   io_ = io;
-  link_.init(GroundLink::Io{io.storage, io.write, io.console}, &params_);
+  link_.init(GroundLink::Io{io.storage, io.write, io.console, log_statustext, this}, &params_);
+  logger_.init(io.log);
   store_status_ = params_load(io_.storage, params_);
   const bool key_ok = link_.load_signing_key();
   const char* error = nullptr;
@@ -65,6 +66,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   loop_timer_.set_rate_hz(loop_hz);
   schedule_.configure(loop_hz);
   telemetry_.configure(p, loop_hz);
+  logger_.configure(p, loop_hz);
   return true;
 }
 
@@ -94,6 +96,7 @@ ParamUpdate FlightApp::set_param(uint8_t index, float value) {
     params_ = candidate;
     // The store rewrites only the bytes that differ in the older copy: the value, sequence and CRC.
     if (!params_save_all(io_.storage, params_)) u.status = ParamUpdate::Status::kNotStored;
+    logger_.param_changed(index, value);
   }
   return u;
 }
@@ -113,7 +116,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // A mode entered between iterations (a command) runs the position loop in this one: a waiting fix's
   // step would share it, so the frame-rate work runs and the fix waits a frame.
   const IterationPlan plan = schedule_.next(dt, estimator_.fix_in_progress() && !control_.mode_entered());
-  if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
+  if (plan.fix_step) logger_.vision_fix_result(fix_step([&] { return estimator_.advance_fix(); }));
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
   const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
@@ -141,6 +144,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   const bool sent = telemetry_.send_due(*this, link_, room);
   mark(hal::TracePoint::kTelemetryDone);
   if (room && !sent) link_.stream_params();
+  logger_.iteration(*this, plan, imu, mag, dt);
   loop_timer_.end(io_.micros());
   mark(hal::TracePoint::kStepEnd);
   report_overrun();
@@ -211,6 +215,12 @@ void FlightApp::report_transition(const Transition& t) {
   StatusLine line(severity);
   if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
   link_.send_statustext((line << reason_text(t.reason)).message());
+  logger_.transition(*this, t);
+}
+
+void FlightApp::log_statustext(void* app, const mav::Statustext& msg) {
+  FlightApp* self = static_cast<FlightApp*>(app);
+  self->logger_.statustext(self->now_us_, msg);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -246,45 +256,50 @@ void FlightApp::position_target(const Vec3& target, const float* yaw) {
 
 void FlightApp::star_fix(const mav::LandingTarget& msg) {
   ++fixes_received_;
+  const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
   if (msg.frame != mav::kFrameBodyFrd || msg.position_valid != 1) {
     ++fixes_invalid_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kInvalid);
     return;
   }
-  const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
   Vec3 p_ned;
   if (!estimator_.position_from_star(Vec3{msg.x, msg.y, msg.z}, capture_us, &p_ned)) {
     ++fixes_rejected_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kRejectedOld);
     return;
   }
-  position_fix_at(p_ned, capture_us);
+  position_fix_at(p_ned, capture_us, msg.q);
 }
 
 void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {
   ++fixes_received_;
-  position_fix_at(p_ned, capture_us);
+  position_fix_at(p_ned, capture_us, nullptr);
 }
 
-void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us) {
+void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us, const float* q) {
+  LogFixResult logged = LogFixResult::kInvalid;
   if (!is_finite(p_ned)) {
     ++fixes_invalid_;
-    return;
-  }
-  if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
+  } else if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
     // Queued for the frame-rate work's iteration (frame_schedule.h).
     const est::FixResult r = estimator_.queue_fix(p_ned, capture_us);
     if (r != est::FixResult::kPending) fix_result(r, false);
-    return;
+    logged = log_fix_result(r, false);
+  } else {
+    logged = fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
   }
-  fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
+  logger_.vision_fix(now_us_, &p_ned, capture_us, q, logged);
 }
 
 template <class Step>
-void FlightApp::fix_step(Step step) {
+LogFixResult FlightApp::fix_step(Step step) {
   const uint32_t resets_before = estimator_.filter_resets();
   mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = step();
   mark(hal::TracePoint::kFixEnd);
-  if (r != est::FixResult::kPending) fix_result(r, estimator_.filter_resets() != resets_before);
+  const bool reset = estimator_.filter_resets() != resets_before;
+  if (r != est::FixResult::kPending) fix_result(r, reset);
+  return log_fix_result(r, reset);
 }
 
 void FlightApp::fix_result(est::FixResult r, bool reset) {

@@ -167,6 +167,7 @@ void GroundLink::send_statustext(uint8_t severity, FlashText text) { send_status
 void GroundLink::send_statustext(const mav::Statustext& msg) {
   broadcast(msg);
   if (io_.console != nullptr) io_.console(msg.severity, msg.text, static_cast<uint8_t>(strnlen(msg.text, sizeof msg.text)));
+  if (io_.statustext != nullptr) io_.statustext(io_.statustext_context, msg);
 }
 
 }  // namespace fw

@@ -46,7 +46,8 @@ int usage(const char* error) {
                "                    a YAML value: radio.latency_s=0.01, firmware_params.POS_KP_XY=4,\n"
                "                    commands.3.at_s=45, wind.mean_ned_m_s=[1,0,0]\n"
                "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
-               "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
+               "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim, its flight\n"
+               "                    logs in the run folder: --log-dir DIR); the port\n"
                "                    arguments (--uart0 ... --params FILE) are appended\n"
                "  --viewer          MuJoCo window following the vehicle (needs a display); closing it ends\n"
                "                    the run like Ctrl-C. Left drag rotates, right drag or the wheel zooms\n"
@@ -158,7 +159,9 @@ int main(int argc, char** argv) {
     options.gcs_udp = gcs;
     options.link_record = tlog;
     const std::string default_fw = executable_dir() + "/quad_firmware";
-    options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw} : split_words(firmware);
+    // The host firmware keeps its flight logs in the run folder (runs/<run>/log_001.ulg).
+    options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw, "--log-dir", out_dir}
+                                             : split_words(firmware);
     if (firmware.empty() && access(default_fw.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "quad_sim: %s is not built (cmake --build build/host --target quad_firmware), "
                            "or pass --firmware CMD\n", default_fw.c_str());

@@ -59,6 +59,7 @@ class Bench {
     io.storage = quad::fw::StorageIo{&Bench::storage_read, &Bench::storage_write};
     io.write = &Bench::write;
     io.micros = &Bench::micros;
+    io.log = log;
     if (hil) {
       bridge = std::make_unique<quad::fw::HilBridge>();
       bridge->connect(*app, io);
@@ -160,6 +161,7 @@ class Bench {
 
   std::unique_ptr<quad::fw::FlightApp> app;
   std::unique_ptr<quad::fw::HilBridge> bridge;
+  const quad::fw::LogStore* log = nullptr;  // the flight logs' store given to boot() (none by default)
   std::vector<uint8_t> storage;
   bool storage_fails = false;
   uint64_t t_us = 1000000;

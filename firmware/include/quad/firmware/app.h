@@ -6,6 +6,7 @@
 //   FlightControl   modes and failsafes, setpoints, trim, cascade, mixer, landing (flight_control.h)
 //   GroundLink      MAVLink on both ports: parsers, signing, parameters, commands (ground_link.h),
 //                   with the telemetry streams (telemetry.h)
+//   FlightLogger    the flight's ULog in the target's log store (flight_logger.h)
 //
 // It references no HAL symbol. A per-target runner owns the loop: it hands the application the bytes each
 // serial port received (receive()) and, on boards with sensors, each IMU sample (step()); the application
@@ -24,6 +25,7 @@
 #include <stdint.h>
 
 #include "quad/firmware/flight_control.h"
+#include "quad/firmware/flight_logger.h"
 #include "quad/firmware/frame_schedule.h"
 #include "quad/firmware/ground_link.h"
 #include "quad/firmware/params.h"
@@ -51,6 +53,8 @@ struct AppIo {
   // whose sensors come from its drivers.
   void (*hil_sensor)(void* context, const mavlink::Frame& frame) = nullptr;
   void* hil_context = nullptr;
+  // Where the flight logs go (log_store.h); null: nowhere.
+  const LogStore* log = nullptr;
 };
 
 // Counters reported in SYS_STATUS and used by the tests.
@@ -109,6 +113,9 @@ class FlightApp {
   LoopTimer& loop_timer() { return loop_timer_; }
   const StateEstimator& estimator() const { return estimator_; }
   const FlightControl& control() const { return control_; }
+  const FlightLogger& logger() const { return logger_; }
+  // Closes the open flight log (the host firmware at exit).
+  void close_log() { logger_.stop(); }
   GroundLink& link() { return link_; }
   const GroundLink& link() const { return link_; }
   Vec3 position() const { return estimator_.position(); }
@@ -149,9 +156,12 @@ class FlightApp {
   // One step of the fusion (the whole of it at 100 Hz, else a gate or an update), traced, with its
   // result counted once it is final.
   template <class Step>
-  void fix_step(Step step);
-  // A fix as a NED position at its capture time: fused, queued, or refused.
-  void position_fix_at(const Vec3& p_ned, uint32_t capture_us);
+  LogFixResult fix_step(Step step);
+  // A fix as a NED position at its capture time: fused, queued, or refused; q: the star's attitude
+  // (LANDING_TARGET.q) for the log, or null.
+  void position_fix_at(const Vec3& p_ned, uint32_t capture_us, const float* q);
+  // Every STATUSTEXT line, for the flight log (GroundLink::Io::statustext; context: the application).
+  static void log_statustext(void* app, const mavlink::Statustext& msg);
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void mark(hal::TracePoint point) const {
@@ -167,6 +177,7 @@ class FlightApp {
   FlightControl control_;
   GroundLink link_;
   Telemetry telemetry_;
+  FlightLogger logger_;
   RcSwitchEdges switch_edges_;
 
   uint32_t now_us_ = 0;        // vehicle time: the last step, or (on a board) the last receive()

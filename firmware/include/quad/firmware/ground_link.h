@@ -51,6 +51,9 @@ class GroundLink {
     uint16_t (*write)(uint8_t port, const uint8_t* data, uint16_t length);
     // Optional: every STATUSTEXT line also goes here (the host prints it on stderr).
     void (*console)(uint8_t severity, const char* text, uint8_t length);
+    // Optional: every STATUSTEXT message also goes here, with its context (the flight log).
+    void (*statustext)(void* context, const mavlink::Statustext& msg);
+    void* statustext_context;
   };
 
   // params: the table in force, read by the parameter protocol.
