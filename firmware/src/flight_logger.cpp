@@ -10,7 +10,7 @@ namespace {
 // The topics' formats (PX4's field names where PX4 has the topic), one after the other, each ended by a
 // NUL, in LogTopic order. Field order is the data's byte order.
 constexpr char kFormats[] QUAD_FLASH =
-    "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;float dt;\0"
+    "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;float dt;uint8_t hovering;\0"
     "sensor_mag:uint64_t timestamp;float[3] magnetometer_ga;\0"
     "vehicle_attitude:uint64_t timestamp;float[4] q;float[3] gyro_bias;\0"
     "vehicle_local_position:uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;"
@@ -24,7 +24,7 @@ constexpr char kFormats[] QUAD_FLASH =
     "float load;";
 
 // Field bytes of each topic's data (the formats above).
-constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4;
+constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4 + 1;
 constexpr uint8_t kSensorMagBytes = 8 + 12;
 constexpr uint8_t kAttitudeBytes = 8 + 16 + 12;
 constexpr uint8_t kLocalPositionBytes = 8 + 24 + 36;
@@ -95,8 +95,12 @@ void FlightLogger::start(const FlightApp& app) {
 }
 
 void FlightLogger::write_definitions(const FlightApp& app) {
+  // On the ground no iteration has a deadline to keep: a log opened at boot gets its definitions in its
+  // first iteration, so that its data starts with the first IMU sample (the replay needs the boot
+  // calibration's samples).
+  const uint16_t budget = app.armed() ? kHeaderBytesPerIteration : 0xFFFFu;
   uint16_t bytes = 0;
-  while (phase_ != kPhaseData && bytes < kHeaderBytesPerIteration && writer_.flush()) {
+  while (phase_ != kPhaseData && bytes < budget && writer_.flush()) {
     if (!next_definition(app, &bytes)) {
       phase_ = kPhaseData;
       write_status(app);
@@ -145,7 +149,7 @@ bool FlightLogger::next_definition(const FlightApp& app, uint16_t* bytes) {
 }
 
 void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, const hal::ImuSample& imu,
-                             const hal::MagSample* mag, float dt) {
+                             const hal::MagSample* mag, float dt, bool hovering) {
   if (mode_ == LogMode::kBoot && !boot_log_started_) {
     boot_log_started_ = true;
     start(app);
@@ -161,12 +165,12 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   // not the frame-rate work's iteration either.
   const bool spare = !plan.fix_step && !(plan.multi_rate && plan.frame_work);
   if (phase_ != kPhaseData) {
-    if (spare) write_definitions(app);
-    return;
+    if (spare || !app.armed()) write_definitions(app);
+    if (phase_ != kPhaseData) return;
   }
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
-    write_imu_topics(app, imu, dt);
+    write_imu_topics(app, imu, dt, hovering);
   }
   if (mag != nullptr) {
     uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
@@ -184,11 +188,11 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   }
 }
 
-void FlightLogger::write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt) {
+void FlightLogger::write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt, bool hovering) {
   const uint64_t now = stamp(app.now_us());
   uint8_t* p = writer_.begin_data(kLogSensorCombined, kSensorCombinedBytes);
   if (p != nullptr) {
-    UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt);
+    UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0);
     writer_.commit();
   }
   p = writer_.begin_data(kLogVehicleAttitude, kAttitudeBytes);

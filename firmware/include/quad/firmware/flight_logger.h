@@ -4,8 +4,8 @@
 // LOG_MODE 1 opens a log when the vehicle arms and closes it when it disarms; 2 opens one at the first
 // iteration after boot and keeps it to the end; 0 logs nothing. The definitions (formats, information,
 // every parameter, the subscriptions) are written over the first iterations of a log, at most
-// kHeaderBytesPerIteration each, so that no iteration carries all of them; the data starts when they are
-// complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
+// kHeaderBytesPerIteration each while armed, so that no flight iteration carries all of them (on the
+// ground, all at once); the data starts when they are complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
 //
 // What an iteration writes, and where (frame_schedule.h):
 //   every LOG_IMU_DIV-th iteration   sensor_combined, vehicle_attitude
@@ -74,8 +74,10 @@ class FlightLogger {
   void configure(const Params& p, float loop_hz);
 
   // One control iteration of the application, after its control step (FlightApp::step).
+  // hovering: what the estimator was told this iteration (it gates the hover-bias tracker; the replay
+  // needs it).
   void iteration(const FlightApp& app, const IterationPlan& plan, const hal::ImuSample& imu,
-                 const hal::MagSample* mag, float dt);
+                 const hal::MagSample* mag, float dt, bool hovering);
   // A mode change or a refused command (FlightApp::report_transition): opens or closes the log, and
   // records the state.
   void transition(const FlightApp& app, const Transition& t);
@@ -109,7 +111,7 @@ class FlightLogger {
   void write_status(const FlightApp& app);
   void write_loop_timing(const FlightApp& app);
   void write_frame_topics(const FlightApp& app);
-  void write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt);
+  void write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt, bool hovering);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
 
