@@ -23,6 +23,33 @@ uint8_t* put_le(uint8_t* p, uint32_t v, uint8_t bytes) {
 
 }  // namespace
 
+void GroundLink::dispatch_log(uint8_t port, const mav::Frame& frame) {
+  switch (frame.message_id) {
+    case mav::LogRequestList::kId: {
+      mav::LogRequestList msg;
+      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_request_list(port, msg);
+      break;
+    }
+    case mav::LogRequestData::kId: {
+      mav::LogRequestData msg;
+      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_request_data(port, msg);
+      break;
+    }
+    case mav::LogErase::kId: {
+      mav::LogErase msg;
+      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_erase();
+      break;
+    }
+    case mav::LogRequestEnd::kId: {
+      mav::LogRequestEnd msg;
+      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) data_id_ = 0;
+      break;
+    }
+    default:
+      break;
+  }
+}
+
 void GroundLink::on_log_request_list(uint8_t port, const mav::LogRequestList& msg) {
   const LogStore* store = io_.log_store;
   const uint16_t count = store != nullptr ? store->count(store->context) : 0;

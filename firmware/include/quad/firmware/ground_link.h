@@ -108,7 +108,8 @@ class GroundLink {
   bool to_mode_command(uint8_t port, const mavlink::CommandLong& cmd, Command* c);
   void on_setup_signing(uint8_t port, const mavlink::SetupSigning& msg);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg, uint64_t now_us);
-  // The log protocol (ground_link_logs.cpp); the frame already decoded and addressed to this vehicle.
+  // The log protocol's messages (ground_link_logs.cpp); other frames are ignored.
+  void dispatch_log(uint8_t port, const mavlink::Frame& frame);
   void on_log_request_list(uint8_t port, const mavlink::LogRequestList& msg);
   void on_log_request_data(uint8_t port, const mavlink::LogRequestData& msg);
   void on_log_erase();
@@ -227,32 +228,13 @@ void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h)
       if (mav::decode(frame, msg)) on_timesync(port, msg, h.timesync_us());
       break;
     }
-    case mav::LogRequestList::kId: {
-      mav::LogRequestList msg;
-      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_request_list(port, msg);
-      break;
-    }
-    case mav::LogRequestData::kId: {
-      mav::LogRequestData msg;
-      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_request_data(port, msg);
-      break;
-    }
-    case mav::LogErase::kId: {
-      mav::LogErase msg;
-      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_log_erase();
-      break;
-    }
-    case mav::LogRequestEnd::kId: {
-      mav::LogRequestEnd msg;
-      if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) data_id_ = 0;
-      break;
-    }
     case mav::SetupSigning::kId: {
       mav::SetupSigning msg;
       if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) on_setup_signing(port, msg);
       break;
     }
     default:
+      dispatch_log(port, frame);
       break;
   }
 }
