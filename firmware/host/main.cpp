@@ -134,7 +134,7 @@ int main(int argc, char** argv) {
   quad::fw::AppIo io = quad::fw::hal_app_io();
   io.console = console;
   io.micros = cpu_micros;
-  if (!options.log_dir.empty()) io.log = logs.store();
+  if (!options.log_dir.empty()) io.log_store = logs.store();
   quad::fw::init_hil(app, io);
   for (const quad::fw::ParamOverride& o : overrides) {
     if (const char* why = app.override_param(o.index, o.value)) {

@@ -32,8 +32,9 @@ bool is_failsafe(Reason reason) {
 
 void FlightApp::init(const AppIo& io) {
   io_ = io;
-  link_.init(GroundLink::Io{io.storage, io.write, io.console, log_statustext, this}, &params_);
-  logger_.init(io.log);
+  link_.init(GroundLink::Io{io.storage, io.write, io.console, log_statustext, this, io.log_store, io.tx_free},
+             &params_);
+  logger_.init(io.log_store);
   store_status_ = params_load(io_.storage, params_);
   const bool key_ok = link_.load_signing_key();
   const char* error = nullptr;
@@ -138,12 +139,12 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   mark(control_.mode() == FlightMode::kDisarmed ? hal::TracePoint::kControlIdle : hal::TracePoint::kControlFlown);
   if (plan.frame_work) control_.detect_landing(plan.frame_dt, estimator_.velocity().z);
 
-  // The application's own output, spread: one telemetry stream or one streamed parameter per iteration,
-  // neither beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
+  // The application's own output, spread: one telemetry stream, streamed parameter or log frame per
+  // iteration, none beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
   const bool room = !plan.fix_step && !position_loop_forced;
   const bool sent = telemetry_.send_due(*this, link_, room);
   mark(hal::TracePoint::kTelemetryDone);
-  if (room && !sent) link_.stream_params();
+  if (room && !sent && !link_.stream_params()) link_.stream_logs();
   logger_.iteration(*this, plan, imu, mag, dt, hovering);
   loop_timer_.end(io_.micros());
   mark(hal::TracePoint::kStepEnd);

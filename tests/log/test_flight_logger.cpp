@@ -34,7 +34,7 @@ void hold(Bench& b, int steps) {
 }
 
 void boot(Bench& b, RamLogStore& ram, float log_mode = 1.0f, float imu_div = 1.0f) {
-  b.log = ram.store();
+  b.log_store = ram.store();
   b.boot();
   ASSERT_EQ(b.app->override_param(quad::fw::kLogMode, log_mode), nullptr);
   ASSERT_EQ(b.app->override_param(quad::fw::kLogImuDiv, imu_div), nullptr);

@@ -49,12 +49,15 @@ struct AppIo {
   void (*console)(uint8_t severity, const char* text, uint8_t length) = nullptr;
   // Optional: marks the phases of an iteration for a profiler (hal::trace on a board).
   void (*trace)(hal::TracePoint point) = nullptr;
+  // Optional: the flight logs (a target's LogStore: log_store.h), written by the flight log and served by
+  // the log protocol; null: no logs (nothing written, LOG_ENTRY num_logs 0).
+  const LogStore* log_store = nullptr;
+  // Optional: bytes a port's transmit queue takes now (hal::serial_tx_free); null: as many as offered.
+  uint16_t (*tx_free)(uint8_t port) = nullptr;
   // Hardware-in-the-loop: HIL_SENSOR frames go to this hook (HilBridge::connect sets it); null on a board,
   // whose sensors come from its drivers.
   void (*hil_sensor)(void* context, const mavlink::Frame& frame) = nullptr;
   void* hil_context = nullptr;
-  // Where the flight logs go (log_store.h); null: nowhere.
-  const LogStore* log = nullptr;
 };
 
 // Counters reported in SYS_STATUS and used by the tests.
