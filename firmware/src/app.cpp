@@ -31,11 +31,14 @@ bool is_failsafe(Reason reason) {
 }  // namespace
 
 void FlightApp::init(const AppIo& io) {
-  io_ = io;
+  micros_ = io.micros;
+  trace_ = io.trace;
+  hil_sensor_ = io.hil_sensor;
+  hil_context_ = io.hil_context;
   link_.init(GroundLink::Io{io.storage, io.write, io.console, log_statustext, this, io.log_store, io.tx_free},
              &params_);
   logger_.init(io.log_store);
-  store_status_ = params_load(io_.storage, params_);
+  store_status_ = params_load(io.storage, params_);
   const bool key_ok = link_.load_signing_key();
   const char* error = nullptr;
   if (!apply_params(params_, &error)) {
@@ -96,7 +99,7 @@ ParamUpdate FlightApp::set_param(uint8_t index, float value) {
   } else {
     params_ = candidate;
     // The store rewrites only the bytes that differ in the older copy: the value, sequence and CRC.
-    if (!params_save_all(io_.storage, params_)) u.status = ParamUpdate::Status::kNotStored;
+    if (!params_save_all(link_.storage(), params_)) u.status = ParamUpdate::Status::kNotStored;
     logger_.param_changed(index, value);
   }
   return u;
@@ -107,12 +110,11 @@ ParamUpdate FlightApp::set_param(uint8_t index, float value) {
 
 void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag) {
   mark(hal::TracePoint::kStepBegin);
-  loop_timer_.begin(io_.micros());
+  loop_timer_.begin(micros_());
   const float dt = step_dt(clock_started_, t_us - last_step_us_, loop_timer_.period_us(), loop_timer_.period_s());
   clock_started_ = true;
   last_step_us_ = t_us;
   now_us_ = t_us;
-  ++iterations_;
 
   // A mode entered between iterations (a command) runs the position loop in this one: a waiting fix's
   // step would share it, so the frame-rate work runs and the fix waits a frame.
@@ -146,7 +148,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   mark(hal::TracePoint::kTelemetryDone);
   if (room && !sent && !link_.stream_params()) link_.stream_logs();
   logger_.iteration(*this, plan, imu, mag, dt, hovering);
-  loop_timer_.end(io_.micros());
+  loop_timer_.end(micros_());
   mark(hal::TracePoint::kStepEnd);
   report_overrun();
 }
@@ -233,7 +235,7 @@ void FlightApp::receive(uint8_t port, const uint8_t* data, uint16_t length, uint
 }
 
 void FlightApp::hil_frame(const mav::Frame& frame) {
-  if (io_.hil_sensor != nullptr) io_.hil_sensor(io_.hil_context, frame);
+  if (hil_sensor_ != nullptr) hil_sensor_(hil_context_, frame);
 }
 
 void FlightApp::rc_input(const ctrl::RcSticks& sticks, uint32_t t_us, const RcSwitches* switches) {
@@ -331,7 +333,7 @@ void FlightApp::fix_result(est::FixResult r, bool reset) {
 
 AppCounters FlightApp::counters() const {
   AppCounters c;
-  c.iterations = iterations_;
+  c.iterations = loop_timer_.iterations();  // one end() per step()
   c.fixes_received = fixes_received_;
   c.fixes_fused = fixes_fused_;
   c.fixes_rejected = fixes_rejected_;

@@ -34,7 +34,7 @@ void init_hil(FlightApp& app, AppIo io) {
 }
 
 void poll_ports(FlightApp& app) {
-  uint8_t buffer[64];
+  uint8_t buffer[32];  // under every iteration in HIL (the ATmega2560 counts the peak stack)
   for (uint8_t port = 0; port < hal::kPortCount; ++port) {
     uint16_t n;
     while ((n = hal::serial_read(static_cast<hal::Port>(port), buffer, sizeof buffer)) > 0) {

@@ -104,7 +104,7 @@ class FlightApp {
 
   FlightMode mode() const { return control_.mode(); }
   bool armed() const { return control_.armed(); }
-  bool hil() const { return io_.hil_sensor != nullptr; }
+  bool hil() const { return hil_sensor_ != nullptr; }
   // Status LED: fast blink while calibrating, slow blink when ready, steady when armed.
   bool led(uint32_t now_us) const;
   bool calibrated() const { return estimator_.calibrated(); }
@@ -168,10 +168,15 @@ class FlightApp {
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void mark(hal::TracePoint point) const {
-    if (io_.trace != nullptr) io_.trace(point);
+    if (trace_ != nullptr) trace_(point);
   }
 
-  AppIo io_{};
+  // The hooks of AppIo the application calls itself; the ground link keeps the storage, write and
+  // console ones (one copy of each in SRAM).
+  uint32_t (*micros_)() = nullptr;
+  void (*trace_)(hal::TracePoint point) = nullptr;
+  void (*hil_sensor_)(void* context, const mavlink::Frame& frame) = nullptr;
+  void* hil_context_ = nullptr;
   Params params_;
   StoreStatus store_status_ = StoreStatus::kEmpty;
   LoopTimer loop_timer_;
@@ -191,7 +196,6 @@ class FlightApp {
   bool overrun_reported_ = false;  // in this flight (cleared while disarmed)
   uint32_t vision_time_us_ = 0;   // when the last fix was taken, on the vehicle clock
   uint8_t fixes_rejected_in_a_row_ = 0;  // vision fixes the filter refused since it last took one
-  uint32_t iterations_ = 0;
   uint32_t fixes_received_ = 0;
   uint32_t fixes_fused_ = 0;
   uint32_t fixes_rejected_ = 0;

@@ -66,6 +66,7 @@ class GroundLink {
   // params: the table in force, read by the parameter protocol.
   void init(const Io& io, const Params* params);
   // False when the key store is corrupt.
+  const StorageIo& storage() const { return io_.storage; }
   bool load_signing_key() { return radio_.load(io_.storage); }
   void configure(const Params& p) { radio_.set_enabled(p.get(kSignEnable) >= 0.5f); }
 
