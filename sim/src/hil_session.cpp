@@ -216,7 +216,7 @@ const std::vector<std::string>& log_columns() {
       "est_pitch", "est_yaw", "sp_n", "sp_e", "sp_d", "sp_yaw", "cmd0", "cmd1", "cmd2", "cmd3", "thrust0",
       "thrust1", "thrust2", "thrust3", "mode", "armed", "imu_ax", "imu_ay", "imu_az", "imu_gx", "imu_gy",
       "imu_gz", "mag_x", "mag_y", "mag_z", "wind_n", "wind_e", "wind_d", "vision_sent", "uart0_tx_frames",
-      "radio_up_sent", "radio_up_lost", "radio_up_corrupted"};
+      "radio_up_sent", "radio_up_lost", "radio_up_corrupted", "radio_up_bytes", "radio_up_bits_flipped"};
   return c;
 }
 
@@ -652,7 +652,8 @@ void Session::log_row(double t) {
              imu_reading_.rate_frd.y(), imu_reading_.rate_frd.z(), mag_.reading().x(), mag_.reading().y(),
              mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_sent()),
              static_cast<double>(u0.frames_sent), static_cast<double>(ru.frames_sent),
-             static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted)});
+             static_cast<double>(ru.frames_lost), static_cast<double>(ru.frames_corrupted),
+             static_cast<double>(ru.bytes_sent), static_cast<double>(ru.bits_flipped)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
   metrics_.add(t, tr.position_ned, tr.velocity_ned, tilt, setpoint_, setpoint_time_);
   truth_history_.emplace_back(std::llround(t * 1000.0), tr.position_ned);
