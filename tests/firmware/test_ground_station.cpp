@@ -71,6 +71,11 @@ class World {
   // the vision station's ids, captured at the step's time), on UART0 after the step's answer so that its
   // bytes never interleave with the tool's on the radio.
   std::atomic<bool> vision{false};
+  // Radio faults on the vehicle-to-ground path, as whole frames: every n-th LOG_DATA lost (0: none), and
+  // a link that carries nothing at all while `radio_down` is set.
+  std::atomic<int> drop_every_log_data{0};
+  std::atomic<bool> radio_down{false};
+  std::atomic<int> log_data_dropped{0};
   // The motor commands of the latest HIL_ACTUATOR_CONTROLS.
   std::array<float, 4> motors() {
     std::lock_guard<std::mutex> lock(motors_mutex_);
@@ -82,6 +87,7 @@ class World {
     mav::Sender sim(1, 200);
     mav::Sender vision_station(1, 197);
     mav::Parser parser;
+    mav::Parser downlink_parser;
     uint64_t t_us = 1000000;
     while (!stop_) {
       mav::HilSensor s;
@@ -124,10 +130,26 @@ class World {
       }
       t_us += 10000;
       ++steps_;
-      copy(radio_vehicle_, radio_ground_);
+      downlink(&downlink_parser);
       copy(radio_ground_, radio_vehicle_);
       if (usb_ground_ >= 0) copy(usb_ground_, uart0_);
       std::this_thread::sleep_for(std::chrono::milliseconds(3));
+    }
+  }
+  // The vehicle's radio frames to the ground, less the ones the faults take.
+  void downlink(mav::Parser* parser) {
+    uint8_t buf[1024];
+    ssize_t n;
+    while ((n = read(radio_vehicle_, buf, sizeof buf)) > 0) {
+      parser->feed(buf, static_cast<size_t>(n), [&](const mav::Frame& f) {
+        if (radio_down) return;
+        const int every = drop_every_log_data;
+        if (f.message_id == mav::LogData::kId && every > 0 && ++log_data_seen_ % every == 0) {
+          ++log_data_dropped;
+          return;
+        }
+        if (write(radio_ground_, f.bytes, f.size) < 0) return;  // nobody on the terminal: nothing to deliver
+      });
     }
   }
   // Whatever is readable; errors (the tool not running: EIO) just mean nothing to copy.
@@ -144,6 +166,7 @@ class World {
   std::array<float, 4> motors_{{0.0f, 0.0f, 0.0f, 0.0f}};
   std::atomic<bool> stop_{false};
   std::atomic<int> steps_{0};
+  int log_data_seen_ = 0;
   std::thread thread_;
 };
 
@@ -165,21 +188,31 @@ Result gs(const std::string& port, const std::string& args) {
 
 // Starts the host firmware on the two pseudo-terminals with a short calibration and no RC requirement
 // (these sessions have no sticks), and with `storage` as its parameter store when given.
-pid_t start_firmware(const Pty& uart0, const Pty& uart2, const std::string& name, const std::string& storage = "") {
+// log_dir: the firmware's flight logs (--log-dir) when given.
+pid_t start_firmware(const Pty& uart0, const Pty& uart2, const std::string& name, const std::string& storage = "",
+                     const std::string& log_dir = "") {
   const std::string params = ::testing::TempDir() + name + ".params";
-  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n";
+  // With logs: the IMU every 10th iteration, so that a session's log downloads in seconds.
+  std::ofstream(params) << "CAL_TIME 1.0\nFS_RC_ENABLE 0\n" << (log_dir.empty() ? "" : "LOG_IMU_DIV 10\n");
+  std::vector<std::string> args = {QUAD_FIRMWARE_EXE, "--uart0", uart0.path, "--uart2", uart2.path, "--params", params};
+  if (!storage.empty()) args.insert(args.end(), {"--storage", storage});
+  if (!log_dir.empty()) args.insert(args.end(), {"--log-dir", log_dir});
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(&a[0]);
+  argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
-    if (storage.empty()) {
-      execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
-            "--params", params.c_str(), static_cast<char*>(nullptr));
-    } else {
-      execl(QUAD_FIRMWARE_EXE, QUAD_FIRMWARE_EXE, "--uart0", uart0.path.c_str(), "--uart2", uart2.path.c_str(),
-            "--params", params.c_str(), "--storage", storage.c_str(), static_cast<char*>(nullptr));
-    }
+    execv(QUAD_FIRMWARE_EXE, argv.data());
     _exit(127);
   }
   return pid;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 // Hangs up UART0, which ends the firmware; true if it ended by itself within 3 s (else it is killed).
@@ -421,6 +454,69 @@ TEST(GroundStation, RecordsTheSessionAsATlog) {
   const Result bad = gs("/dev/null", "--tlog /nonexistent/dir/x.tlog arm");
   EXPECT_EQ(bad.status, 2) << bad.out;
   EXPECT_NE(bad.out.find("/nonexistent/dir/x.tlog: cannot create"), std::string::npos) << bad.out;
+}
+
+// The flight log of a short armed session, downloaded over the radio with the MAVLink log protocol: lost
+// LOG_DATA frames re-requested, a download cut by a dead link resumed by running the command again, the
+// file byte for byte the one the firmware wrote and read by @foxglove/ulog; then the logs erased.
+TEST(GroundStation, DownloadsResumesAndErasesTheFlightLogs) {
+  Pty uart0, uart2, ground;
+  ASSERT_FALSE(ground.path.empty());
+  const std::string dir = ::testing::TempDir() + "gs_logs";
+  std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str());
+  const pid_t pid = start_firmware(uart0, uart2, "gs_logs_test", "", dir);
+  ASSERT_GT(pid, 0);
+  const std::string written = dir + "/log_001.ulg", got = ::testing::TempDir() + "gs_logs_download.ulg";
+  std::remove(got.c_str());
+  {
+    World world(uart0.master, uart2.master, ground.master);
+    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    Result r = gs(ground.path, "logs list");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("no logs"), std::string::npos) << r.out;
+    ASSERT_EQ(gs(ground.path, "arm").status, 0);
+    wait_steps(world, 150);
+    ASSERT_EQ(gs(ground.path, "disarm").status, 0);
+    const std::string log = read_file(written);
+    ASSERT_GT(log.size(), 8000u) << "the armed session's log";
+
+    r = gs(ground.path, "logs list");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find(std::to_string(log.size())), std::string::npos) << "log 1's size: " << r.out;
+
+    // A link that dies after a few frames: quad_gs gives up, keeps what it has, and resumes.
+    std::thread cut([&] {
+      while (world.log_data_dropped < 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      world.radio_down = true;
+    });
+    world.drop_every_log_data = 7;
+    r = gs(ground.path, "logs download 1 " + got);
+    cut.join();
+    EXPECT_EQ(r.status, 1) << r.out;
+    EXPECT_NE(r.out.find("run the same command again to resume"), std::string::npos) << r.out;
+    world.radio_down = false;
+    r = gs(ground.path, "logs download 1 " + got);
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("resuming log 1 at"), std::string::npos) << r.out;
+    EXPECT_GT(world.log_data_dropped, 3) << "frames were lost and re-requested";
+    EXPECT_TRUE(read_file(got) == log) << "the download differs from the log the firmware wrote";
+
+    r = gs(ground.path, "logs erase");
+    EXPECT_EQ(r.status, 0) << r.out;
+    r = gs(ground.path, "logs list");
+    EXPECT_NE(r.out.find("no logs"), std::string::npos) << r.out;
+  }
+  stop_firmware(uart0, pid);
+  int status = -1;
+  const std::string cmd = std::string("'") + QUAD_NODE_EXECUTABLE + "' '" + QUAD_NODE_DIR + "/ulog_check.js' '" + got + "' 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[256];
+  while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  status = pclose(p);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << cmd << "\n" << out;
+  EXPECT_NE(out.find("sensor_combined"), std::string::npos) << out;
 }
 
 TEST(GroundStation, UsageErrors) {

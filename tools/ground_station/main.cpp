@@ -506,7 +506,8 @@ int download_log(Link& link, uint16_t id, const std::string& file) {
   int silent_requests = 0;
   uint32_t gap_begin, gap_end;
   // Each round asks for the first missing range (the vehicle streams it to its end, or to the next range
-  // it already sent) and takes LOG_DATA until the line has been quiet for 1 s.
+  // it already sent) and takes LOG_DATA until that range's start has arrived, or the stream ended, or the
+  // line has been quiet for 1 s (then the same range is asked for again).
   while (have.first_gap(size, &gap_begin, &gap_end) && silent_requests < 10) {
     mav::LogRequestData req = addressed<mav::LogRequestData>();
     req.id = id;
@@ -514,10 +515,12 @@ int download_log(Link& link, uint16_t id, const std::string& file) {
     req.count = gap_end - gap_begin;
     link.send(req);
     bool any = false;
-    for (bool more = true; more;) {
-      more = link.receive(1000, [&](const mav::Frame& f) {
+    for (bool round_over = false, heard = true; !round_over && heard;) {
+      heard = false;
+      round_over = link.receive(1000, [&](const mav::Frame& f) {
         mav::LogData d;
         if (!mav::decode(f, d) || d.id != id) return false;
+        heard = true;
         const uint32_t n = std::min<uint32_t>(d.count, mav::LogData::kDataLength);
         if (d.ofs < size && n > 0) {
           const uint32_t end = std::min(size, d.ofs + n);
