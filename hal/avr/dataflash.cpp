@@ -43,8 +43,9 @@ uint8_t xfer(uint8_t out) {
 
 // Blocks of a command's data, with SCK never idle between bytes (fosc/2: 16 cycles a byte). MSPIM's
 // transmit buffer is double: the next byte goes into UDR3 while the one before it shifts out, and that
-// one's answer is read behind it, so the receive FIFO (two bytes) never overflows. A byte at a time
-// through xfer() costs about 43 cycles (the call and the wait for each answer before the next byte).
+// one's answer is read behind it, so the receive FIFO (two bytes) never overflows. Measured on simavr
+// (test_apm25_dataflash): 27 cycles a byte, against 46 a byte through xfer() (a call, and the wait for
+// each answer before the next byte goes).
 void send_block(const uint8_t* src, uint16_t n) {
   if (n == 0) return;
   UDR3 = *src++;
