@@ -147,6 +147,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   const bool sent = telemetry_.send_due(*this, link_, room);
   mark(hal::TracePoint::kTelemetryDone);
   if (room && !sent && !link_.stream_params()) link_.stream_logs();
+  mark(hal::TracePoint::kStreamed);
   logger_.iteration(*this, plan, imu, mag, dt, hovering);
   loop_timer_.end(micros_());
   mark(hal::TracePoint::kStepEnd);

@@ -170,7 +170,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   }
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
-    write_imu_topics(app, imu, dt, hovering);
+    write_imu_topics(app, now, imu, dt, hovering);
   }
   if (mag != nullptr) {
     uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
@@ -179,7 +179,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
       writer_.commit();
     }
   }
-  if (plan.frame_work) write_frame_topics(app);
+  if (plan.frame_work) write_frame_topics(app, now);
   if (!spare) return;
   if (timing_due_) write_loop_timing(app);
   if (queued_result_ != kNoResult) {
@@ -188,8 +188,8 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   }
 }
 
-void FlightLogger::write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt, bool hovering) {
-  const uint64_t now = stamp(app.now_us());
+void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt,
+                                    bool hovering) {
   uint8_t* p = writer_.begin_data(kLogSensorCombined, kSensorCombinedBytes);
   if (p != nullptr) {
     UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0);
@@ -204,8 +204,7 @@ void FlightLogger::write_imu_topics(const FlightApp& app, const hal::ImuSample& 
   }
 }
 
-void FlightLogger::write_frame_topics(const FlightApp& app) {
-  const uint64_t now = stamp(app.now_us());
+void FlightLogger::write_frame_topics(const FlightApp& app, uint64_t now) {
   const StateEstimator& est = app.estimator();
   uint8_t* p = writer_.begin_data(kLogLocalPosition, kLocalPositionBytes);
   if (p != nullptr) {

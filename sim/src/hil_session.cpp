@@ -18,6 +18,7 @@
 #include "quad/sim/faults.h"
 #include "quad/sim/firmware_process.h"
 #include "quad/sim/flight_modes.h"
+#include "quad/sim/log_download.h"
 #include "quad/sim/frames.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
@@ -97,6 +98,8 @@ class Session {
   void poll_uart2(double t);
   void poll_ground_port(double t);
   void poll_gcs_udp(double t);
+  void poll_log_download(double t);
+  void save_log_download();
   // The ground side of the radio: every frame into it passes here (recorded, then on the radio), and
   // every chunk out of it (recorded, to the ground port and the UDP ground station).
   void radio_uplink(const uint8_t* data, size_t size, double t);
@@ -129,6 +132,12 @@ class Session {
   SerialLine radio_down_;  // firmware -> ground on UART2
   mav::Sender sensor_sender_{kVehicleSys, kSimComp};
   mav::Sender gcs_sender_{kGcsSys, mav::kCompIdMissionPlanner};
+  // The scenario's log_download commands: a ground station's log download over the radio.
+  LogDownload log_download_{LogDownload::Link{
+      [this](const mav::LogRequestList& m, double t) { send_radio(m, gcs_sender_, t); },
+      [this](const mav::LogRequestData& m, double t) { send_radio(m, gcs_sender_, t); },
+      [this](const mav::LogRequestEnd& m, double t) { send_radio(m, gcs_sender_, t); }}};
+  bool log_download_reported_ = false;
   mav::Parser uart0_parser_, uart2_splitter_, ground_splitter_;
   mav::Parser ground_parser_{mav::dialect_message_info};  // the downlink at the ground side
   std::unique_ptr<Pty> ground_;  // the base-station side of the radio, for outside programs (optional)
@@ -305,6 +314,12 @@ void Session::send_due_commands(double t) {
       event(t, e.str());
       continue;
     }
+    if (c.log_download) {
+      log_download_.start(t, *c.log_download);
+      log_download_reported_ = false;
+      event(t, "gcs: log download over the radio");
+      continue;
+    }
     if (c.param_list) {
       mav::ParamRequestList list;
       list.target_system = kVehicleSys;
@@ -393,6 +408,7 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
   // The logged estimate comes from UART0 only: it arrives in order with the lockstep answer, so the log
   // stays deterministic. What the ground station hears over the radio goes to the events log.
   const bool uart0 = port[0] == 'u';
+  if (!uart0 && log_download_.active()) log_download_.on_frame(f, t);
   if (!uart0 && f.message_id != mav::Statustext::kId && f.message_id != mav::CommandAck::kId) return;
   switch (f.message_id) {
     case mav::HilActuatorControls::kId: {
@@ -489,6 +505,20 @@ void Session::poll_gcs_udp(double t) {
     udp_peer_changes_ = udp_->stats().peer_changes;
     event(t, "gcs udp: sending to " + udp_->peer() + " (the latest sender)");
   }
+}
+
+void Session::poll_log_download(double t) {
+  if (log_download_.active()) log_download_.poll(t);
+  if (!log_download_.started() || log_download_.active() || log_download_reported_) return;
+  log_download_reported_ = true;
+  event(t, log_download_.describe());
+  save_log_download();
+}
+
+// RUN/log_download.ulg: the downloaded bytes from the start of the log up to the first one missing.
+void Session::save_log_download() {
+  const std::vector<uint8_t> bytes = log_download_.contiguous();
+  write_file_atomically(o_.out_dir + "/log_download.ulg", std::string(bytes.begin(), bytes.end()));
 }
 
 void Session::radio_uplink(const uint8_t* data, size_t size, double t) {
@@ -784,6 +814,17 @@ void Session::write_summary(bool complete, const std::string& reason) {
   j.add("crashed", metrics_.crashed());
   if (metrics_.crashed()) j.add("crash_time_s", metrics_.crash_time_s());
   j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_.released())).add("links", links);
+  if (log_download_.started()) {
+    const LogDownload& d = log_download_;
+    Json ld;
+    ld.add("file", "log_download.ulg").add("id", static_cast<long>(d.id())).add("listed_size", static_cast<long>(d.listed_size()))
+        .add("wanted", static_cast<long>(d.wanted())).add("bytes_received", static_cast<long>(d.bytes_received()))
+        .add("frames", static_cast<long>(d.frames_received())).add("data_requests", d.data_requests())
+        .add("complete", d.complete()).add("started_s", d.started_s()).add("data_started_s", d.data_started_s())
+        .add("finished_s", d.finished_s()).add("rate_bytes_s", d.rate_bytes_s());
+    if (!d.failure().empty()) ld.add("failure", d.failure());
+    j.add("log_download", ld);
+  }
   if (station_) j.add("vision_station", station_json(station_->figures(), s_));
   write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
 }
@@ -919,6 +960,7 @@ std::string Session::control_period(double t, double period, double uart0_byte_s
   poll_uart2(t);
   poll_ground_port(t);
   poll_gcs_udp(t);
+  poll_log_download(t);
   try {
     physics_period(t + period);
   } catch (const StationError& e) {
@@ -959,6 +1001,10 @@ SessionResult Session::run() {
   result.crashed = metrics_.crashed();
   progress(vehicle_.time(), true);
   if (record_) record_->flush();
+  if (log_download_.active()) {
+    event(vehicle_.time(), log_download_.describe());
+    save_log_download();
+  }
   write_summary(result.complete, reason);
   if (!reason.empty()) event(vehicle_.time(), "cut short: " + reason);
   firmware_.reset();

@@ -30,6 +30,7 @@ class Field {
   }
 
   bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+  bool is_map() const { return node_.IsMap(); }
   const std::string& key() const { return key_; }
 
   // The name of a mapping key of this node; a key that is not a plain scalar (YAML allows lists and
@@ -420,7 +421,7 @@ void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
 }
 
 GcsCommand parse_command(const Field& e, double duration_s) {
-  e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land", "param_list"});
+  e.expect_map({"at_s", "arm", "mode", "setpoint_ned_m", "yaw_deg", "land", "param_list", "log_download"});
   GcsCommand c;
   c.at_s = e["at_s"].number(0.0, duration_s);
   int actions = 0;
@@ -439,7 +440,18 @@ GcsCommand parse_command(const Field& e, double duration_s) {
     if (!e["param_list"].boolean()) e["param_list"].fail("can only be true");
     c.param_list = true, ++actions;
   }
-  if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land, param_list");
+  if (const Field d = e["log_download"]; d.defined()) {
+    LogDownloadRequest r;
+    if (d.is_map()) {
+      d.expect_map({"id", "max_bytes"});
+      if (d["id"].defined()) r.id = static_cast<uint16_t>(d["id"].integer(1, 65535));
+      if (d["max_bytes"].defined()) r.max_bytes = static_cast<uint32_t>(d["max_bytes"].number(1.0, 4294967295.0));
+    } else if (!d.boolean()) {
+      d.fail("must be true or a mapping of id and max_bytes");
+    }
+    c.log_download = r, ++actions;
+  }
+  if (actions != 1) e.fail("must hold exactly one of arm, mode, setpoint_ned_m, land, param_list, log_download");
   return c;
 }
 

@@ -202,7 +202,7 @@ TEST_F(BoardRunner, MotorEnableChannelArmsAndKills) {
 
 // avr_pil times the phases between these marks: every iteration must be bracketed, with its stages
 // marked in order (estimator, mode machine, control marked once as flown, a motor command computed, or
-// idle, disarmed; landing and telemetry) and nothing else inside.
+// idle, disarmed; landing and telemetry; the parameter or log stream) and nothing else inside.
 TEST_F(BoardRunner, EveryIterationIsBracketedByTraceMarks) {
   using quad::hal::TracePoint;
   run_for(2.5f);
@@ -215,15 +215,16 @@ TEST_F(BoardRunner, EveryIterationIsBracketedByTraceMarks) {
   const std::vector<TracePoint>& t = board_.trace;
   for (size_t i = 0; i < t.size();) {
     ASSERT_EQ(t[i], TracePoint::kStepBegin) << "mark " << i;
-    ASSERT_LT(i + 5, t.size());
+    ASSERT_LT(i + 6, t.size());
     ASSERT_EQ(t[i + 1], TracePoint::kEstimated) << "mark " << i + 1;
     ASSERT_EQ(t[i + 2], TracePoint::kModesDone) << "mark " << i + 2;
     ASSERT_TRUE(t[i + 3] == TracePoint::kControlIdle || t[i + 3] == TracePoint::kControlFlown) << "mark " << i + 3;
     (t[i + 3] == TracePoint::kControlFlown ? flown : idle) += 1;
     ASSERT_EQ(t[i + 4], TracePoint::kTelemetryDone) << "mark " << i + 4;
-    ASSERT_EQ(t[i + 5], TracePoint::kStepEnd) << "mark " << i + 5;
+    ASSERT_EQ(t[i + 5], TracePoint::kStreamed) << "mark " << i + 5;
+    ASSERT_EQ(t[i + 6], TracePoint::kStepEnd) << "mark " << i + 6;
     ++complete;
-    i += 6;
+    i += 7;
   }
   EXPECT_EQ(complete, iterations);
   EXPECT_NEAR(flown, 50, 1) << "armed in MANUAL for the last 0.5 s";

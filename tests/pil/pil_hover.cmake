@@ -5,7 +5,7 @@
 # the host firmware's.
 #   cmake -DQUAD_SIM=<quad_sim> -DFIRMWARE=<command> -DSCENARIO=<yaml> -DOUT=<dir> -DMAX_STD_RATIO=<r>
 #         [-DRAM_BUDGET=<bytes> -DSIZE_TOOL=<avr-size> -DIMAGE=<elf>] [-DPERIOD_CYCLES=<cycles> [-DPERIOD_SCOPE=flown]]
-#         -P pil_hover.cmake
+#         [-DLOG_CHECK=<command>] -P pil_hover.cmake
 foreach(var QUAD_SIM FIRMWARE SCENARIO OUT MAX_STD_RATIO)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "pil_hover.cmake: ${var} is not set")
@@ -133,6 +133,17 @@ if(DEFINED PERIOD_CYCLES)
   else()
     math(EXPR share "100 * ${work_max} / ${PERIOD_CYCLES}")
     message(STATUS "longest ${scope}: ${work_max} cycles, ${share} % of the ${PERIOD_CYCLES}-cycle period")
+  endif()
+endif()
+
+# Optional: the flight log (LOG_CHECK: a command, given the target's run folder and the DataFlash image
+# avr_pil wrote there, FIRMWARE having --dataflash <OUT>/target/dataflash.img).
+if(DEFINED LOG_CHECK)
+  execute_process(COMMAND ${LOG_CHECK} "${OUT}/target" "${OUT}/target/dataflash.img"
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  message(STATUS "flight log:\n${out}${err}")
+  if(NOT rc EQUAL 0)
+    list(APPEND failures "the flight log check failed (see above)")
   endif()
 endif()
 

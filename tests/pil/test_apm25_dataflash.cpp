@@ -182,6 +182,26 @@ TEST_F(Apm25DataFlash, FormatsAFreshChipAndHoldsNoLog) {
   EXPECT_TRUE(rig.read(1, 0, 90).empty());
 }
 
+// What an append costs the flight loop (docs/logging.md, "Cost on the ATmega2560"): a call and a byte,
+// from a 1-byte and a 255-byte append into the chip's buffer (no page program in between), timed by the
+// image's micros() (1 us = 16 cycles). The byte loop keeps MSPIM's transmit buffer full: 27 cycles a byte
+// on simavr (16 on the wire, its receive flag 16 cycles after each read), 46 with a call per byte that
+// waits for each answer before the next byte goes.
+TEST_F(Apm25DataFlash, AnAppendCostsACallAndUnder32CyclesAByte) {
+  ASSERT_EQ(rig.boot(), 1);
+  ASSERT_TRUE(rig.open(0));
+  const std::vector<uint8_t> data = random_bytes(255, 7);
+  const auto one = rig.append(data.data(), 1);
+  const auto many = rig.append(data.data(), 255);
+  ASSERT_EQ(one.first, 1u);
+  ASSERT_EQ(many.first, 255u);
+  const double per_byte = 16.0 * (many.second - one.second) / 254.0;
+  const double per_call = 16.0 * one.second - per_byte;
+  std::printf("append: %.1f cycles a byte, %.0f cycles a call (1 byte %u us, 255 bytes %u us)\n", per_byte, per_call,
+              one.second, many.second);
+  EXPECT_LT(per_byte, 32.0);
+}
+
 TEST_F(Apm25DataFlash, WritesReadsBackAndKeepsTheLayout) {
   ASSERT_EQ(rig.boot(), 1);
   const std::vector<uint8_t> a = random_bytes(5000, 1), b = random_bytes(1300, 2);

@@ -77,6 +77,26 @@ TEST(Scenario, AParameterListIsACommandOfItsOwn) {
             std::string::npos);
 }
 
+TEST(Scenario, ALogDownloadTakesAnIdAndAByteLimit) {
+  const Scenario s = parse_scenario(
+      "name: x\nduration_s: 10\ncommands:\n  - {at_s: 2, log_download: true}\n"
+      "  - {at_s: 3, log_download: {id: 2, max_bytes: 4000}}\n",
+      "p.yaml", ".");
+  ASSERT_EQ(s.commands.size(), 2u);
+  ASSERT_TRUE(s.commands[0].log_download);
+  EXPECT_FALSE(s.commands[0].log_download->id || s.commands[0].log_download->max_bytes);
+  ASSERT_TRUE(s.commands[1].log_download);
+  EXPECT_EQ(*s.commands[1].log_download->id, 2);
+  EXPECT_EQ(*s.commands[1].log_download->max_bytes, 4000u);
+  const std::string head = "name: x\nduration_s: 10\ncommands:\n";
+  EXPECT_NE(error_of(head + "  - {at_s: 1, log_download: false}\n").find("'commands[0].log_download' must be true or a mapping"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "  - {at_s: 1, log_download: {ids: 2}}\n").find("'commands[0].log_download.ids' is not a known key"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + "  - {at_s: 1, log_download: {id: 0}}\n").find("'commands[0].log_download.id' must be in"),
+            std::string::npos);
+}
+
 TEST(Scenario, CameraKeysAndStationSettingsAreParsed) {
   const Scenario s = parse_scenario(
       "name: x\nduration_s: 10\n"

@@ -25,9 +25,9 @@
 // iteration on GPIOR1 (hal::TracePoint), and at exit this prints, each as median, 99th percentile,
 // maximum and the iteration of the maximum: the control part (estimation, modes, control, mixing: no
 // I/O) flown and on the ground, the whole iteration (all, and flown only), each vision fix, each stage
-// of FlightApp::step (estimator, mode machine, control, landing and telemetry, parameter stream, a fix
-// step inside an iteration, a fix fused on arrival), and each period's work (the iteration and the fixes
-// fused on arrival before the next one). Against the period (SYS_LOOP_HZ from --params, else its
+// of FlightApp::step (estimator, mode machine, control, landing and telemetry, parameter and log stream,
+// the flight log, a fix step inside an iteration, a fix fused on arrival), and each period's work (the
+// iteration and the fixes fused on arrival before the next one). Against the period (SYS_LOOP_HZ from --params, else its
 // default, at 16 MHz) it counts the overruns of the whole iteration and of the period's work.
 #include <fcntl.h>
 #include <poll.h>
@@ -153,10 +153,13 @@ struct PhaseProfile {
   };
   using Samples = std::vector<Sample>;
   // The stages of FlightApp::step, each from the mark before it (hal.h), and the fix steps.
-  enum Stage { kEstimator, kModes, kControl, kTelemetry, kParamStream, kFixInIteration, kFixOnArrival, kStageCount };
+  enum Stage {
+    kEstimator, kModes, kControl, kTelemetry, kStream, kFlightLog, kFixInIteration, kFixOnArrival, kStageCount
+  };
   static constexpr const char* kStageNames[kStageCount] = {
       "stage estimator", "stage mode machine", "stage control", "stage landing and telemetry",
-      "stage parameter stream", "stage fix step in an iteration", "stage fix on arrival"};
+      "stage parameter and log stream", "stage flight log", "stage fix step in an iteration",
+      "stage fix on arrival"};
 
   uint32_t period_cycles = 160000;  // SYS_LOOP_HZ at 16 MHz (set from --params)
   uint64_t step_begin = 0, fix_begin = 0, last_mark = 0;
@@ -207,9 +210,10 @@ struct PhaseProfile {
         p->flown = true;
         break;
       case Point::kTelemetryDone: p->stage(avr, kTelemetry); break;
+      case Point::kStreamed: p->stage(avr, kStream); break;
       case Point::kStepEnd:
         if (p->in_step) {
-          p->stage(avr, kParamStream);
+          p->stage(avr, kFlightLog);
           p->step.push_back(p->sample(avr, p->step_begin));
           if (p->flown) p->step_flown.push_back(p->step.back());
           p->period_flown = p->flown;

@@ -66,8 +66,14 @@ enum class LogMode : uint8_t { kOff = 0, kArmed = 1, kBoot = 2 };
 
 class FlightLogger {
  public:
-  // Definition bytes queued per iteration at most.
+  // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes).
+  // The ATmega2560 at 200 Hz has the room of about 128 bytes of definitions beside a flown iteration's
+  // records (docs/logging.md, "Cost on the ATmega2560"); the other targets take 512.
+#if defined(__AVR__)
+  static constexpr uint16_t kHeaderBytesPerIteration = 128;
+#else
   static constexpr uint16_t kHeaderBytesPerIteration = 512;
+#endif
 
   // store: the target's log storage, or null (nothing is logged).
   void init(const LogStore* store) { writer_.attach(store); }
@@ -110,8 +116,9 @@ class FlightLogger {
   bool next_definition(const FlightApp& app, uint16_t* bytes);
   void write_status(const FlightApp& app);
   void write_loop_timing(const FlightApp& app);
-  void write_frame_topics(const FlightApp& app);
-  void write_imu_topics(const FlightApp& app, const hal::ImuSample& imu, float dt, bool hovering);
+  // now: this iteration's stamp().
+  void write_frame_topics(const FlightApp& app, uint64_t now);
+  void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
 

@@ -71,16 +71,17 @@ enum class TracePoint : uint8_t {
   kStepBegin = 1,     // a control iteration starts (sensor sample in hand)
   kControlIdle = 2,   // estimation, modes and control done; disarmed, no motor command computed
   kControlFlown = 3,  // estimation, modes and control done; the cascade computed the motor commands
-  kStepEnd = 4,       // landing detection, telemetry and parameter streaming done
+  kStepEnd = 4,       // landing detection, telemetry, streaming and the flight log done
   kFixBegin = 5,      // a vision fix is about to be fused
   kFixEnd = 6,
   // Stage boundaries inside an iteration (FlightApp::step), each the end of the stage before it: the
   // estimator (kStepBegin or a fix step to kEstimated), the mode machine (to kModesDone), control (to
-  // kControlIdle/kControlFlown), landing detection and telemetry (to kTelemetryDone), the parameter
-  // stream (to kStepEnd).
+  // kControlIdle/kControlFlown), landing detection and telemetry (to kTelemetryDone), the parameter or
+  // log stream (to kStreamed), the flight log (to kStepEnd).
   kEstimated = 7,
   kModesDone = 8,
   kTelemetryDone = 9,
+  kStreamed = 10,
 };
 void trace(TracePoint point);
 

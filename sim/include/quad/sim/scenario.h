@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "quad/sim/imu.h"
+#include "quad/sim/log_download.h"
 #include "quad/sim/magnetometer.h"
 #include "quad/sim/motor.h"
 #include "quad/sim/serial_line.h"
@@ -32,6 +33,7 @@ struct GcsCommand {
   double yaw_rad = 0.0;                    // with the setpoint
   bool land = false;                       // COMMAND_LONG 21
   bool param_list = false;                 // PARAM_REQUEST_LIST: the vehicle streams every parameter
+  std::optional<LogDownloadRequest> log_download;  // the log protocol over the radio (log_download.h)
 };
 
 // RC sticks from at_s on (MANUAL_CONTROL units: -1000..1000, throttle 0..1000).
