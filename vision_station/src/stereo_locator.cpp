@@ -57,6 +57,24 @@ std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray,
   return rectified;
 }
 
+void StereoStarLocator::add_pose(const cv::Mat& left_gray, const cv::Mat& right_gray, StarFix& fix) {
+  StarPoseSettings pose_settings = settings_.pose;
+  pose_settings.inner_ratio = settings_.detector.inner_ratio;
+  const Clock::time_point t0 = Clock::now();
+  const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, best_left_, left_near_);
+  const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, best_right_, right_near_);
+  fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
+  fix.times.pose_us = microseconds(t0, Clock::now());
+  // The fitted star's centre is the better position: it uses every sub-pixel edge point of both views
+  // and the star's true (perspective) shape, where the area centroid of a tilted star's image is not the
+  // image of its centre. A fit that disagrees with the centroids is not trusted.
+  const double offset = cv::norm(fix.pose.t_C - fix.p_left);
+  if (settings_.position_from_pose && fix.pose.valid && offset <= settings_.max_pose_offset * cv::norm(fix.p_left)) {
+    fix.p_left = fix.pose.t_C;
+    fix.position_from_pose = true;
+  }
+}
+
 void StereoStarLocator::reset_tracking() {
   last_left_box_ = cv::Rect();
   last_right_box_ = cv::Rect();
@@ -170,15 +188,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();
-  if (fix.found && settings_.estimate_pose) {
-    StarPoseSettings pose_settings = settings_.pose;
-    pose_settings.inner_ratio = settings_.detector.inner_ratio;
-    const Clock::time_point t0 = Clock::now();
-    const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, best_left_, left_near_);
-    const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, best_right_, right_near_);
-    fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
-    fix.times.pose_us = microseconds(t0, Clock::now());
-  }
+  if (fix.found && settings_.estimate_pose) add_pose(left_gray, right_gray, fix);
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;
   fix.times.rectify_points_us = left_times.rectify_points_us + right_times.rectify_points_us;
