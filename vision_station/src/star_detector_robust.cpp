@@ -24,6 +24,18 @@ cv::Point2f StarDetector::coarse_scale() const {
   return cv::Point2f(2.0f, view_row_scale_ > 1.0f ? 1.0f : 2.0f);
 }
 
+void StarDetector::row_median() {
+  // median(a, b, c) = max(min(a, b), min(max(a, b), c)) over rows r−1, r, r+1, on whole row blocks.
+  if (coarse_.rows < 3) return;
+  const int n = coarse_.rows - 2;
+  const cv::Mat a = coarse_.rowRange(0, n), b = coarse_.rowRange(1, n + 1), c = coarse_.rowRange(2, n + 2);
+  cv::min(a, b, median_lo_);
+  cv::max(a, b, median_hi_);
+  cv::min(median_hi_, c, median_hi_);
+  cv::max(median_lo_, median_hi_, median_lo_);
+  median_lo_.copyTo(coarse_.rowRange(1, n + 1));
+}
+
 void StarDetector::robust_floor() {
   // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
   // the brightest surface), on a 1/8-size copy, smoothed and brought back to the half-resolution copy.
@@ -34,6 +46,7 @@ void StarDetector::robust_floor() {
   // INTER_AREA, but takes OpenCV's vectorised path (INTER_AREA's fast path needs equal integer scales).
   cv::resize(view_, coarse_, cv::Size(std::max(1, view_.cols / 2), std::max(1, static_cast<int>(view_.rows / scale.y))), 0,
              0, scale.y > 1.0f ? cv::INTER_AREA : cv::INTER_LINEAR);
+  if (s.robust_row_median) row_median();
   cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
   const int window = std::max(1, s.robust_window_px / 8) | 1;
   // A closing (local maximum, then local minimum over the same window): the dilation fills every dark
@@ -116,6 +129,7 @@ std::vector<StarCandidate> StarDetector::detect_robust(DetectorTimes* times) {
   // second. A star found at both levels is kept once (the better shape).
   std::vector<StarCandidate> candidates;
   const Clock::time_point t0 = Clock::now();
+  if (settings_.robust_sync_repair) repair_sync_bands();
   robust_floor();
   double threshold_us = microseconds(t0, Clock::now()), refine_us = 0.0;
   const double levels[2] = {threshold_ratio_, std::max(settings_.robust_min_ratio, settings_.robust_low_ratio * threshold_ratio_)};

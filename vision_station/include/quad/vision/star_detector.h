@@ -79,6 +79,8 @@ struct DetectorSettings {
   double robust_max_ratio = 0.8;
   double robust_low_ratio = 0.55;  // second, lower level: this fraction of the first (not below min)
   bool robust_floor_closing = true;  // floor = closing (max then min) over the window, else its maximum
+  bool robust_sync_repair = true;    // interpolate the rows of lost-sync bands (sync_repair.cpp)
+  bool robust_row_median = true;     // 3-row vertical median of the half-resolution copy (RF snow)
   StarShapeLimits shape;
   // A coarse outline within these looser limits that fails `shape` is tested again on its mid-level
   // outline at full resolution (small and blurred stars lose their tips on the coarse copy).
@@ -153,6 +155,13 @@ class StarDetector {
   std::vector<StarCandidate> detect_thesis(DetectorTimes* times);
   std::vector<StarCandidate> detect_robust(DetectorTimes* times);
   cv::Point2f coarse_scale() const;  // view pixels per pixel of the half-resolution copy (x, y)
+  // Lost-sync bands (sync_repair.cpp): rows [a, b) of `view` shifted or blanked as a whole, at most
+  // max_band rows each; repair_sync_bands interpolates them in a copy of view_ and points view_ at it.
+  bool find_sync_bands(const cv::Mat& view, int max_band, std::vector<cv::Vec2i>& bands);
+  void repair_sync_bands();
+  double unexplained_jump(const cv::Mat& image, int a, int b);
+  // The half-resolution copy's vertical 3-row median (RF snow is streaks one line high).
+  void row_median();
   void robust_floor();
   void robust_threshold(double ratio);
   void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
@@ -192,6 +201,9 @@ class StarDetector {
   cv::Mat scratch_;
   cv::Mat refine_binary_, refine_scratch_, interior_, midpoint_;
   cv::Mat refine_ratio_, refine_floor_, refine_level_;
+  cv::Mat repaired_, median_lo_, median_hi_, band_top_, band_bottom_;
+  std::vector<double> row_jump_, sorted_jump_;
+  std::vector<cv::Vec2i> sync_bands_;
   std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
   std::vector<std::vector<cv::Point>> contours_;

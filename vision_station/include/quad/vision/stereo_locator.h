@@ -29,6 +29,8 @@ struct LocatorSettings {
   // range of the centroids' triangulation (else the triangulated centroids). sigma and the covariance
   // stay those of the centroid model (conservative for the pose centre).
   bool position_from_pose = true;
+  // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
+  double require_pose_beyond_rad = 0.70;
   double max_pose_offset = 0.03;
 };
 
