@@ -224,6 +224,7 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
   }
   if (!refined) to_frame(contour, coarse_scale(), frame_points_);
   note(box, ContourFate::kAccepted, c.area, used, refined);
+  c.refined = refined;
   for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
   c.box = cv::boundingRect(c.contour);
   if (same != candidates.end()) *same = std::move(c);

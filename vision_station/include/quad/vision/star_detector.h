@@ -99,6 +99,7 @@ struct StarCandidate {
   double hu_distance = 0.0;             // shape distance, smaller is better: Hu I1 (thesis) or profile RMS (robust)
   double solidity = 0.0;
   int vertices = 0;
+  bool refined = false;                 // (robust) the outline is the full-resolution mid-level one
 };
 
 // What became of one contour of the robust method (failure analysis: tools/vision_eval explain).
