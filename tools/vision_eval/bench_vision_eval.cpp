@@ -263,7 +263,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_vision_eval: %s\n", e.what());
     return 1;
   }
-  register_benchmarks(static_cast<int64_t>(eval_set().pairs.size()));
+  try {
+    register_benchmarks(static_cast<int64_t>(eval_set().pairs.size()));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_vision_eval: %s\n", e.what());
+    return 1;
+  }
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   const auto base = reporter.entries.find("BM_OpenCvBaseline");
