@@ -4,7 +4,8 @@
 // of at least 150 px², their points undistorted and rectified, approxPolyDP (2 % of the perimeter) with
 // 8 ± 1 vertices, matchShapes I1 ≤ 0.08 against the ideal star, the best match per image; the two best
 // matches give a fix when their rectified rows agree within 2.5 px (the station's own gate).
-//   bench_vision_eval --sets DIR --calib calib.yaml [benchmark flags]
+//   bench_vision_eval --sets DIR --calib calib.yaml [--settings S.yaml] [benchmark flags]
+// (--settings adds BM_Station/settings_file: the station with that settings file.)
 // DIR/<condition>/{pairs.csv,truth.csv} as written by vision_eval_gen; all pairs are decoded before
 // timing. Counters: found (stars in full view located within 5 % of range / stars in view), false_fixes,
 // and after the run a summary with each method's rates and its time relative to the baseline.
@@ -24,6 +25,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "quad/vision/ideal_star.h"
+#include "quad/vision/settings_file.h"
 #include "quad/vision/stereo_locator.h"
 
 namespace {
@@ -44,7 +46,7 @@ struct EvalSet {
   size_t stars = 0;
 };
 
-std::string g_sets, g_calib;
+std::string g_sets, g_calib, g_settings;
 
 std::vector<std::string> split(const std::string& line) {
   std::vector<std::string> cells;
@@ -146,13 +148,10 @@ void report(benchmark::State& state, const Outcome& o) {
   state.counters["pairs"] = static_cast<double>(set.pairs.size());
 }
 
-void BM_Station(benchmark::State& state, DetectorMethod method, Deinterlace deinterlace) {
+void BM_Station(benchmark::State& state, LocatorSettings settings) {
   cv::setNumThreads(1);
   const EvalSet& set = eval_set();
-  LocatorSettings settings;
   settings.track_roi = false;
-  settings.detector.method = method;
-  settings.detector.deinterlace = deinterlace;
   StereoStarLocator locator(set.calibration, settings);
   Outcome o;
   StageTimes sum;
@@ -221,14 +220,22 @@ class SummaryReporter : public benchmark::ConsoleReporter {
 // Registered once the set is loaded: each repetition is one pass over every pair.
 void register_benchmarks(int64_t pairs) {
   const auto station = [](DetectorMethod m, Deinterlace d) {
-    return [m, d](benchmark::State& state) { BM_Station(state, m, d); };
+    LocatorSettings settings;
+    settings.detector.method = m;
+    settings.detector.deinterlace = d;
+    return [settings](benchmark::State& state) { BM_Station(state, settings); };
   };
-  const std::vector<benchmark::internal::Benchmark*> all{
+  std::vector<benchmark::internal::Benchmark*> all{
       benchmark::RegisterBenchmark("BM_Station/robust_field", station(DetectorMethod::kRobust, Deinterlace::kField)),
       benchmark::RegisterBenchmark("BM_Station/robust_blend", station(DetectorMethod::kRobust, Deinterlace::kBlend)),
       benchmark::RegisterBenchmark("BM_Station/robust_none", station(DetectorMethod::kRobust, Deinterlace::kNone)),
       benchmark::RegisterBenchmark("BM_Station/thesis_none", station(DetectorMethod::kThesis, Deinterlace::kNone)),
       benchmark::RegisterBenchmark("BM_OpenCvBaseline", BM_OpenCvBaseline)};
+  if (!g_settings.empty()) {  // one more configuration, from a station settings file
+    const LocatorSettings settings = load_station_settings(g_settings).locator;
+    all.push_back(benchmark::RegisterBenchmark("BM_Station/settings_file",
+                                               [settings](benchmark::State& state) { BM_Station(state, settings); }));
+  }
   for (benchmark::internal::Benchmark* b : all) {
     b->Unit(benchmark::kMicrosecond)->Iterations(pairs)->Repetitions(3)->ReportAggregatesOnly(true);
   }
@@ -238,14 +245,14 @@ int main(int argc, char** argv) {
   std::vector<char*> rest{argv[0]};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if ((a == "--sets" || a == "--calib") && i + 1 < argc) {
-      (a == "--sets" ? g_sets : g_calib) = argv[++i];
+    if ((a == "--sets" || a == "--calib" || a == "--settings") && i + 1 < argc) {
+      (a == "--sets" ? g_sets : a == "--calib" ? g_calib : g_settings) = argv[++i];
     } else {
       rest.push_back(argv[i]);
     }
   }
   if (g_sets.empty() || g_calib.empty()) {
-    std::fprintf(stderr, "usage: bench_vision_eval --sets DIR --calib calib.yaml [benchmark flags]\n");
+    std::fprintf(stderr, "usage: bench_vision_eval --sets DIR --calib calib.yaml [--settings S.yaml] [benchmark flags]\n");
     return 2;
   }
   int n = static_cast<int>(rest.size());
@@ -256,7 +263,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_vision_eval: %s\n", e.what());
     return 1;
   }
-  register_benchmarks(static_cast<int64_t>(eval_set().pairs.size()));
+  try {
+    register_benchmarks(static_cast<int64_t>(eval_set().pairs.size()));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_vision_eval: %s\n", e.what());
+    return 1;
+  }
   SummaryReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   const auto base = reporter.entries.find("BM_OpenCvBaseline");

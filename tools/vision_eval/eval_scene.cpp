@@ -238,6 +238,7 @@ StereoImages PairGenerator::make(const Condition& condition, bool want_star) {
     const cv::Vec3d P(layout.star_centre.x, layout.star_centre.y, 0.0);
     t.star_left = layout.left.R_cp * (P - layout.left.C);
     t.range_m = cv::norm(t.star_left);
+    t.star_normal = layout.left.R_cp * cv::Vec3d(0.0, 0.0, 1.0);  // the floor frame's z points into the floor
   }
 
   // The floor's look and the light.

@@ -30,6 +30,7 @@ struct PairTruth {
   bool star_in_view = false;      // whole star inside both images: a fix is expected
   bool star_cut = false;          // a four-pointed star cut by an image edge is in the pair
   cv::Vec3d star_left{0, 0, 0};   // star centre in the left camera frame (OpenCV axes), metres
+  cv::Vec3d star_normal{0, 0, 0}; // the floor's normal into the floor, left camera frame (unit)
   double range_m = 0.0, height_m = 0.0, tilt_deg = 0.0;
   std::string floor;              // "plain" or the photograph's file name
   double blur_px = 0.0, field_shift_px = 0.0, skew_px = 0.0, snow = 0.0;

@@ -50,10 +50,11 @@ void write_image(const fs::path& path, const cv::Mat& image, int jpeg_quality) {
 void write_truth_line(std::ofstream& out, const std::string& left, const PairTruth& t) {
   char line[512];
   std::snprintf(line, sizeof line,
-                "%s,%d,%d,%.6f,%.6f,%.6f,%.5f,%.4f,%.3f,%s,%.2f,%d,%.2f,%.2f,%.4f,%d,%d,%d,%d\n", left.c_str(),
+                "%s,%d,%d,%.6f,%.6f,%.6f,%.5f,%.4f,%.3f,%s,%.2f,%d,%.2f,%.2f,%.4f,%d,%d,%d,%d,%.6f,%.6f,%.6f\n", left.c_str(),
                 t.star_in_view ? 1 : 0, t.star_cut ? 1 : 0, t.star_left[0], t.star_left[1], t.star_left[2], t.range_m,
                 t.height_m, t.tilt_deg, t.floor.c_str(), t.blur_px, t.interlaced ? 1 : 0, t.field_shift_px, t.skew_px,
-                t.snow, t.sync_bands, t.jpeg_quality, t.frozen ? 1 : 0, t.decoys);
+                t.snow, t.sync_bands, t.jpeg_quality, t.frozen ? 1 : 0, t.decoys, t.star_normal[0], t.star_normal[1],
+                t.star_normal[2]);
   out << line;
 }
 
@@ -79,7 +80,7 @@ int make_sets(const std::map<std::string, std::string>& o) {
     std::ofstream pairs(dir / "pairs.csv"), truth(dir / "truth.csv");
     pairs << "left,right\n";
     truth << "left,star_in_view,star_cut,x,y,z,range_m,height_m,tilt_deg,floor,blur_px,interlaced,field_shift_px,"
-             "skew_px,snow,sync_bands,jpeg_quality,frozen,decoys\n";
+             "skew_px,snow,sync_bands,jpeg_quality,frozen,decoys,normal_x,normal_y,normal_z\n";
     const int without = (stars + 2) / 3, total = stars + without;  // 25 % of the pairs have no star in view
     for (int i = 0; i < total; ++i) {
       const bool no_star = (i + 1) * without / total > i * without / total;  // spread evenly

@@ -51,11 +51,43 @@ def load(sets_dir, detect_dir, condition):
         row["found"] = bool(d.get("found"))
         row["ms"] = d.get("ms")
         row["error"] = None
+        row["tilt_error"] = None
         if row["found"] and row["in_view"]:
             err = math.dist((d["x"], d["y"], d["z"]), (float(t["x"]), float(t["y"]), float(t["z"])))
             row["error"] = err / float(t["range_m"])
+            row["tilt_error"] = tilt_error(t, d)
         rows.append(row)
     return rows
+
+
+def tilt_error(truth, fix):
+    """Angle (degrees) between the star's fitted normal and the floor's true normal, both in the left
+    camera frame; None without a pose or without the truth's normal (sets from older generators)."""
+    n = fix.get("normal_camera")
+    if not n or not truth.get("normal_x"):
+        return None
+    t = (float(truth["normal_x"]), float(truth["normal_y"]), float(truth["normal_z"]))
+    dot = sum(a * b for a, b in zip(n, t)) / (math.hypot(*n) * math.hypot(*t))
+    return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+
+
+TILT_HEADER = ("| range | stars found | with a pose | median tilt error | p95 tilt error |\n"
+               "| --- | ---: | ---: | ---: | ---: |")
+
+
+def tilt_report(name, rows):
+    """The star pose's tilt error per range over the found stars (the fix within 5 % of the range)."""
+    key = FACTORS[4][1]
+    hits = [r for r in rows if r["error"] is not None and r["error"] <= MATCH_FRACTION]
+    if not any(r["tilt_error"] is not None for r in hits):
+        return []
+    out = [f"#### {name}: tilt of the star pose (found stars)", "", TILT_HEADER]
+    for level in sorted({key(r) for r in hits}) + ["all"]:
+        group = [r for r in hits if level == "all" or key(r) == level]
+        tilts = [r["tilt_error"] for r in group if r["tilt_error"] is not None]
+        median = statistics.median(tilts) if tilts else float("nan")
+        out.append(f"| {level} | {len(group)} | {len(tilts)} | {median:.3f}° | {percentile(tilts, 0.95):.3f}° |")
+    return out + [""]
 
 
 def summarise(rows):
@@ -112,6 +144,7 @@ def report(name, rows, conditions):
         for level in levels:
             out.append(line(level, summarise([r for r in rows if key(r) == level])))
         out.append("")
+    out += tilt_report(name, rows)
     return "\n".join(out)
 
 

@@ -36,11 +36,13 @@ std::string fix_json(const StarFix& fix, const CameraMount& mount, const std::st
   const cv::Vec4d q = quaternion_from_rotation(R_BS);
   const cv::Matx33d cov = mount.R_BC * fix.pose.attitude_cov_C * mount.R_BC.t();
   const double tilt = std::acos(std::min(1.0, std::fabs(R_BS(2, 2))));
+  // The star's normal (its z axis, away from the cameras) in the left camera frame, for scoring the tilt.
+  const cv::Vec3d n(fix.pose.R_CS(0, 2), fix.pose.R_CS(1, 2), fix.pose.R_CS(2, 2));
   std::snprintf(buffer, sizeof buffer,
                 ",\"q\":[%.6f,%.6f,%.6f,%.6f],\"attitude_sigma_rad\":[%.6f,%.6f,%.6f],\"tilt_deg\":%.3f,"
-                "\"pose_rms_px\":%.3f}",
+                "\"normal_camera\":[%.6f,%.6f,%.6f],\"pose_rms_px\":%.3f}",
                 q[0], q[1], q[2], q[3], std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)),
-                tilt * 180.0 / CV_PI, fix.pose.rms_px);
+                tilt * 180.0 / CV_PI, n[0], n[1], n[2], fix.pose.rms_px);
   return out + buffer;
 }
 

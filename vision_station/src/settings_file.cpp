@@ -31,6 +31,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"max_range_m", &l.max_range_m}, {"centroid_sigma_px", &l.centroid_sigma_px}, {"track_roi", &l.track_roi},
       {"roi_growth", &l.roi_growth}, {"roi_margin_px", &l.roi_margin_px},
       {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
+      {"position_from_pose", &l.position_from_pose}, {"require_pose_beyond_rad", &l.require_pose_beyond_rad}, {"max_pose_offset", &l.max_pose_offset},
       {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
       {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms},
       {"robust_window_px", &d.robust_window_px}, {"robust_min_ratio", &d.robust_min_ratio},
@@ -38,7 +39,11 @@ StationSettings load_station_settings(const std::string& path) {
       {"robust_low_ratio", &d.robust_low_ratio}, {"max_elongation", &d.shape.max_elongation},
       {"max_profile_rms", &d.shape.max_profile_rms}, {"min_fourfold", &d.shape.min_fourfold},
       {"max_other_harmonic", &d.shape.max_other_harmonic}, {"min_shape_solidity", &d.shape.min_solidity},
-      {"max_shape_solidity", &d.shape.max_solidity}};
+      {"max_shape_solidity", &d.shape.max_solidity}, {"retry_max_profile_rms", &d.retry_shape.max_profile_rms},
+      {"retry_min_fourfold", &d.retry_shape.min_fourfold}, {"retry_max_other_harmonic", &d.retry_shape.max_other_harmonic},
+      {"retry_min_solidity", &d.retry_shape.min_solidity}, {"retry_max_solidity", &d.retry_shape.max_solidity},
+      {"robust_require_midlevel", &d.robust_require_midlevel}, {"robust_floor_closing", &d.robust_floor_closing},
+      {"robust_sync_repair", &d.robust_sync_repair}, {"robust_row_median", &d.robust_row_median}};
   for (const cv::FileNode& node : fs.root()) {
     const std::string key = node.name();
     if (key == "camera_to_body_R" || key == "camera_to_body_t") {

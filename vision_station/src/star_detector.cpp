@@ -53,6 +53,20 @@ const char* to_string(Deinterlace deinterlace) {
   return deinterlace == Deinterlace::kNone ? "none" : deinterlace == Deinterlace::kField ? "field" : "blend";
 }
 
+const char* to_string(ContourFate fate) {
+  switch (fate) {
+    case ContourFate::kTooFewPoints: return "too_few_points";
+    case ContourFate::kTouchesBorder: return "touches_border";
+    case ContourFate::kSmallRawArea: return "small_raw_area";
+    case ContourFate::kSmallArea: return "small_area";
+    case ContourFate::kShape: return "shape";
+    case ContourFate::kDuplicate: return "duplicate";
+    case ContourFate::kNoMidLevel: return "no_mid_level";
+    case ContourFate::kAccepted: return "accepted";
+  }
+  return "?";
+}
+
 bool parse_detector_method(const std::string& text, DetectorMethod& out) {
   if (text == "thesis") out = DetectorMethod::kThesis;
   else if (text == "robust") out = DetectorMethod::kRobust;

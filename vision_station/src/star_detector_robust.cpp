@@ -24,6 +24,18 @@ cv::Point2f StarDetector::coarse_scale() const {
   return cv::Point2f(2.0f, view_row_scale_ > 1.0f ? 1.0f : 2.0f);
 }
 
+void StarDetector::row_median() {
+  // median(a, b, c) = max(min(a, b), min(max(a, b), c)) over rows r−1, r, r+1, on whole row blocks.
+  if (coarse_.rows < 3) return;
+  const int n = coarse_.rows - 2;
+  const cv::Mat a = coarse_.rowRange(0, n), b = coarse_.rowRange(1, n + 1), c = coarse_.rowRange(2, n + 2);
+  cv::min(a, b, median_lo_);
+  cv::max(a, b, median_hi_);
+  cv::min(median_hi_, c, median_hi_);
+  cv::max(median_lo_, median_hi_, median_lo_);
+  median_lo_.copyTo(coarse_.rowRange(1, n + 1));
+}
+
 void StarDetector::robust_floor() {
   // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
   // the brightest surface), on a 1/8-size copy, smoothed and brought back to the half-resolution copy.
@@ -34,9 +46,16 @@ void StarDetector::robust_floor() {
   // INTER_AREA, but takes OpenCV's vectorised path (INTER_AREA's fast path needs equal integer scales).
   cv::resize(view_, coarse_, cv::Size(std::max(1, view_.cols / 2), std::max(1, static_cast<int>(view_.rows / scale.y))), 0,
              0, scale.y > 1.0f ? cv::INTER_AREA : cv::INTER_LINEAR);
+  if (s.robust_row_median) row_median();
   cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
   const int window = std::max(1, s.robust_window_px / 8) | 1;
-  cv::dilate(small_, background_, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)));
+  // A closing (local maximum, then local minimum over the same window): the dilation fills every dark
+  // shape narrower than the window with the floor around it, the erosion brings a shadow or a dark floor
+  // region wider than the window back to its own level, so the floor follows a shadow's edge.
+  const cv::Mat window_kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window));
+  cv::dilate(small_, scratch_, window_kernel);
+  if (s.robust_floor_closing) cv::erode(scratch_, background_, window_kernel);
+  else std::swap(scratch_, background_);
   cv::blur(background_, background_, cv::Size(3, 3));
   cv::divide(small_, background_, ratio_, 255.0);
   const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
@@ -53,7 +72,29 @@ void StarDetector::robust_threshold(double ratio) {
   std::swap(binary_, scratch_);
 }
 
-bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
+bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& region) {
+  // Levels relative to the local floor F (coarse_floor_), so that a star across a shadow edge gets its
+  // mid-level on each side: the star's own ratio I/F (the mean of its coarse interior, eroded once more
+  // when that leaves enough) and the floor's (the region's ring outside the star, dilated twice; ≈ 1),
+  // taken around this star only, so a full-frame and an ROI search measure the same level.
+  cv::divide(coarse_(grown), coarse_floor_(grown), refine_ratio_, 128.0);
+  cv::erode(binary_(grown), interior_, kernel_);
+  if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
+  const double star_ratio = cv::mean(refine_ratio_, interior_)[0] / 128.0;
+  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  cv::bitwise_not(refine_scratch_, refine_scratch_);
+  if (cv::countNonZero(refine_scratch_) < 8) return false;
+  const double floor_ratio = cv::mean(refine_ratio_, refine_scratch_)[0] / 128.0;
+  // The floor at full resolution over the region (its top-left is the grown box's), scaled to the level.
+  const cv::Point2f scale = coarse_scale();
+  cv::resize(coarse_floor_(grown), refine_floor_, cv::Size(grown.width * static_cast<int>(scale.x),
+             grown.height * static_cast<int>(scale.y)), 0, 0, cv::INTER_LINEAR);
+  refine_floor_(cv::Rect(0, 0, region.width, region.height)).convertTo(refine_level_, CV_8U, 0.5 * (star_ratio + floor_ratio));
+  cv::compare(view_(region), refine_level_, refine_binary_, cv::CMP_LT);
+  return true;
+}
+
+bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c, StarShapeScore& score) {
   const cv::Point2f scale = coarse_scale();
   const int sx = static_cast<int>(scale.x), sy = static_cast<int>(scale.y);
   // The mid-level edge may lie a little outside the coarse edge: grow by 12 frame pixels on every side.
@@ -62,18 +103,7 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
                                   coarse_box.height + 2 * gy) & cv::Rect(0, 0, coarse_.cols, coarse_.rows);
   const cv::Rect region = cv::Rect(grown.x * sx, grown.y * sy, grown.width * sx, grown.height * sy) &
                           cv::Rect(0, 0, view_.cols, view_.rows);
-  // The star's own grey: the mean of its coarse interior (eroded once more when that leaves enough).
-  cv::erode(binary_(grown), interior_, kernel_);
-  if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
-  const double star_grey = cv::mean(coarse_(grown), interior_)[0];
-  // The local floor: the mean of the region's ring outside the star (dilated twice), taken from the pixels
-  // around this star only, so a full-frame and an ROI search measure the same mid-level.
-  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
-  cv::bitwise_not(refine_scratch_, refine_scratch_);
-  if (cv::countNonZero(refine_scratch_) < 8) return false;
-  const double floor_grey = cv::mean(coarse_(grown), refine_scratch_)[0];
-  const double mid_level = 0.5 * (floor_grey + star_grey);
-  cv::compare(view_(region), cv::Scalar(mid_level), refine_binary_, cv::CMP_LT);
+  if (!mid_level_threshold(grown, region)) return false;
   const std::vector<cv::Point>* best = mid_level_outline(region);
   if (best == nullptr) return false;
   // Touching the region's border means the mid-level shape merged with something: keep the coarse one.
@@ -84,7 +114,8 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c) {
   const cv::Moments m = cv::moments(rectified);
   // The coarse contour of the low level is thinner than the mid-level one; a merge shows as a failed shape.
   if (!(std::fabs(m.m00) > 0.5 * c.area && std::fabs(m.m00) < 2.5 * c.area)) return false;
-  if (!shape_test_.score(rectified).is_star) return false;
+  score = shape_test_.score(rectified);
+  if (!score.is_star) return false;
   c.rectified.swap(rectified);
   c.area = std::fabs(m.m00);
   c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
@@ -98,12 +129,14 @@ std::vector<StarCandidate> StarDetector::detect_robust(DetectorTimes* times) {
   // second. A star found at both levels is kept once (the better shape).
   std::vector<StarCandidate> candidates;
   const Clock::time_point t0 = Clock::now();
+  if (settings_.robust_sync_repair) repair_sync_bands();
   robust_floor();
   double threshold_us = microseconds(t0, Clock::now()), refine_us = 0.0;
   const double levels[2] = {threshold_ratio_, std::max(settings_.robust_min_ratio, settings_.robust_low_ratio * threshold_ratio_)};
   for (double level : levels) {
     const Clock::time_point l0 = Clock::now();
     robust_threshold(level);
+    level_ = level;
     threshold_us += microseconds(l0, Clock::now());
     robust_candidates(candidates, refine_us);
   }
@@ -121,34 +154,98 @@ void StarDetector::robust_candidates(std::vector<StarCandidate>& candidates, dou
   const cv::Point2f scale = coarse_scale();
   const double px_area = scale.x * scale.y * view_row_scale_;  // frame pixels² per coarse pixel
   for (const std::vector<cv::Point>& contour : contours_) {
-    if (contour.size() < 8) continue;
     const cv::Rect box = cv::boundingRect(contour);
-    if (touches_border(box, binary_.size(), std::max(1, s.edge_margin_px / 2))) continue;  // cut by the edge
-    if (!(cv::contourArea(contour) * px_area > s.raw_area_prefilter * s.min_area_px)) continue;
+    if (contour.size() < 8) {
+      note(box, ContourFate::kTooFewPoints);
+      continue;
+    }
+    if (touches_border(box, binary_.size(), std::max(1, s.edge_margin_px / 2))) {  // cut by the edge
+      note(box, ContourFate::kTouchesBorder);
+      continue;
+    }
+    if (!(cv::contourArea(contour) * px_area > s.raw_area_prefilter * s.min_area_px)) {
+      note(box, ContourFate::kSmallRawArea);
+      continue;
+    }
     StarCandidate c;
     rectify(contour, scale, c.rectified);
     const cv::Moments m = cv::moments(c.rectified);
     c.area = std::fabs(m.m00);
-    if (!(c.area > s.min_area_px)) continue;
-    const StarShapeScore score = shape_test_.score(c.rectified);
-    if (!score.is_star) continue;
-    c.hu_distance = score.profile_rms;
-    c.solidity = score.solidity;
-    c.vertices = 8;
+    if (!(c.area > s.min_area_px)) {
+      note(box, ContourFate::kSmallArea, c.area);
+      continue;
+    }
     c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
-    // The same star from the other level: keep the better shape.
-    auto same = std::find_if(candidates.begin(), candidates.end(), [&](const StarCandidate& o) {
-      return cv::norm(o.centroid - c.centroid) < 0.25 * std::sqrt(std::min(o.area, c.area));
-    });
-    if (same != candidates.end() && same->hu_distance <= c.hu_distance) continue;
     const Clock::time_point r0 = Clock::now();
-    if (!(s.refine_midpoint && robust_refine(box, c))) to_frame(contour, scale, frame_points_);
+    robust_accept(contour, box, c, candidates);
     refine_us += microseconds(r0, Clock::now());
-    for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
-    c.box = cv::boundingRect(c.contour);
-    if (same != candidates.end()) *same = std::move(c);
-    else candidates.push_back(std::move(c));
   }
+}
+
+void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, StarCandidate& c,
+                                 std::vector<StarCandidate>& candidates) {
+  // The shape test on the coarse outline; a near miss gets a second chance at full resolution, where a
+  // small or blurred star keeps its thin tips and inner corners (the coarse copy and its opening round
+  // them off). A second-chance candidate must pass the full test on its mid-level outline.
+  const StarShapeScore score = shape_test_.score(c.rectified);
+  const bool retry = !score.is_star && settings_.refine_midpoint &&
+                     StarShapeTest::within(score, settings_.retry_shape);
+  if (!score.is_star && !retry) {
+    note(box, ContourFate::kShape, c.area, score);
+    return;
+  }
+  StarShapeScore refined_score;
+  bool refined = false;
+  if (retry) {
+    refined = robust_refine(box, c, refined_score);
+    if (!refined) {
+      note(box, ContourFate::kShape, c.area, score);
+      return;
+    }
+  }
+  const StarShapeScore& used = retry ? refined_score : score;
+  c.hu_distance = used.profile_rms;
+  c.solidity = used.solidity;
+  c.vertices = 8;
+  // The same star from the other level: keep the better shape.
+  auto same = std::find_if(candidates.begin(), candidates.end(), [&](const StarCandidate& o) {
+    return cv::norm(o.centroid - c.centroid) < 0.25 * std::sqrt(std::min(o.area, c.area));
+  });
+  if (same != candidates.end() && same->hu_distance <= c.hu_distance) {
+    note(box, ContourFate::kDuplicate, c.area, used);
+    return;
+  }
+  if (!retry) refined = settings_.refine_midpoint && robust_refine(box, c, refined_score);
+  if (!refined && settings_.refine_midpoint && settings_.robust_require_midlevel) {
+    // The coarse outline's centroid depends on the threshold level: off by a pixel on a far star, a
+    // fix several per cent of the range away. No fix is better than that one.
+    note(box, ContourFate::kNoMidLevel, c.area, used);
+    return;
+  }
+  if (!refined) to_frame(contour, coarse_scale(), frame_points_);
+  note(box, ContourFate::kAccepted, c.area, used, refined);
+  c.refined = refined;
+  for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
+  c.box = cv::boundingRect(c.contour);
+  if (same != candidates.end()) *same = std::move(c);
+  else candidates.push_back(std::move(c));
+}
+
+void StarDetector::note(const cv::Rect& coarse_box, ContourFate fate, double area, const StarShapeScore& shape,
+                        bool refined) {
+  if (trace_ == nullptr) return;
+  const cv::Point2f scale = coarse_scale();
+  std::vector<cv::Point2f> corners;
+  to_frame({coarse_box.tl(), coarse_box.br() - cv::Point(1, 1)}, scale, corners);
+  TracedContour t;
+  t.frame_box = cv::Rect(cv::Point(cvFloor(corners[0].x), cvFloor(corners[0].y)),
+                         cv::Point(cvCeil(corners[1].x) + 1, cvCeil(corners[1].y) + 1));
+  t.level = level_;
+  t.fate = fate;
+  t.area = area;
+  t.shape = shape;
+  t.refined = refined;
+  trace_->push_back(t);
 }
 
 }  // namespace quad::vision

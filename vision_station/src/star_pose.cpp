@@ -1,6 +1,7 @@
 #include "quad/vision/star_pose.h"
 
 #include <algorithm>
+#include <complex>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -40,6 +41,52 @@ bool intersect(const Line& a, const Line& b, cv::Point2d& out) {
   return true;
 }
 
+// A small or blurred star's outline often simplifies to 7 or 9 vertices at every tolerance. Then: the four
+// tips are the farthest points (whitened by the outline's second moments, which undoes a tilted view)
+// in the four quarter-turns about the 4th harmonic's phase of the radius, and each inner corner is the
+// nearest point between two neighbouring tips. Indices into the contour in contour order, or empty.
+std::vector<int> octagon_by_radius(const std::vector<cv::Point2f>& contour) {
+  const cv::Moments m = cv::moments(contour);
+  if (!(std::fabs(m.m00) > 1e-9)) return {};
+  const double cx = m.m10 / m.m00, cy = m.m01 / m.m00;
+  const cv::Matx22d C(m.mu20 / m.m00, m.mu11 / m.m00, m.mu11 / m.m00, m.mu02 / m.m00);
+  cv::Matx21d eigenvalues;
+  cv::Matx22d eigenvectors;
+  cv::eigen(C, eigenvalues, eigenvectors);
+  if (!(eigenvalues(1) > 1e-9)) return {};
+  const int n = static_cast<int>(contour.size());
+  std::vector<double> radius(n), angle(n);
+  std::complex<double> fourth = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const cv::Matx21d d(contour[i].x - cx, contour[i].y - cy);
+    const double u = (eigenvectors.row(0) * d)(0) / std::sqrt(eigenvalues(0));
+    const double v = (eigenvectors.row(1) * d)(0) / std::sqrt(eigenvalues(1));
+    radius[i] = std::hypot(u, v);
+    angle[i] = std::atan2(v, u);
+    fourth += radius[i] * std::polar(1.0, -4.0 * angle[i]);
+  }
+  const double phase = std::arg(fourth) / 4.0;  // a tip's angle
+  std::vector<int> tips(4, -1);
+  for (int i = 0; i < n; ++i) {
+    const double turns = (angle[i] - phase) / (0.5 * CV_PI);
+    const int k = ((static_cast<int>(std::lround(turns)) % 4) + 4) % 4;
+    if (tips[k] < 0 || radius[i] > radius[tips[k]]) tips[k] = i;
+  }
+  if (std::find(tips.begin(), tips.end(), -1) != tips.end()) return {};
+  std::sort(tips.begin(), tips.end());
+  std::vector<int> indices;
+  for (int k = 0; k < 4; ++k) {
+    const int a = tips[k], b = k == 3 ? tips[0] + n : tips[k + 1];
+    if (b - a < 2) return {};
+    int inner = a + 1;
+    for (int j = a + 1; j < b; ++j) inner = radius[j % n] < radius[inner % n] ? j : inner;
+    indices.push_back(a);
+    indices.push_back(inner % n);
+  }
+  std::sort(indices.begin(), indices.end());
+  return indices;
+}
+
 // The polygon's vertices as indices into the contour (approxPolyDP keeps contour points), or empty.
 std::vector<int> octagon_indices(const std::vector<cv::Point2f>& contour) {
   const double perimeter = cv::arcLength(contour, true);
@@ -56,7 +103,7 @@ std::vector<int> octagon_indices(const std::vector<cv::Point2f>& contour) {
     std::sort(indices.begin(), indices.end());
     return indices;
   }
-  return {};
+  return octagon_by_radius(contour);
 }
 
 std::array<cv::Point3d, 8> star_model(const StarPoseSettings& s) {

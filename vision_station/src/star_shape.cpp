@@ -106,10 +106,13 @@ StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline) con
   std::vector<cv::Point2f> hull;
   cv::convexHull(outline, hull);
   s.solidity = std::fabs(cv::contourArea(outline)) / std::max(cv::contourArea(hull), 1e-9);
-  s.is_star = s.elongation <= limits_.max_elongation && s.profile_rms <= limits_.max_profile_rms &&
-              s.fourfold >= limits_.min_fourfold && s.other_harmonic <= limits_.max_other_harmonic &&
-              s.solidity >= limits_.min_solidity && s.solidity <= limits_.max_solidity;
+  s.is_star = within(s, limits_);
   return s;
+}
+
+bool StarShapeTest::within(const StarShapeScore& s, const StarShapeLimits& l) {
+  return s.elongation <= l.max_elongation && s.profile_rms <= l.max_profile_rms && s.fourfold >= l.min_fourfold &&
+         s.other_harmonic <= l.max_other_harmonic && s.solidity >= l.min_solidity && s.solidity <= l.max_solidity;
 }
 
 }  // namespace quad::vision

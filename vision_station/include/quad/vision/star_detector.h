@@ -78,7 +78,15 @@ struct DetectorSettings {
   double robust_min_ratio = 0.25;
   double robust_max_ratio = 0.8;
   double robust_low_ratio = 0.55;  // second, lower level: this fraction of the first (not below min)
+  bool robust_floor_closing = true;  // floor = closing (max then min) over the window, else its maximum
+  bool robust_sync_repair = true;    // interpolate the rows of lost-sync bands (sync_repair.cpp)
+  bool robust_row_median = true;     // 3-row vertical median of the half-resolution copy (RF snow)
   StarShapeLimits shape;
+  // A coarse outline within these looser limits that fails `shape` is tested again on its mid-level
+  // outline at full resolution (small and blurred stars lose their tips on the coarse copy).
+  StarShapeLimits retry_shape{2.6, 0.3, 0.12, 1.5, 0.35, 0.92};
+  // A candidate without a mid-level outline that passes the shape test is dropped (with refine_midpoint).
+  bool robust_require_midlevel = false;
 };
 
 // One contour that passed every filter.
@@ -91,6 +99,22 @@ struct StarCandidate {
   double hu_distance = 0.0;             // shape distance, smaller is better: Hu I1 (thesis) or profile RMS (robust)
   double solidity = 0.0;
   int vertices = 0;
+  bool refined = false;                 // (robust) the outline is the full-resolution mid-level one
+};
+
+// What became of one contour of the robust method (failure analysis: tools/vision_eval explain).
+enum class ContourFate {
+  kTooFewPoints, kTouchesBorder, kSmallRawArea, kSmallArea, kShape, kDuplicate, kNoMidLevel, kAccepted
+};
+const char* to_string(ContourFate fate);
+
+struct TracedContour {
+  cv::Rect frame_box;      // raw frame pixels
+  double level = 0.0;      // the threshold ratio whose binary image it came from
+  ContourFate fate = ContourFate::kTooFewPoints;
+  double area = 0.0;       // rectified pixels² (0 when dropped before rectification)
+  StarShapeScore shape;    // filled from kShape on
+  bool refined = false;    // accepted with the mid-level contour (false: the coarse one)
 };
 
 // Wall time of the detector's stages, microseconds (accumulated over calls).
@@ -113,6 +137,9 @@ class StarDetector {
 
   const DetectorSettings& settings() const { return settings_; }
 
+  // Record every contour's fate into `trace` (appended; nullptr stops). For analysis, not for speed.
+  void set_trace(std::vector<TracedContour>* trace) { trace_ = trace; }
+
   // The binary image of the last call (inside its ROI, in the deinterlaced view; the half-resolution copy
   // for the robust method) and its threshold ratio, for display and tests.
   const cv::Mat& last_binary() const { return binary_; }
@@ -129,10 +156,25 @@ class StarDetector {
   std::vector<StarCandidate> detect_thesis(DetectorTimes* times);
   std::vector<StarCandidate> detect_robust(DetectorTimes* times);
   cv::Point2f coarse_scale() const;  // view pixels per pixel of the half-resolution copy (x, y)
+  // Lost-sync bands (sync_repair.cpp): rows [a, b) of `view` shifted or blanked as a whole, at most
+  // max_band rows each; repair_sync_bands interpolates them in a copy of view_ and points view_ at it.
+  bool find_sync_bands(const cv::Mat& view, int max_band, std::vector<cv::Vec2i>& bands);
+  void repair_sync_bands();
+  double unexplained_jump(const cv::Mat& image, int a, int b);
+  // The half-resolution copy's vertical 3-row median (RF snow is streaks one line high).
+  void row_median();
   void robust_floor();
   void robust_threshold(double ratio);
   void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
-  bool robust_refine(const cv::Rect& coarse_box, StarCandidate& c);
+  // The candidate's mid-level outline at full resolution (false: none that passes the shape test; its
+  // score in `score`).
+  bool robust_refine(const cv::Rect& coarse_box, StarCandidate& c, StarShapeScore& score);
+  // refine_binary_: the view's pixels in `region` below the mid-level between the star and the local floor
+  // around the coarse candidate in `grown` (false: no floor around it).
+  bool mid_level_threshold(const cv::Rect& grown, const cv::Rect& region);
+  // Shape test, second chance, duplicate check and refinement of one contour that passed the area filters.
+  void robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, StarCandidate& c,
+                     std::vector<StarCandidate>& candidates);
   // The largest outline of refine_binary_ (the pixels of `region` below the mid-level), smoothed.
   const std::vector<cv::Point>* mid_level_outline(const cv::Rect& region);
 
@@ -159,9 +201,17 @@ class StarDetector {
   cv::Mat binary_;
   cv::Mat scratch_;
   cv::Mat refine_binary_, refine_scratch_, interior_, midpoint_;
+  cv::Mat refine_ratio_, refine_floor_, refine_level_;
+  cv::Mat repaired_, median_lo_, median_hi_, band_top_, band_bottom_;
+  std::vector<double> row_jump_, sorted_jump_;
+  std::vector<cv::Vec2i> sync_bands_;
   std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
   std::vector<std::vector<cv::Point>> contours_;
+  std::vector<TracedContour>* trace_ = nullptr;
+  double level_ = 0.0;  // the threshold ratio of the binary image being searched
+  void note(const cv::Rect& coarse_box, ContourFate fate, double area = 0.0, const StarShapeScore& shape = {},
+            bool refined = false);
 };
 
 }  // namespace quad::vision

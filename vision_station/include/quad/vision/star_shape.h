@@ -34,6 +34,8 @@ class StarShapeTest {
  public:
   StarShapeTest(double inner_ratio, const StarShapeLimits& limits);
   StarShapeScore score(const std::vector<cv::Point2f>& outline) const;
+  // The measured score within other limits (score() applies the test's own).
+  static bool within(const StarShapeScore& s, const StarShapeLimits& limits);
 
   static constexpr int kBins = 64;
 

@@ -25,6 +25,13 @@ struct LocatorSettings {
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
+  // The fix's position is the fitted pose's centre when the fit is valid and within this fraction of the
+  // range of the centroids' triangulation (else the triangulated centroids). sigma and the covariance
+  // stay those of the centroid model (conservative for the pose centre).
+  bool position_from_pose = true;
+  // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
+  double require_pose_beyond_rad = 0.70;
+  double max_pose_offset = 0.03;
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
@@ -52,6 +59,7 @@ struct StarFix {
   std::vector<cv::Point> left_contour;   // raw image pixels, for display
   std::vector<cv::Point> right_contour;
   bool used_roi = false;
+  bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
   StageTimes times;
 };
 
@@ -83,6 +91,9 @@ class StereoStarLocator {
   };
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
                          DetectorTimes* times);
+
+  // The star's pose from the paired candidates, and the fix's position from it (LocatorSettings).
+  void add_pose(const cv::Mat& left_gray, const cv::Mat& right_gray, StarFix& fix);
 
   // A candidate's sub-pixel edge points, rectified.
   std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,

@@ -1,0 +1,293 @@
+// Failure analysis of the station on a generated set: for every star in full view that the station did
+// not find (and every false fix), why. Each view is searched again with a traced detector (star_detector.h
+// TracedContour) and the contours whose box holds the star's true centre (projected through the
+// calibration) tell the stage that lost it:
+//   no_contour        nothing dark enough there at any threshold level (or removed by the opening)
+//   too_few_points, touches_border, small_raw_area, small_area
+//   shape/merged      the contour failed the shape test and is much larger than the star (texture,
+//                     shadow or a neighbour joined it)
+//   shape/<limit>     the shape test failed on its own: elongation, profile, fourfold, harmonic, solidity
+// and when both views accepted it: row_gate (rectified rows too far apart), rank (not among the best
+// three of its view), lost_to_false (another pair won), range, inaccurate (found beyond 5 % of range).
+//   vision_eval_explain --sets DIR --calib calib.yaml [--settings S.yaml] [--conditions a,b] [--list]
+//                       [--crops DIR]   (both views around each lost star, enlarged, for looking at)
+// Use on the tuning split only: the held-out split is for the final measurement.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "quad/vision/settings_file.h"
+#include "quad/vision/stereo_locator.h"
+
+namespace {
+
+using namespace quad::vision;
+namespace fs = std::filesystem;
+
+constexpr double kMatchFraction = 0.05;  // as vision_eval.py: a fix within 5 % of the range is the star
+constexpr double kStarAreaM2 = 0.04525;  // 0.40 m tip to tip, inner ratio 0.4: 8 · ½ · 0.2 · 0.08 · sin 45°
+constexpr double kMergedAreaFactor = 1.6;
+
+struct Truth {
+  std::string left, right;
+  bool in_view = false;
+  cv::Vec3d p;
+  double range = 0.0;
+};
+
+std::vector<std::string> cells(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string c;
+  while (std::getline(ss, c, ',')) out.push_back(c);
+  return out;
+}
+
+std::vector<Truth> read_truth(const fs::path& dir) {
+  std::ifstream pairs(dir / "pairs.csv"), truth(dir / "truth.csv");
+  if (!pairs || !truth) throw std::runtime_error(dir.string() + ": pairs.csv or truth.csv missing");
+  std::string p, t;
+  std::getline(pairs, p);
+  std::getline(truth, t);
+  std::vector<Truth> out;
+  while (std::getline(pairs, p) && std::getline(truth, t)) {
+    const std::vector<std::string> names = cells(p), c = cells(t);
+    if (names.size() < 2 || c.size() < 7) throw std::runtime_error((dir / "truth.csv").string() + ": bad line");
+    out.push_back({(dir / names[0]).string(), (dir / names[1]).string(), c[1] == "1",
+                   cv::Vec3d(std::stod(c[3]), std::stod(c[4]), std::stod(c[5])), std::stod(c[6])});
+  }
+  return out;
+}
+
+// The true centre in one camera's raw image.
+cv::Point2d project(const StereoCalibration& c, int camera, const cv::Vec3d& p_left) {
+  const cv::Vec3d p = camera == 0 ? p_left : c.rig.R * p_left + c.rig.T;
+  std::vector<cv::Point2d> px;
+  const CameraIntrinsics& k = camera == 0 ? c.rig.left : c.rig.right;
+  cv::projectPoints(std::vector<cv::Point3d>{cv::Point3d(p)}, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k.K, k.D, px);
+  return px[0];
+}
+
+std::string shape_limit(const StarShapeScore& s, const StarShapeLimits& l) {
+  if (s.elongation > l.max_elongation) return "elongation";
+  if (s.profile_rms > l.max_profile_rms) return "profile";
+  if (s.fourfold < l.min_fourfold) return "fourfold";
+  if (s.other_harmonic > l.max_other_harmonic) return "harmonic";
+  return "solidity";
+}
+
+// Why one view lost the star: the most advanced fate among the contours around its true centre.
+std::string view_reason(const std::vector<TracedContour>& trace, cv::Point2d centre, double expected_area,
+                        const StarShapeLimits& limits, std::string* detail) {
+  const TracedContour* best = nullptr;
+  for (const TracedContour& t : trace) {
+    if (!t.frame_box.contains(cv::Point(cvRound(centre.x), cvRound(centre.y)))) continue;
+    if (best == nullptr || static_cast<int>(t.fate) > static_cast<int>(best->fate)) best = &t;
+  }
+  if (best == nullptr) return "no_contour";
+  if (best->fate != ContourFate::kShape) return to_string(best->fate);
+  if (best->area > kMergedAreaFactor * expected_area) return "shape/merged";
+  if (detail != nullptr) {
+    char text[160];
+    std::snprintf(text, sizeof text, " [area/expected %.2f elong %.2f profile %.3f fourfold %.3f harmonic %.2f solidity %.2f]",
+                  best->area / expected_area, best->shape.elongation, best->shape.profile_rms, best->shape.fourfold,
+                  best->shape.other_harmonic, best->shape.solidity);
+    *detail += text;
+  }
+  return "shape/" + shape_limit(best->shape, limits);
+}
+
+}  // namespace
+
+namespace {
+
+// One camera's traced search and the candidate (index in best-first order) that holds the true centre.
+struct ViewAnalysis {
+  std::string reason;
+  int rank = -1;
+  cv::Point2d centroid;  // rectified
+};
+
+class Explainer {
+ public:
+  Explainer(const StereoCalibration& calibration, const LocatorSettings& settings)
+      : calibration_(calibration), settings_(settings), locator_(calibration, no_tracking(settings)) {
+    for (int camera = 0; camera < 2; ++camera) {
+      detectors_.emplace_back(settings.detector, PointRectifier(calibration, camera, settings.undistort_iterations));
+    }
+  }
+
+  // 3-D errors (% of range) of the found stars: the fix, and the star pose's centre.
+  std::vector<double> centroid_errors, pose_errors;
+  std::string details;  // shape scores of the last explain()'s lost views
+
+  // The pair's outcome: "found", "no_star" (nothing expected, nothing fixed), "false_fix", or why missed.
+  std::string explain(const Truth& t, const cv::Mat& left, const cv::Mat& right) {
+    details.clear();
+    const StarFix fix = locator_.locate(left, right);
+    const bool hit = fix.found && t.in_view && cv::norm(fix.p_left - t.p) <= kMatchFraction * t.range;
+    if (hit) {
+      centroid_errors.push_back(100.0 * cv::norm(fix.p_left - t.p) / t.range);
+      if (fix.pose.valid) pose_errors.push_back(100.0 * cv::norm(fix.pose.t_C - t.p) / t.range);
+      return "found";
+    }
+    if (!t.in_view) return fix.found ? "false_fix/no_star" : "no_star";
+    if (fix.found && cv::norm(fix.p_left - t.p) <= 0.2 * t.range) {
+      char text[160];
+      std::snprintf(text, sizeof text, " [error %.1f %% of range, rows %.2f px, from pose %d, pose valid %d rms %.2f px error %.1f %%]",
+                    100.0 * cv::norm(fix.p_left - t.p) / t.range, fix.row_difference_px, fix.position_from_pose ? 1 : 0,
+                    fix.pose.valid ? 1 : 0, fix.pose.rms_px, 100.0 * cv::norm(fix.pose.t_C - t.p) / t.range);
+      details = text;
+      return "inaccurate";
+    }
+    const ViewAnalysis views[2] = {analyse(0, left, t), analyse(1, right, t)};
+    std::string why;
+    for (int camera = 0; camera < 2; ++camera) {
+      if (views[camera].rank >= 0) continue;
+      why += std::string(why.empty() ? "" : " ") + (camera == 0 ? "L:" : "R:") + views[camera].reason;
+    }
+    if (!why.empty()) return why;
+    if (fix.found) return "lost_to_false";
+    if (std::max(views[0].rank, views[1].rank) >= 3) return "rank";
+    if (std::fabs(views[0].centroid.y - views[1].centroid.y) > settings_.max_row_difference_px) return "row_gate";
+    return "range";
+  }
+
+ private:
+  static LocatorSettings no_tracking(LocatorSettings s) {
+    s.track_roi = false;  // independent pairs
+    return s;
+  }
+
+  ViewAnalysis analyse(int camera, const cv::Mat& gray, const Truth& t) {
+    std::vector<TracedContour> trace;
+    detectors_[camera].set_trace(&trace);
+    const std::vector<StarCandidate> candidates = detectors_[camera].detect(gray, cv::Rect());
+    detectors_[camera].set_trace(nullptr);
+    const cv::Point2d centre = project(calibration_, camera, t.p);
+    ViewAnalysis v;
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      if (!candidates[i].box.contains(cv::Point(cvRound(centre.x), cvRound(centre.y)))) continue;
+      v.rank = static_cast<int>(i);
+      v.centroid = candidates[i].centroid;
+      return v;
+    }
+    const double f = calibration_.rectified_focal();
+    const double expected_area = f * f * kStarAreaM2 / (t.range * t.range);
+    v.reason = view_reason(trace, centre, expected_area, settings_.detector.shape, &details);
+    return v;
+  }
+
+  StereoCalibration calibration_;
+  LocatorSettings settings_;
+  StereoStarLocator locator_;
+  std::vector<StarDetector> detectors_;
+};
+
+std::map<std::string, std::string> options(int argc, char** argv) {
+  std::map<std::string, std::string> o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--list") o[a] = "1";
+    else if (i + 1 < argc) o[a] = argv[++i];
+    else throw std::runtime_error("option " + a + " needs a value");
+  }
+  if (!o.count("--sets") || !o.count("--calib")) {
+    throw std::runtime_error("usage: vision_eval_explain --sets DIR --calib calib.yaml [--settings S.yaml] "
+                             "[--conditions a,b] [--list] [--crops DIR]");
+  }
+  return o;
+}
+
+// Both views around the star's true centre, enlarged ×3, side by side: DIR/<condition>_<left name>.png.
+void write_crops(const fs::path& dir, const std::string& condition, const Truth& t, const StereoCalibration& c) {
+  constexpr int kHalf = 60;
+  std::vector<cv::Mat> crops;
+  for (int camera = 0; camera < 2; ++camera) {
+    const cv::Mat gray = cv::imread(camera == 0 ? t.left : t.right, cv::IMREAD_GRAYSCALE);
+    const cv::Point2d centre = project(c, camera, t.p);
+    const cv::Rect box = cv::Rect(cvRound(centre.x) - kHalf, cvRound(centre.y) - kHalf, 2 * kHalf, 2 * kHalf) &
+                         cv::Rect(0, 0, gray.cols, gray.rows);
+    cv::Mat crop(2 * kHalf, 2 * kHalf, CV_8UC1, cv::Scalar(128)), big;
+    if (!box.empty()) gray(box).copyTo(crop(cv::Rect(0, 0, box.width, box.height)));
+    cv::resize(crop, big, cv::Size(), 3, 3, cv::INTER_NEAREST);
+    crops.push_back(big);
+  }
+  cv::Mat both;
+  cv::hconcat(crops, both);
+  fs::create_directories(dir);
+  cv::imwrite((dir / (condition + "_" + fs::path(t.left).stem().string() + ".png")).string(), both);
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(q * (v.size() - 1) + 0.5)];
+}
+
+void print_counts(const std::string& title, const std::map<std::string, int>& counts, int stars) {
+  std::printf("%s (%d stars in full view)\n", title.c_str(), stars);
+  std::vector<std::pair<int, std::string>> sorted;
+  for (const auto& [reason, n] : counts) sorted.emplace_back(-n, reason);
+  std::sort(sorted.begin(), sorted.end());
+  for (const auto& [n, reason] : sorted) std::printf("  %5d  %s\n", -n, reason.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const std::map<std::string, std::string> o = options(argc, argv);
+    const StereoCalibration calibration = load_calibration(o.at("--calib"));
+    const StationSettings settings = o.count("--settings") ? load_station_settings(o.at("--settings")) : StationSettings{};
+    const std::string only = o.count("--conditions") ? "," + o.at("--conditions") + "," : "";
+    Explainer explainer(calibration, settings.locator);
+    std::map<std::string, int> total;
+    int total_stars = 0;
+    std::vector<fs::path> dirs;
+    for (const fs::directory_entry& d : fs::directory_iterator(o.at("--sets"))) {
+      if (fs::exists(d.path() / "truth.csv")) dirs.push_back(d.path());
+    }
+    std::sort(dirs.begin(), dirs.end());
+    for (const fs::path& dir : dirs) {
+      const std::string condition = dir.filename().string();
+      if (!only.empty() && only.find("," + condition + ",") == std::string::npos) continue;
+      std::map<std::string, int> counts;
+      int stars = 0;
+      for (const Truth& t : read_truth(dir)) {
+        const std::string outcome = explainer.explain(t, cv::imread(t.left, cv::IMREAD_GRAYSCALE),
+                                                      cv::imread(t.right, cv::IMREAD_GRAYSCALE));
+        stars += t.in_view ? 1 : 0;
+        if (outcome == "found" || outcome == "no_star") continue;
+        ++counts[outcome];
+        if (o.count("--crops")) write_crops(o.at("--crops"), condition, t, calibration);
+        ++total[outcome];
+        if (o.count("--list")) {
+          std::printf("%s %s: %s%s\n", condition.c_str(), fs::path(t.left).filename().c_str(), outcome.c_str(),
+                      explainer.details.c_str());
+        }
+      }
+      total_stars += stars;
+      print_counts(condition, counts, stars);
+    }
+    print_counts("all", total, total_stars);
+    std::printf("found stars: median error of the fix %.3f %% (p95 %.3f %%), of the pose centre %.3f %% (p95 %.3f %%)\n",
+                percentile(explainer.centroid_errors, 0.5), percentile(explainer.centroid_errors, 0.95),
+                percentile(explainer.pose_errors, 0.5), percentile(explainer.pose_errors, 0.95));
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vision_eval_explain: %s\n", e.what());
+    return 1;
+  }
+}
