@@ -33,6 +33,7 @@ void DelayedEkfCore::reset(const Quat& q, const Vec3& gyro_bias, const Vec3& acc
   rate_ = Vec3{};
   started_ = true;
   position_initialized_ = false;
+  converged_ = false;
   rejections_in_a_row_ = 0;
   filter_us_ = t_us;
   last_push_us_ = t_us;
@@ -90,6 +91,7 @@ void DelayedEkfCore::predict(uint32_t t_us, bool still) {
     --count_;
   }
   recompute_output();
+  if (settled()) converged_ = true;
 }
 
 const ImuIncrement& DelayedEkfCore::entry(uint16_t age_from_oldest) const {
@@ -211,7 +213,7 @@ bool DelayedEkfCore::attach_covariance(uint32_t capture_us, const float pos_cov[
   return false;
 }
 
-bool DelayedEkfCore::converged() const {
+bool DelayedEkfCore::settled() const {
   return started_ && filter_.finite() && filter_.tilt_sigma() <= 0.0175f && filter_.velocity_sigma() <= 0.1f;
 }
 

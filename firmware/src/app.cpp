@@ -116,6 +116,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
+  estimator_.set_armed(control_.armed());
   const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
   report(event);
   mark(hal::TracePoint::kEstimated);
@@ -251,12 +252,32 @@ void FlightApp::star_fix(const mav::LandingTarget& msg) {
     return;
   }
   const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
+  if (estimator_.ekf_selected()) {
+    star_fix_ekf(msg, capture_us);
+    return;
+  }
   Vec3 p_ned;
   if (!estimator_.position_from_star(Vec3{msg.x, msg.y, msg.z}, capture_us, &p_ned)) {
     ++fixes_rejected_;
     return;
   }
   position_fix_at(p_ned, capture_us);
+}
+
+void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us) {
+  // The EKF takes the star in the body frame (and its attitude, q = 1 0 0 0 when none was fitted) and
+  // fuses it at its capture time; the station's covariances follow in LANDING_TARGET_COVARIANCE.
+  est::StarFix fix;
+  fix.capture_us = capture_us;
+  fix.star_body = Vec3{msg.x, msg.y, msg.z};
+  fix.q_bs = Quat{msg.q[0], msg.q[1], msg.q[2], msg.q[3]};
+  fix.has_attitude = !(msg.q[0] == 1.0f && msg.q[1] == 0.0f && msg.q[2] == 0.0f && msg.q[3] == 0.0f);
+  fix_result(estimator_.queue_star(fix), false);
+}
+
+void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
+  estimator_.attach_covariance(static_cast<uint32_t>(msg.time_usec), msg.position_covariance,
+                               msg.attitude_covariance, msg.attitude_valid == 1);
 }
 
 void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {

@@ -97,8 +97,10 @@ class DelayedEkfCore {
   uint32_t filter_time_us() const { return filter_us_; }
   bool position_initialized() const { return position_initialized_; }
   const DelayedEkfHealth& health() const { return health_; }
-  // Attitude and velocity settled (the pre-arm check): tilt sigma <= 1 deg, velocity sigma <= 0.1 m/s.
-  bool converged() const;
+  // Attitude and velocity settled once since the reset (the pre-arm check): tilt sigma <= 1 deg and
+  // velocity sigma <= 0.1 m/s at some predict (latched: in flight without fixes the velocity's grows).
+  bool converged() const { return converged_ && finite(); }
+  bool settled() const;
   bool finite() const;
   uint16_t flags() const;
 
@@ -122,6 +124,7 @@ class DelayedEkfCore {
   bool use_mag_ = true;
   bool started_ = false;
   bool position_initialized_ = false;
+  bool converged_ = false;
   uint16_t rejections_in_a_row_ = 0;
   uint32_t filter_us_ = 0;
   uint32_t last_push_us_ = 0;

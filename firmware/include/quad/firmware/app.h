@@ -131,6 +131,7 @@ class FlightApp {
   void report_transition(const Transition& t);
   void position_target(const Vec3& target, const float* yaw);
   void star_fix(const mavlink::LandingTarget& msg);
+  void star_covariance(const mavlink::LandingTargetCovariance& msg);
   void position_fix(const Vec3& p_ned, uint32_t capture_us);
   ParamUpdate set_param(uint8_t index, float value);
   uint64_t timesync_us() const { return hil() ? hil_time_usec_ : now_us_; }
@@ -152,6 +153,7 @@ class FlightApp {
   void fix_step(Step step);
   // A fix as a NED position at its capture time: fused, queued, or refused.
   void position_fix_at(const Vec3& p_ned, uint32_t capture_us);
+  void star_fix_ekf(const mavlink::LandingTarget& msg, uint32_t capture_us);
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void mark(hal::TracePoint point) const {
