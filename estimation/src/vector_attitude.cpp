@@ -29,8 +29,16 @@ bool attitude_from_vectors(const Vec3& accel_frd, const Vec3& mag_frd, const Vec
   const Vec3 d_i{0.0f, 0.0f, 1.0f};
   Vec3 n_b, e_b, n_i, e_i;
   if (!triad(d_b, mag_frd, n_b, e_b) || !triad(d_i, mag_ref_ned, n_i, e_i)) return false;
-  // R_IB maps each body triad vector onto its inertial counterpart: R = sum_k t_I,k t_B,k^T.
-  const Mat3 r = outer(n_i, n_b) + outer(e_i, e_b) + outer(d_i, d_b);
+  // R_IB maps each body triad vector onto its inertial counterpart: R = sum_k t_I,k t_B,k^T, summed row
+  // by row (the same operations as three outer products added): the boot calibration's last iteration
+  // is the image's deepest stack, and five 36-byte matrix temporaries would sit on it.
+  Mat3 r;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 row = n_b * n_i[i] + e_b * e_i[i] + d_b * d_i[i];
+    r.m[i][0] = row.x;
+    r.m[i][1] = row.y;
+    r.m[i][2] = row.z;
+  }
   q_ib = from_dcm(r);
   return is_finite(q_ib);
 }

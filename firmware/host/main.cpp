@@ -1,12 +1,13 @@
 // quad_firmware: the flight application on the host, flying the simulator in hardware-in-the-loop.
 //
 //   quad_firmware --uart0 PATH [--uart0-baud N] [--uart2 PATH] [--uart2-baud N] [--params FILE]
-//                 [--storage FILE]
+//                 [--storage FILE] [--log-dir DIR]
 //
 // UART0 carries HIL_SENSOR in and HIL_ACTUATOR_CONTROLS out (docs/hil-protocol.md); UART2 is the radio
 // link. --params sets parameters for this run (firmware/host/param_file.h); --storage keeps the
 // parameter store (what PARAM_SET writes) in a file, like the board's EEPROM. The program ends when
-// the peer of UART0 hangs up, or on SIGINT / SIGTERM.
+// the peer of UART0 hangs up, or on SIGINT / SIGTERM. --log-dir keeps the flight logs (ULog) as
+// DIR/log_NNN.ulg (docs/logging.md); without it the firmware has no log store.
 #include <signal.h>
 #include <time.h>
 
@@ -15,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "log_dir.h"
 #include "param_file.h"
 #include "quad/firmware/runner.h"
 #include "quad/hal/host.h"
@@ -26,13 +28,14 @@ void on_signal(int) { g_stop = 1; }
 
 const char kUsage[] =
     "usage: quad_firmware --uart0 PATH [--uart0-baud N] [--uart2 PATH] [--uart2-baud N]\n"
-    "                     [--params FILE] [--storage FILE]\n"
+    "                     [--params FILE] [--storage FILE] [--log-dir DIR]\n"
     "  --uart0 PATH       serial device of UART0 (HIL sensors in, actuators out); required\n"
     "  --uart0-baud N     its baud rate (default 921600)\n"
     "  --uart2 PATH       serial device of UART2 (radio: vision fixes, telemetry)\n"
     "  --uart2-baud N     its baud rate (default 57600)\n"
     "  --params FILE      parameter values for this run, one 'NAME VALUE' per line\n"
-    "  --storage FILE     file that keeps the parameter store (default: memory only)\n";
+    "  --storage FILE     file that keeps the parameter store (default: memory only)\n"
+    "  --log-dir DIR      directory of the flight logs, DIR/log_NNN.ulg (default: no logs)\n";
 
 // The iteration clock of the host firmware: this thread's CPU time, so the loop's load, its overruns and
 // its longest iteration measure the firmware's own work and not the preemption of a loaded machine
@@ -62,6 +65,7 @@ bool parse_baud(const std::string& flag, const char* text, uint32_t* out, std::s
 struct Options {
   quad::hal::host::Config hal;
   std::string params_path;
+  std::string log_dir;
 };
 
 bool parse_args(int argc, char** argv, Options* o, std::string* error) {
@@ -84,6 +88,7 @@ bool parse_args(int argc, char** argv, Options* o, std::string* error) {
     else if (flag == "--uart2-baud") { if (!parse_baud(flag, value, &o->hal.ports[quad::hal::kUart2].baud, error)) return false; }
     else if (flag == "--params") o->params_path = value;
     else if (flag == "--storage") o->hal.storage_path = value;
+    else if (flag == "--log-dir") o->log_dir = value;
     else {
       *error = "unknown option '" + flag + "'";
       return false;
@@ -111,6 +116,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quad_firmware: %s\n", error.c_str());
     return 1;
   }
+  static quad::fw::LogDirectory logs;
+  if (!options.log_dir.empty() && !logs.attach(options.log_dir, &error)) {
+    std::fprintf(stderr, "quad_firmware: %s\n", error.c_str());
+    return 1;
+  }
   if (!quad::hal::host::open(options.hal, &error)) {
     std::fprintf(stderr, "quad_firmware: %s\n", error.c_str());
     return 1;
@@ -124,6 +134,7 @@ int main(int argc, char** argv) {
   quad::fw::AppIo io = quad::fw::hal_app_io();
   io.console = console;
   io.micros = cpu_micros;
+  if (!options.log_dir.empty()) io.log_store = logs.store();
   quad::fw::init_hil(app, io);
   for (const quad::fw::ParamOverride& o : overrides) {
     if (const char* why = app.override_param(o.index, o.value)) {
@@ -140,6 +151,7 @@ int main(int argc, char** argv) {
     quad::fw::poll_ports(app);
     quad::hal::led_write(app.led(quad::hal::micros()));
   }
+  app.close_log();
   // The loop's own timing (LoopTimer, on the thread's CPU time), for the flight report.
   const quad::fw::LoopTimer& loop = app.loop_timer();
   std::fprintf(stderr, "quad_firmware: loop: %u iterations, %u overruns, longest %u us of a %u us period\n",

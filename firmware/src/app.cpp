@@ -31,9 +31,14 @@ bool is_failsafe(Reason reason) {
 }  // namespace
 
 void FlightApp::init(const AppIo& io) {
-  io_ = io;
-  link_.init(GroundLink::Io{io.storage, io.write, io.console}, &params_);
-  store_status_ = params_load(io_.storage, params_);
+  micros_ = io.micros;
+  trace_ = io.trace;
+  hil_sensor_ = io.hil_sensor;
+  hil_context_ = io.hil_context;
+  link_.init(GroundLink::Io{io.storage, io.write, io.console, log_statustext, this, io.log_store, io.tx_free},
+             &params_);
+  logger_.init(io.log_store);
+  store_status_ = params_load(io.storage, params_);
   const bool key_ok = link_.load_signing_key();
   const char* error = nullptr;
   if (!apply_params(params_, &error)) {
@@ -65,6 +70,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   loop_timer_.set_rate_hz(loop_hz);
   schedule_.configure(loop_hz);
   telemetry_.configure(p, loop_hz);
+  logger_.configure(p, loop_hz);
   return true;
 }
 
@@ -93,7 +99,8 @@ ParamUpdate FlightApp::set_param(uint8_t index, float value) {
   } else {
     params_ = candidate;
     // The store rewrites only the bytes that differ in the older copy: the value, sequence and CRC.
-    if (!params_save_all(io_.storage, params_)) u.status = ParamUpdate::Status::kNotStored;
+    if (!params_save_all(link_.storage(), params_)) u.status = ParamUpdate::Status::kNotStored;
+    logger_.param_changed(index, value);
   }
   return u;
 }
@@ -103,17 +110,16 @@ ParamUpdate FlightApp::set_param(uint8_t index, float value) {
 
 void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag) {
   mark(hal::TracePoint::kStepBegin);
-  loop_timer_.begin(io_.micros());
+  loop_timer_.begin(micros_());
   const float dt = step_dt(clock_started_, t_us - last_step_us_, loop_timer_.period_us(), loop_timer_.period_s());
   clock_started_ = true;
   last_step_us_ = t_us;
   now_us_ = t_us;
-  ++iterations_;
 
   // A mode entered between iterations (a command) runs the position loop in this one: a waiting fix's
   // step would share it, so the frame-rate work runs and the fix waits a frame.
   const IterationPlan plan = schedule_.next(dt, estimator_.fix_in_progress() && !control_.mode_entered());
-  if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
+  if (plan.fix_step) logger_.vision_fix_result(fix_step([&] { return estimator_.advance_fix(); }));
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
   estimator_.set_armed(control_.armed());
@@ -136,13 +142,14 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   mark(control_.mode() == FlightMode::kDisarmed ? hal::TracePoint::kControlIdle : hal::TracePoint::kControlFlown);
   if (plan.frame_work) control_.detect_landing(plan.frame_dt, estimator_.velocity().z);
 
-  // The application's own output, spread: one telemetry stream or one streamed parameter per iteration,
-  // neither beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
+  // The application's own output, spread: one telemetry stream, streamed parameter or log frame per
+  // iteration, none beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
   const bool room = !plan.fix_step && !position_loop_forced;
   const bool sent = telemetry_.send_due(*this, link_, room);
   mark(hal::TracePoint::kTelemetryDone);
-  if (room && !sent) link_.stream_params();
-  loop_timer_.end(io_.micros());
+  if (room && !sent && !link_.stream_params()) link_.stream_logs();
+  logger_.iteration(*this, plan, imu, mag, dt, hovering);
+  loop_timer_.end(micros_());
   mark(hal::TracePoint::kStepEnd);
   report_overrun();
 }
@@ -212,6 +219,12 @@ void FlightApp::report_transition(const Transition& t) {
   StatusLine line(severity);
   if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
   link_.send_statustext((line << reason_text(t.reason)).message());
+  logger_.transition(*this, t);
+}
+
+void FlightApp::log_statustext(void* app, const mav::Statustext& msg) {
+  FlightApp* self = static_cast<FlightApp*>(app);
+  self->logger_.statustext(self->now_us_, msg);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -223,7 +236,7 @@ void FlightApp::receive(uint8_t port, const uint8_t* data, uint16_t length, uint
 }
 
 void FlightApp::hil_frame(const mav::Frame& frame) {
-  if (io_.hil_sensor != nullptr) io_.hil_sensor(io_.hil_context, frame);
+  if (hil_sensor_ != nullptr) hil_sensor_(hil_context_, frame);
 }
 
 void FlightApp::rc_input(const ctrl::RcSticks& sticks, uint32_t t_us, const RcSwitches* switches) {
@@ -247,11 +260,12 @@ void FlightApp::position_target(const Vec3& target, const float* yaw) {
 
 void FlightApp::star_fix(const mav::LandingTarget& msg) {
   ++fixes_received_;
+  const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
   if (msg.frame != mav::kFrameBodyFrd || msg.position_valid != 1) {
     ++fixes_invalid_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kInvalid);
     return;
   }
-  const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
   if (estimator_.ekf_selected()) {
     star_fix_ekf(msg, capture_us);
     return;
@@ -259,9 +273,10 @@ void FlightApp::star_fix(const mav::LandingTarget& msg) {
   Vec3 p_ned;
   if (!estimator_.position_from_star(Vec3{msg.x, msg.y, msg.z}, capture_us, &p_ned)) {
     ++fixes_rejected_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kRejectedOld);
     return;
   }
-  position_fix_at(p_ned, capture_us);
+  position_fix_at(p_ned, capture_us, msg.q);
 }
 
 void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us) {
@@ -272,7 +287,13 @@ void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us)
   fix.star_body = Vec3{msg.x, msg.y, msg.z};
   fix.q_bs = Quat{msg.q[0], msg.q[1], msg.q[2], msg.q[3]};
   fix.has_attitude = !(msg.q[0] == 1.0f && msg.q[1] == 0.0f && msg.q[2] == 0.0f && msg.q[3] == 0.0f);
-  fix_result(estimator_.queue_star(fix), false);
+  const est::FixResult r = estimator_.queue_star(fix);
+  fix_result(r, false);
+  // The log records the fix as the thesis pair would have taken it (NED through the attitude at the
+  // capture time; none when no attitude is recorded there) and what the EKF did with it.
+  Vec3 p_ned;
+  const bool converted = estimator_.position_from_star(fix.star_body, capture_us, &p_ned);
+  logger_.vision_fix(now_us_, converted ? &p_ned : nullptr, capture_us, msg.q, log_fix_result(r, false));
 }
 
 void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
@@ -282,30 +303,33 @@ void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
 
 void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {
   ++fixes_received_;
-  position_fix_at(p_ned, capture_us);
+  position_fix_at(p_ned, capture_us, nullptr);
 }
 
-void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us) {
+void FlightApp::position_fix_at(const Vec3& p_ned, uint32_t capture_us, const float* q) {
+  LogFixResult logged = LogFixResult::kInvalid;
   if (!is_finite(p_ned)) {
     ++fixes_invalid_;
-    return;
-  }
-  if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
+  } else if (!schedule_.fuses_on_arrival() || estimator_.fix_in_progress()) {
     // Queued for the frame-rate work's iteration (frame_schedule.h).
     const est::FixResult r = estimator_.queue_fix(p_ned, capture_us);
     if (r != est::FixResult::kPending) fix_result(r, false);
-    return;
+    logged = log_fix_result(r, false);
+  } else {
+    logged = fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
   }
-  fix_step([&] { return estimator_.fuse_fix(p_ned, capture_us); });
+  logger_.vision_fix(now_us_, &p_ned, capture_us, q, logged);
 }
 
 template <class Step>
-void FlightApp::fix_step(Step step) {
+LogFixResult FlightApp::fix_step(Step step) {
   const uint32_t resets_before = estimator_.filter_resets();
   mark(hal::TracePoint::kFixBegin);
   const est::FixResult r = step();
   mark(hal::TracePoint::kFixEnd);
-  if (r != est::FixResult::kPending) fix_result(r, estimator_.filter_resets() != resets_before);
+  const bool reset = estimator_.filter_resets() != resets_before;
+  if (r != est::FixResult::kPending) fix_result(r, reset);
+  return log_fix_result(r, reset);
 }
 
 void FlightApp::fix_result(est::FixResult r, bool reset) {
@@ -336,7 +360,7 @@ void FlightApp::fix_result(est::FixResult r, bool reset) {
 
 AppCounters FlightApp::counters() const {
   AppCounters c;
-  c.iterations = iterations_;
+  c.iterations = loop_timer_.iterations();  // one end() per step()
   c.fixes_received = fixes_received_;
   c.fixes_fused = fixes_fused_;
   c.fixes_rejected = fixes_rejected_;

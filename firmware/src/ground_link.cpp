@@ -130,10 +130,11 @@ void GroundLink::report_param_update(ParamUpdate u, uint8_t index) {
   }
 }
 
-void GroundLink::stream_params() {
-  if (param_stream_next_ < 0) return;
+bool GroundLink::stream_params() {
+  if (param_stream_next_ < 0) return false;
   send_param(param_stream_port_, static_cast<uint8_t>(param_stream_next_));
   if (++param_stream_next_ >= kParamCount) param_stream_next_ = -1;
+  return true;
 }
 
 void GroundLink::send_param(uint8_t port, uint8_t index) {
@@ -167,6 +168,7 @@ void GroundLink::send_statustext(uint8_t severity, FlashText text) { send_status
 void GroundLink::send_statustext(const mav::Statustext& msg) {
   broadcast(msg);
   if (io_.console != nullptr) io_.console(msg.severity, msg.text, static_cast<uint8_t>(strnlen(msg.text, sizeof msg.text)));
+  if (io_.statustext != nullptr) io_.statustext(io_.statustext_context, msg);
 }
 
 }  // namespace fw

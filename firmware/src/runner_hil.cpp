@@ -12,6 +12,7 @@ namespace {
 uint16_t write_port(uint8_t port, const uint8_t* data, uint16_t length) {
   return hal::serial_write(static_cast<hal::Port>(port), data, length);
 }
+uint16_t port_tx_free(uint8_t port) { return hal::serial_tx_free(static_cast<hal::Port>(port)); }
 
 HilBridge g_bridge;
 
@@ -21,6 +22,7 @@ AppIo hal_app_io() {
   AppIo io;
   io.storage = StorageIo{hal::storage_read, hal::storage_write};
   io.write = write_port;
+  io.tx_free = port_tx_free;
   io.micros = hal::micros;
   io.trace = hal::trace;
   return io;
@@ -32,7 +34,7 @@ void init_hil(FlightApp& app, AppIo io) {
 }
 
 void poll_ports(FlightApp& app) {
-  uint8_t buffer[64];
+  uint8_t buffer[32];  // under every iteration in HIL (the ATmega2560 counts the peak stack)
   for (uint8_t port = 0; port < hal::kPortCount; ++port) {
     uint16_t n;
     while ((n = hal::serial_read(static_cast<hal::Port>(port), buffer, sizeof buffer)) > 0) {

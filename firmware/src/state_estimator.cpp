@@ -193,5 +193,13 @@ bool StateEstimator::healthy() const {
          healthy_speed(velocity());
 }
 
+Vec3 StateEstimator::position_variance() const {
+  return Vec3{filter_.covariance(0).pp, filter_.covariance(1).pp, filter_.covariance(2).pp};
+}
+
+Vec3 StateEstimator::velocity_variance() const {
+  return Vec3{filter_.covariance(0).vv, filter_.covariance(1).vv, filter_.covariance(2).vv};
+}
+
 }  // namespace fw
 }  // namespace quad

@@ -114,6 +114,10 @@ uint16_t serial_write(Port port, const uint8_t* src, uint16_t length) {
   return n;
 }
 
+uint16_t serial_tx_free(Port port) {
+  return port == kUart0 ? avr::g_uart0.tx.free_space() : avr::g_uart2.tx.free_space();
+}
+
 }  // namespace hal
 }  // namespace quad
 

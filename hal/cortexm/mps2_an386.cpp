@@ -109,6 +109,13 @@ uint16_t serial_write(Port port, const uint8_t* src, uint16_t length) {
   return n;
 }
 
+uint16_t serial_tx_free(Port port) {
+  const uint32_t primask = cortexm::disable_irq();
+  const uint16_t room = cortexm::g_ports[port].tx.free_space();
+  cortexm::restore_irq(primask);
+  return room;
+}
+
 uint16_t storage_size() { return cortexm::kStorageSize; }
 
 bool storage_read(uint16_t offset, void* dst, uint16_t length) {

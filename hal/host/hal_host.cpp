@@ -20,6 +20,9 @@ struct PortState {
   bool hangup_seen = false;  // poll() reported POLLHUP; bytes may still wait to be read
   bool hung_up = false;      // ... and they have been read: the port is gone
   uint32_t dropped = 0;
+  uint32_t baud = 0;
+  double queued_bytes = 0.0;  // a modelled transmit queue, drained at baud / 10 bytes per second
+  double queued_at_s = 0.0;
 };
 
 struct State {
@@ -84,6 +87,7 @@ bool open_port(const PortConfig& config, const char* name, PortState* port, std:
   // No flush: bytes a simulator wrote to its pseudo-terminal before we opened it are the start of
   // the session (the parser resynchronises on anything else).
   port->fd = fd;
+  port->baud = config.baud;
   port->hung_up = false;
   port->dropped = 0;
   return true;
@@ -202,8 +206,36 @@ uint16_t serial_read(Port port, uint8_t* dst, uint16_t capacity) {
   return 0;
 }
 
+namespace host {
+namespace {
+// A pseudo-terminal takes bytes at any rate; a UART at the port's baud with a 128-byte queue (the AVR's
+// radio ring) would not: the queue modelled here is what serial_tx_free() reports.
+constexpr double kTxQueueBytes = 128.0;
+double seconds_now() {
+  timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+void drain(PortState& state) {
+  const double now = seconds_now();
+  if (state.baud > 0) state.queued_bytes -= (now - state.queued_at_s) * state.baud / 10.0;
+  if (state.queued_bytes < 0.0 || state.baud == 0) state.queued_bytes = 0.0;
+  state.queued_at_s = now;
+}
+}  // namespace
+}  // namespace host
+
+uint16_t serial_tx_free(Port port) {
+  host::PortState& state = host::g_state.ports[port];
+  host::drain(state);
+  const double room = host::kTxQueueBytes - state.queued_bytes;
+  return room > 0.0 ? static_cast<uint16_t>(room) : 0;
+}
+
 uint16_t serial_write(Port port, const uint8_t* src, uint16_t length) {
   host::PortState& state = host::g_state.ports[port];
+  host::drain(state);
+  state.queued_bytes += length;
   if (state.fd < 0 || state.hung_up) {
     state.dropped += length;
     return 0;

@@ -39,6 +39,12 @@ bool find_message_info(uint32_t message_id, MessageInfo* info) {
     case HilSensor::kId: return found<HilSensor>(info);
     case Timesync::kId: return found<Timesync>(info);
     case HilStateQuaternion::kId: return found<HilStateQuaternion>(info);
+    case LogRequestList::kId: return found<LogRequestList>(info);
+    case LogEntry::kId: return found<LogEntry>(info);
+    case LogRequestData::kId: return found<LogRequestData>(info);
+    case LogData::kId: return found<LogData>(info);
+    case LogErase::kId: return found<LogErase>(info);
+    case LogRequestEnd::kId: return found<LogRequestEnd>(info);
     case LandingTarget::kId: return found<LandingTarget>(info);
     case Statustext::kId: return found<Statustext>(info);
     default: return false;

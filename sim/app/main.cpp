@@ -2,7 +2,7 @@
 //
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD] [--viewer]
 //            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
-//            [--station-calib FILE] [--no-plots] [--quiet]
+//            [--station-calib FILE] [--gcs [udp:HOST:PORT]] [--no-tlog] [--no-plots] [--quiet]
 //
 // Exit status: 0 the run completed and wrote every output; 1 the run was cut short (interrupted, the
 // firmware stopped answering, ...) or could not start; 2 bad arguments; 3 the run completed and its log
@@ -37,7 +37,8 @@ int usage(const char* error) {
   std::fprintf(stderr,
                "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD]\n"
                "                [--viewer] [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK]\n"
-               "                [--station CMD] [--station-calib FILE] [--no-plots] [--quiet]\n"
+               "                [--station CMD] [--station-calib FILE] [--gcs [udp:HOST:PORT]] [--no-tlog]\n"
+               "                [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
@@ -45,7 +46,8 @@ int usage(const char* error) {
                "                    a YAML value: radio.latency_s=0.01, firmware_params.POS_KP_XY=4,\n"
                "                    commands.3.at_s=45, wind.mean_ned_m_s=[1,0,0]\n"
                "  --realtime        pace by the wall clock (emulated MCUs) instead of lockstep\n"
-               "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim); the port\n"
+               "  --firmware CMD    firmware command (default: quad_firmware next to quad_sim, its flight\n"
+               "                    logs in the run folder: --log-dir DIR); the port\n"
                "                    arguments (--uart0 ... --params FILE) are appended\n"
                "  --viewer          MuJoCo window following the vehicle (needs a display); closing it ends\n"
                "                    the run like Ctrl-C. Left drag rotates, right drag or the wheel zooms\n"
@@ -61,6 +63,11 @@ int usage(const char* error) {
                "                    chessboards rendered through the scenario's cameras, cached in\n"
                "                    station_calibration/ beside the station executable\n"
                "  --station-calib FILE  give the station this calibration instead\n"
+               "  --gcs [udp:HOST:PORT]  a ground station over UDP (default udp:127.0.0.1:14550, where\n"
+               "                    QGroundControl and MAVProxy listen): what comes out of the ground side of\n"
+               "                    the radio is sent there, datagrams from whoever sends to the simulator's\n"
+               "                    socket enter the radio (use --realtime to fly by hand)\n"
+               "  --no-tlog         do not write RUN/link.tlog (the ground side of the radio, both ways)\n"
                "  --no-plots        skip the PNG plots\n"
                "  --quiet           no progress line\n"
                "exit status: 0 complete; 1 cut short or not started; 2 bad arguments; 3 complete, log and\n"
@@ -96,7 +103,8 @@ int main(int argc, char** argv) {
   std::string scenario_path, out_dir, firmware, record, ground_port, station, station_calib, screenshot;
   std::optional<long> seed;
   std::vector<quad::sim::ScenarioOverride> overrides;
-  bool realtime = false, viewer = false, plots = true, quiet = false;
+  std::optional<quad::sim::UdpEndpoint> gcs;
+  bool realtime = false, viewer = false, plots = true, quiet = false, tlog = true;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
@@ -114,6 +122,16 @@ int main(int argc, char** argv) {
       else if (a == "--ground-port") ground_port = value("--ground-port");
       else if (a == "--station") station = value("--station");
       else if (a == "--station-calib") station_calib = value("--station-calib");
+      else if (a == "--gcs") {
+        // The value is optional: the next argument is it unless it is another option.
+        const bool given = i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0;
+        try {
+          gcs = quad::sim::parse_udp_endpoint(given ? argv[++i] : "udp:127.0.0.1:14550");
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(std::string("--gcs ") + e.what());
+        }
+      }
+      else if (a == "--no-tlog") tlog = false;
       else if (a == "--realtime") realtime = true;
       else if (a == "--viewer") viewer = true;
       else if (a == "--no-plots") plots = false;
@@ -138,8 +156,12 @@ int main(int argc, char** argv) {
     options.progress = !quiet;
     options.stop = &g_stop;
     options.ground_port_link = ground_port;
+    options.gcs_udp = gcs;
+    options.link_record = tlog;
     const std::string default_fw = executable_dir() + "/quad_firmware";
-    options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw} : split_words(firmware);
+    // The host firmware keeps its flight logs in the run folder (runs/<run>/log_001.ulg).
+    options.firmware_argv = firmware.empty() ? std::vector<std::string>{default_fw, "--log-dir", out_dir}
+                                             : split_words(firmware);
     if (firmware.empty() && access(default_fw.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "quad_sim: %s is not built (cmake --build build/host --target quad_firmware), "
                            "or pass --firmware CMD\n", default_fw.c_str());

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "quad/link/mavlink.h"
+#include "quad/link/tlog.h"
 #include "quad/sim/faults.h"
 #include "quad/sim/firmware_process.h"
 #include "quad/sim/flight_modes.h"
@@ -25,6 +26,7 @@
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
 #include "quad/sim/station_loop.h"
+#include "quad/sim/udp_link.h"
 #include "quad/sim/vehicle.h"
 #include "quad/sim/vision_fix.h"
 
@@ -94,6 +96,12 @@ class Session {
   void poll_uart0(double t);
   void poll_uart2(double t);
   void poll_ground_port(double t);
+  void poll_gcs_udp(double t);
+  // The ground side of the radio: every frame into it passes here (recorded, then on the radio), and
+  // every chunk out of it (recorded, to the ground port and the UDP ground station).
+  void radio_uplink(const uint8_t* data, size_t size, double t);
+  void radio_downlink(const uint8_t* data, size_t size, double t);
+  uint64_t record_time_us(double t) const { return record_epoch_us_ + to_usec(t); }
 
   // The world.
   void apply_faults(double t);
@@ -121,9 +129,18 @@ class Session {
   SerialLine radio_down_;  // firmware -> ground on UART2
   mav::Sender sensor_sender_{kVehicleSys, kSimComp};
   mav::Sender gcs_sender_{kGcsSys, mav::kCompIdMissionPlanner};
-  mav::Parser uart0_parser_, uart2_splitter_, ground_parser_, ground_splitter_;
+  mav::Parser uart0_parser_, uart2_splitter_, ground_splitter_;
+  mav::Parser ground_parser_{mav::dialect_message_info};  // the downlink at the ground side
   std::unique_ptr<Pty> ground_;  // the base-station side of the radio, for outside programs (optional)
   uint64_t ground_dropped_ = 0;  // downlink bytes nobody read from the ground port
+  std::unique_ptr<UdpLink> udp_;  // a ground station over UDP (optional)
+  bool udp_heard_ = false;        // a datagram has arrived (events.log says when, once)
+  uint64_t udp_peer_changes_ = 0; // as last reported in events.log
+  // The link record (RUN/link.tlog): sim time t is stamped record_epoch_us_ + t, the wall clock at the
+  // start of the run plus the simulated time, so the record reads as the flight's own timeline.
+  std::unique_ptr<tlog::TlogWriter> record_;
+  std::unique_ptr<tlog::TlogStream> record_up_, record_down_;
+  uint64_t record_epoch_us_ = 0;
   std::unique_ptr<FirmwareProcess> firmware_;
   std::unique_ptr<StationLoop> station_;  // rendered cameras and the vision station (camera.enabled)
 
@@ -229,6 +246,12 @@ Session::Session(const Scenario& s, const SessionOptions& o)
     if (symlink(ground_->slave_path().c_str(), o.ground_port_link.c_str()) != 0)
       throw std::runtime_error(o.ground_port_link + ": cannot create the ground port link: " + std::strerror(errno));
   }
+  if (o.gcs_udp) udp_ = std::make_unique<UdpLink>(*o.gcs_udp);
+  if (o.link_record) {
+    record_ = std::make_unique<tlog::TlogWriter>(o.out_dir + "/link.tlog");
+    record_up_ = std::make_unique<tlog::TlogStream>(*record_);
+    record_down_ = std::make_unique<tlog::TlogStream>(*record_);
+  }
   log_ = std::make_unique<CsvLog>(o.out_dir + "/log.csv", log_columns());
   events_ = std::fopen((o.out_dir + "/events.log").c_str(), "w");
   if (!events_) throw std::runtime_error(o.out_dir + "/events.log: cannot create");
@@ -245,7 +268,7 @@ template <class Msg>
 void Session::send_radio(const Msg& msg, mav::Sender& sender, double t) {
   uint8_t buf[mav::max_frame_length<Msg>()];
   const size_t n = sender.encode(msg, buf, sizeof buf);
-  radio_up_.send(buf, n, t);
+  radio_uplink(buf, n, t);
 }
 
 template <class Msg>
@@ -449,7 +472,37 @@ void Session::poll_ground_port(double t) {
   if (!ground_) return;
   uint8_t buf[4096];
   for (size_t n; (n = ground_->read_some(buf, sizeof buf)) > 0;)
-    ground_splitter_.feed(buf, n, [&](const mav::Frame& f) { radio_up_.send(f.bytes, f.size, t); });
+    ground_splitter_.feed(buf, n, [&](const mav::Frame& f) { radio_uplink(f.bytes, f.size, t); });
+}
+
+void Session::poll_gcs_udp(double t) {
+  // A datagram crosses the radio as one packet at the current simulated time, whatever it holds:
+  // frames the firmware does not know take their share of the radio too, and the firmware drops them.
+  if (!udp_) return;
+  uint8_t buf[2048];
+  for (size_t n; (n = udp_->receive(buf, sizeof buf)) > 0;) radio_uplink(buf, n, t);
+  if (udp_->stats().datagrams_received > 0 && !udp_heard_) {
+    udp_heard_ = true;
+    event(t, "gcs udp: first datagram from " + udp_->peer());
+  }
+  if (udp_->stats().peer_changes != udp_peer_changes_) {
+    udp_peer_changes_ = udp_->stats().peer_changes;
+    event(t, "gcs udp: sending to " + udp_->peer() + " (the latest sender)");
+  }
+}
+
+void Session::radio_uplink(const uint8_t* data, size_t size, double t) {
+  if (record_up_) record_up_->feed(data, size, record_time_us(t));
+  radio_up_.send(data, size, t);
+}
+
+void Session::radio_downlink(const uint8_t* data, size_t size, double t) {
+  if (record_down_) record_down_->feed(data, size, record_time_us(t));
+  if (ground_) ground_dropped_ += ground_->write_or_drop(data, size);
+  ground_parser_.feed(data, size, [&](const mav::Frame& f) {
+    if (udp_) udp_->send(f.bytes, f.size);  // whole frames, one per datagram, as a SITL sends them
+    handle_frame(f, t, "radio");
+  });
 }
 
 void Session::poll_uart2(double t) {
@@ -564,17 +617,14 @@ void Session::physics_period(double t_end) {
       // Rendered cameras and the vision station; a vision dropout hides the star.
       const auto& decoy = faults.vision_errors.decoy_ned;
       station_->update(now, truth.position_ned, truth.q_ib, faults.vision_dropout,
-                       [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); },
+                       [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); },
                        decoy ? std::optional<Eigen::Vector2d>(decoy->head<2>()) : std::nullopt);
     } else {
       vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
-      vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_up_.send(d, n, when); });
+      vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); });
     }
     if (o_.realtime) deliver_radio(now);
-    radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) {
-      if (ground_) ground_dropped_ += ground_->write_or_drop(d, n);
-      ground_parser_.feed(d, n, [&](const mav::Frame& f) { handle_frame(f, now, "radio"); });
-    });
+    radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) { radio_downlink(d, n, now); });
     if (o_.on_frame && now + 1e-9 >= next_frame_t_) {
       next_frame_t_ += 1.0 / o_.frame_rate_hz;
       o_.on_frame(vehicle_);
@@ -649,6 +699,30 @@ Json stats_json(const ErrorStats& e) {
   return j;
 }
 
+Json udp_json(const UdpLink& udp) {
+  const UdpLinkStats& st = udp.stats();
+  Json j;
+  j.add("configured", udp.configured()).add("peer", udp.peer()).add("local_port", static_cast<long>(udp.local_port()));
+  j.add("datagrams_sent", static_cast<long>(st.datagrams_sent)).add("datagrams_dropped", static_cast<long>(st.datagrams_dropped))
+      .add("datagrams_received", static_cast<long>(st.datagrams_received))
+      .add("bytes_received", static_cast<long>(st.bytes_received)).add("peer_changes", static_cast<long>(st.peer_changes));
+  return j;
+}
+
+// What the link record holds, and what it could not (unknown message ids, damaged frames).
+Json record_json(const tlog::TlogWriter& w, const tlog::TlogStream& up, const tlog::TlogStream& down) {
+  auto direction = [](const tlog::TlogStream& s) {
+    Json j;
+    j.add("frames", static_cast<long>(s.stats().frames_accepted)).add("bad_checksum", static_cast<long>(s.stats().bad_checksum))
+        .add("unknown_message", static_cast<long>(s.stats().unknown_message));
+    return j;
+  };
+  Json j;
+  j.add("file", "link.tlog").add("records", static_cast<long>(w.records()));
+  j.add("to_vehicle", direction(up)).add("from_vehicle", direction(down));
+  return j;
+}
+
 void Session::write_summary(bool complete, const std::string& reason) {
   const double wall = std::chrono::duration<double>(Clock::now() - wall_start_).count();
   const double sim = vehicle_.time();
@@ -693,6 +767,8 @@ void Session::write_summary(bool complete, const std::string& reason) {
   links.add("ground_station_received", ground_in).add("uart0_overruns", static_cast<long>(uart0_overruns_));
   links.add("radio_sync_timeouts", static_cast<long>(radio_sync_timeouts_));
   if (ground_) links.add("ground_port_bytes_dropped", static_cast<long>(ground_dropped_));
+  if (udp_) links.add("gcs_udp", udp_json(*udp_));
+  if (record_) links.add("link_record", record_json(*record_, *record_up_, *record_down_));
   Json j;
   j.add("scenario", s_.name).add("scenario_file", s_.path).add("seed", static_cast<long>(s_.seed));
   j.add("complete", complete);
@@ -756,6 +832,7 @@ void Session::start_processes() {
     for (const auto& a : argv) cmd += (cmd.empty() ? "" : " ") + a;
     event(0.0, "start: " + cmd);
     if (ground_) event(0.0, "ground port: " + o_.ground_port_link + " -> " + ground_->slave_path());
+    if (udp_) event(0.0, "gcs udp: local port " + std::to_string(udp_->local_port()) + ", sending to " + udp_->peer());
   }
   if (s_.camera.enabled) {
     if (o_.station_argv.empty()) throw std::runtime_error(s_.path + ": camera.enabled needs the vision station command");
@@ -840,6 +917,7 @@ std::string Session::control_period(double t, double period, double uart0_byte_s
   if (!stopped.empty()) return stopped;
   poll_uart2(t);
   poll_ground_port(t);
+  poll_gcs_udp(t);
   try {
     physics_period(t + period);
   } catch (const StationError& e) {
@@ -858,6 +936,7 @@ std::string Session::control_period(double t, double period, double uart0_byte_s
 SessionResult Session::run() {
   start_processes();
   wall_start_ = last_summary_ = Clock::now();
+  record_epoch_us_ = tlog::unix_micros_now();
   write_summary(false, "running");
   wait_for_firmware_hello();
   // The first HIL_SENSOR carries a real sample of the vehicle at rest (the IMU and magnetometer then
@@ -878,6 +957,7 @@ SessionResult Session::run() {
   result.wall_time_s = std::chrono::duration<double>(Clock::now() - wall_start_).count();
   result.crashed = metrics_.crashed();
   progress(vehicle_.time(), true);
+  if (record_) record_->flush();
   write_summary(result.complete, reason);
   if (!reason.empty()) event(vehicle_.time(), "cut short: " + reason);
   firmware_.reset();

@@ -59,6 +59,7 @@ class Bench {
     io.storage = quad::fw::StorageIo{&Bench::storage_read, &Bench::storage_write};
     io.write = &Bench::write;
     io.micros = &Bench::micros;
+    io.log_store = log_store;
     if (hil) {
       bridge = std::make_unique<quad::fw::HilBridge>();
       bridge->connect(*app, io);
@@ -183,6 +184,9 @@ class Bench {
   int frames_on[quad::hal::kPortCount] = {0, 0};
   int signed_frames_on[quad::hal::kPortCount] = {0, 0};
   std::vector<mav::SysStatus> statuses;
+  std::vector<std::pair<uint8_t, mav::LogEntry>> log_entries;
+  std::vector<std::pair<uint8_t, mav::LogData>> log_data;
+  const quad::fw::LogStore* log_store = nullptr;  // set before boot()
   // Frames the vehicle sent, by port and message id.
   std::map<uint32_t, int> messages_on[quad::hal::kPortCount];
   int count_on(uint8_t port, uint32_t message_id) const {
@@ -244,6 +248,10 @@ class Bench {
     if (mav::decode(f, act)) actuators.push_back(act);
     mav::SysStatus st;
     if (mav::decode(f, st)) statuses.push_back(st);
+    mav::LogEntry entry;
+    if (mav::decode(f, entry)) log_entries.emplace_back(port, entry);
+    mav::LogData data;
+    if (mav::decode(f, data)) log_data.emplace_back(port, data);
     mav::Timesync ts;
     if (mav::decode(f, ts)) {
       timesync = ts;

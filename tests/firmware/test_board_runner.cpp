@@ -52,6 +52,7 @@ uint16_t serial_write(Port port, const uint8_t* src, uint16_t length) {
   g_board->tx[port].insert(g_board->tx[port].end(), src, src + length);
   return length;
 }
+uint16_t serial_tx_free(Port) { return 0xFFFF; }
 uint16_t storage_size() { return static_cast<uint16_t>(g_board->eeprom.size()); }
 bool storage_read(uint16_t offset, void* dst, uint16_t length) {
   std::memcpy(dst, g_board->eeprom.data() + offset, length);

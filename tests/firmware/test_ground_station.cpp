@@ -194,6 +194,20 @@ bool stop_firmware(Pty& uart0, pid_t pid) {
   return false;
 }
 
+// node-mavlink reads a record quad_gs wrote (tools/node/tlog_check.js): every record one frame with a
+// valid CRC, time stamps in order, and the required frames. Returns its output; status in *status.
+std::string check_tlog(const std::string& path, const std::string& requirements, int* status) {
+  const std::string cmd = std::string("'") + QUAD_NODE_EXECUTABLE + "' '" + QUAD_NODE_DIR + "/tlog_check.js' '" + path +
+                          "' " + requirements + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[256];
+  while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  const int s = pclose(p);
+  *status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  return cmd + "\n" + out;
+}
+
 TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
   Pty uart0, uart2, ground;
   ASSERT_FALSE(ground.path.empty());
@@ -366,9 +380,14 @@ TEST(GroundStation, SignedRadioSession) {
     EXPECT_EQ(r.status, 1) << "wrong key: no answer " << r.out;
     EXPECT_NE(r.out.find("frames with a wrong signature dropped"), std::string::npos) << "the vehicle's telemetry fails our check too: " << r.out;
 
-    r = gs(ground.path, key + "arm");
+    const std::string tlog = ::testing::TempDir() + "gs_sign_test.tlog";
+    r = gs(ground.path, key + "--tlog " + tlog + " arm");
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("vehicle: MANUAL: armed"), std::string::npos) << r.out;
+    // The record holds the signed frames both ways, each whole (13-byte signature block included).
+    int status = -1;
+    const std::string check = check_tlog(tlog, "--require COMMAND_LONG@255 --require COMMAND_ACK@1", &status);
+    EXPECT_EQ(status, 0) << check;
     r = gs(ground.path, key + "disarm");
     EXPECT_EQ(r.status, 0) << r.out;
     r = gs(ground.path, key + "get SIGN_ENABLE");
@@ -376,6 +395,32 @@ TEST(GroundStation, SignedRadioSession) {
   }
   stop_firmware(uart0, pid);
   std::remove(storage.c_str());
+}
+
+// --tlog: the parameter list's session as a record, read back by node-mavlink's own tlog reader.
+TEST(GroundStation, RecordsTheSessionAsATlog) {
+  Pty uart0, uart2, ground;
+  ASSERT_FALSE(ground.path.empty());
+  const pid_t pid = start_firmware(uart0, uart2, "gs_tlog_test");
+  ASSERT_GT(pid, 0);
+  const std::string tlog = ::testing::TempDir() + "gs_tlog_test.tlog";
+  {
+    World world(uart0.master, uart2.master, ground.master);
+    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    const Result r = gs(ground.path, "--tlog " + tlog + " params");
+    ASSERT_EQ(r.status, 0) << r.out;
+    EXPECT_NE(r.out.find("frames recorded in " + tlog), std::string::npos) << r.out;
+  }
+  stop_firmware(uart0, pid);
+  int status = -1;
+  const std::string check = check_tlog(tlog, "--require PARAM_REQUEST_LIST@255 --require PARAM_VALUE@1:" +
+                                                 std::to_string(quad::fw::kParamCount), &status);
+  EXPECT_EQ(status, 0) << check;
+  EXPECT_NE(check.find("255 190 PARAM_REQUEST_LIST"), std::string::npos) << check;
+
+  const Result bad = gs("/dev/null", "--tlog /nonexistent/dir/x.tlog arm");
+  EXPECT_EQ(bad.status, 2) << bad.out;
+  EXPECT_NE(bad.out.find("/nonexistent/dir/x.tlog: cannot create"), std::string::npos) << bad.out;
 }
 
 TEST(GroundStation, UsageErrors) {

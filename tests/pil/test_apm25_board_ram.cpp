@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "at45db321d.h"
 #include "emulated_parts.h"
 #include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
@@ -79,6 +80,7 @@ struct Board {
   parts::Simavr16TwiFix twi_fix;
   parts::Mpu6000 mpu;
   parts::Hmc5883l hmc;
+  parts::At45db321d flash;  // the board's DataFlash, which the image's log store starts
   avr_irq_t* icp = nullptr;
   UartIn uart0, uart2;
   mav::Parser from_uart0;
@@ -105,7 +107,7 @@ struct Board {
     uart0.attach(avr, '0');
     uart2.attach(avr, '2');
     icp = avr_io_getirq(avr, AVR_IOCTL_TIMER_GETIRQ('5'), TIMER_IRQ_IN_ICP);
-    return icp != nullptr && twi_fix.attach(avr) && mpu.attach(avr) && hmc.attach(avr);
+    return icp != nullptr && twi_fix.attach(avr) && mpu.attach(avr) && hmc.attach(avr) && flash.attach(avr);
   }
 
   // The sensors of a level vehicle at rest, heading north, as the parts produce them: the MPU-6000 at

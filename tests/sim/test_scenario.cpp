@@ -18,6 +18,15 @@ std::string error_of(const std::string& yaml) {
   return "(no error)";
 }
 
+// The scenario for flying from a ground station (quad_sim --gcs) schedules nothing itself.
+TEST(Scenario, TheGroundStationScenarioLeavesEveryCommandToTheGroundStation) {
+  const Scenario s = load_scenario(QUAD_SIM_SOURCE_DIR "/scenarios/ground_station.yaml");
+  EXPECT_EQ(s.name, "ground_station");
+  EXPECT_TRUE(s.commands.empty());
+  EXPECT_GE(s.duration_s, 600.0);
+  EXPECT_TRUE(s.vision.enabled);
+}
+
 TEST(Scenario, EveryShippedScenarioLoads) {
   for (const char* name : {"hover", "steps", "square", "gusts", "faults", "flight", "flight_plain"}) {
     const Scenario s = load_scenario(std::string(QUAD_SIM_SOURCE_DIR) + "/scenarios/" + name + ".yaml");

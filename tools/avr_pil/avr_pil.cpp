@@ -3,7 +3,7 @@
 // simulator created), byte for byte, with flow control so no byte is dropped.
 //
 //   avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]
-//           [--params FILE] [--realtime] [--max-seconds S]
+//           [--params FILE] [--dataflash FILE] [--realtime] [--max-seconds S]
 //
 // The command line matches quad_firmware's, so the simulator starts either the same way
 // (`quad_sim --firmware "avr_pil --elf build/avr-apm25/firmware/quad_fw.elf"`). A port given no
@@ -16,6 +16,10 @@
 // stores it (fw::build_param_storage, the firmware's own params_save_all) and preloaded into the
 // EEPROM before the CPU starts, so the image boots with those values as quad_firmware does. Without it
 // the EEPROM starts erased: defaults.
+//
+// The board's DataFlash (AT45DB321D on USART3, at45db321d.h) is always attached, as on the board; with
+// --dataflash FILE its memory is read from FILE when it exists and written back at exit (a missing file:
+// a fresh chip), so one run's logs are there for the next.
 //
 // It also times the firmware's own work to the cycle: the flight application marks the phases of each
 // iteration on GPIOR1 (hal::TracePoint), and at exit this prints, each as median, 99th percentile,
@@ -32,6 +36,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "at45db321d.h"   // the board's DataFlash
 #include "param_file.h"    // fw::build_param_storage: the EEPROM image of a --params file
 #include "quad/firmware/params.h"  // SYS_LOOP_HZ: the period the iterations are measured against
 #include "quad/hal/hal.h"  // hal::TracePoint: the phase numbers the firmware writes to GPIOR1
@@ -50,6 +55,7 @@
 #include <cstring>
 #include <algorithm>
 #include <deque>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -319,7 +325,7 @@ bool pump(UartBridge& u) {
 int usage() {
   std::fprintf(stderr,
                "usage: avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]\n"
-               "               [--params FILE] [--realtime] [--max-seconds S]\n");
+               "               [--params FILE] [--dataflash FILE] [--realtime] [--max-seconds S]\n");
   return 2;
 }
 
@@ -338,7 +344,7 @@ bool preload_eeprom(avr_t* avr, std::vector<uint8_t>& blob) {  // non-const: sim
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string elf, uart0, uart2, params;
+  std::string elf, uart0, uart2, params, dataflash;
   bool realtime = false;
   double max_seconds = 0.0;
   for (int i = 1; i < argc; ++i) {
@@ -355,6 +361,7 @@ int main(int argc, char** argv) {
     else if (a == "--uart2") uart2 = value("--uart2");
     else if (a == "--uart0-baud" || a == "--uart2-baud") value(a.c_str());
     else if (a == "--params") params = value("--params");
+    else if (a == "--dataflash") dataflash = value("--dataflash");
     else if (a == "--realtime") realtime = true;
     else if (a == "--max-seconds") max_seconds = std::atof(value("--max-seconds"));
     else {
@@ -407,6 +414,17 @@ int main(int argc, char** argv) {
   if (u0.fd < 0 || u2.fd < 0) return 1;
   attach(avr, u0);
   attach(avr, u2);
+  // The board's DataFlash, always there (the images probe it); its memory from and back to --dataflash.
+  parts::At45db321d flash;
+  if (!flash.attach(avr)) {
+    std::fprintf(stderr, "avr_pil: cannot attach the emulated DataFlash to USART3\n");
+    return 1;
+  }
+  if (!dataflash.empty() && !flash.load(dataflash) && std::ifstream(dataflash).good()) {
+    std::fprintf(stderr, "avr_pil: --dataflash %s: not a %u-byte AT45DB321D image\n", dataflash.c_str(),
+                 parts::At45db321d::kPages * parts::At45db321d::kPageSize);
+    return 1;
+  }
 
   PhaseProfile profile;
   {
@@ -455,6 +473,11 @@ int main(int argc, char** argv) {
                static_cast<unsigned long long>(u0.bytes_out), static_cast<unsigned long long>(u2.bytes_in),
                static_cast<unsigned long long>(u2.bytes_out));
   std::fprintf(stderr, "avr_pil: peak stack %u bytes\n", static_cast<unsigned>(avr->ramend - lowest_sp));
+  if (flash.errors() > 0) std::fprintf(stderr, "avr_pil: the DataFlash refused %llu commands\n", static_cast<unsigned long long>(flash.errors()));
+  if (!dataflash.empty() && !flash.save(dataflash)) {
+    std::fprintf(stderr, "avr_pil: --dataflash %s: cannot write the DataFlash image\n", dataflash.c_str());
+    return 1;
+  }
   profile.report();
   avr_terminate(avr);
   return 0;

@@ -2,7 +2,7 @@
 // over a serial port: arm, disarm, switch mode, send a position setpoint, list / read / set parameters,
 // and watch the telemetry. It speaks MAVLink v2 as system 255, component 190 (docs/hil-protocol.md).
 //
-//   quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]
+//   quad_gs --port PATH [--baud N] [--key SECRET] [--tlog FILE] COMMAND [ARGS]
 //     arm | disarm [force] | mode manual|auto|land | land
 //     setpoint NORTH EAST DOWN [YAW_DEG]
 //     params                      every parameter as "NAME VALUE" (the quad_firmware --params format)
@@ -10,10 +10,17 @@
 //     watch [SECONDS]             print STATUSTEXT, mode changes and the position estimate
 //     signing-setup               send the --key to the vehicle (SETUP_SIGNING; the vehicle takes it on
 //                                 its USB port only); signing-off removes it
+//     logs list                   the vehicle's flight logs: id, bytes, start time
+//     logs download ID FILE       log ID into FILE, asking again for the ranges lost on the way; an
+//                                 interrupted download resumes from FILE.part and FILE.part.ranges
+//     logs erase                  erase every log (LOG_ERASE), then check that none is left
 //
 // --key SECRET signs every frame sent (MAVLink v2 signing, timestamps from the wall clock) and drops
 // received frames whose signature is wrong. SECRET is 64 hex digits (the 32-byte key) or a passphrase,
 // whose SHA-256 is the key (MAVProxy's "signing setup" convention).
+//
+// --tlog FILE records the session as a .tlog (docs/logging.md): every frame sent and received, each
+// with its wall-clock time, the format MAVProxy writes and MAVExplorer reads.
 //
 // Exit status: 0 done, 1 refused or no answer, 2 usage error or the port cannot be opened.
 #include <algorithm>
@@ -21,7 +28,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
+#include <fstream>
 #include <map>
+#include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -32,6 +43,7 @@
 #include "quad/link/mavlink.h"
 #include "quad/link/sha256.h"
 #include "quad/link/signing.h"
+#include "quad/link/tlog.h"
 
 namespace {
 
@@ -43,14 +55,16 @@ constexpr uint32_t kModeManual = 1, kModeAuto = 2, kModeLanding = 3;
 const char* const kModeNames[] = {"DISARMED", "MANUAL", "AUTO", "LANDING"};
 
 const char kUsage[] =
-    "usage: quad_gs --port PATH [--baud N] [--key SECRET] COMMAND [ARGS]\n"
+    "usage: quad_gs --port PATH [--baud N] [--key SECRET] [--tlog FILE] COMMAND [ARGS]\n"
     "  arm | disarm [force] | mode manual|auto|land | land\n"
     "  setpoint NORTH EAST DOWN [YAW_DEG]   position setpoint in NED metres (AUTO)\n"
     "  params                               list every parameter as 'NAME VALUE'\n"
     "  get NAME | set NAME VALUE            read or set one parameter\n"
     "  watch [SECONDS]                      print status text, mode and position (default 10 s)\n"
     "  signing-setup | signing-off          provision (over USB) or remove the --key on the vehicle\n"
-    "  --key SECRET: sign with this key: 64 hex digits, or a passphrase (key = its SHA-256)\n";
+    "  logs list | logs download ID FILE | logs erase   the vehicle's flight logs (MAVLink log protocol)\n"
+    "  --key SECRET: sign with this key: 64 hex digits, or a passphrase (key = its SHA-256)\n"
+    "  --tlog FILE: record every frame sent and received (.tlog, as MAVProxy writes it)\n";
 
 // The link id of this tool's signatures (the vehicle tracks streams per link, system and component).
 constexpr uint8_t kSigningLinkId = 0;
@@ -85,12 +99,21 @@ bool key_from_secret(const std::string& secret, mav::SigningKey* key) {
   return true;
 }
 
+// The session's record (--tlog): one stream per direction, so each record is one whole frame.
+struct Record {
+  explicit Record(const std::string& path) : file(path), to_vehicle(file), from_vehicle(file) {}
+  quad::tlog::TlogWriter file;
+  quad::tlog::TlogStream to_vehicle, from_vehicle;
+};
+
 // The link to the vehicle: the host HAL's UART0 on the given device, a parser and our identity.
 class Link {
  public:
-  // With a key every frame is signed and vehicle frames with a wrong signature are dropped.
-  explicit Link(const mav::SigningKey* key)
-      : sender_(255, mav::kCompIdMissionPlanner),
+  // With a key every frame is signed and vehicle frames with a wrong signature are dropped. With a
+  // record every byte sent and read is recorded.
+  Link(const mav::SigningKey* key, Record* record)
+      : record_(record),
+        sender_(255, mav::kCompIdMissionPlanner),
         key_(key != nullptr ? *key : mav::SigningKey{}),
         clock_(signing_now()),
         signer_(key_, clock_, kSigningLinkId),
@@ -102,6 +125,7 @@ class Link {
     uint8_t buf[mav::max_frame_length<Msg>(true)];
     clock_.advance_to(signing_now());
     const size_t n = signing_ ? mav::encode_signed(sender_, signer_, msg, buf, sizeof buf) : sender_.encode(msg, buf, sizeof buf);
+    if (record_) record_->to_vehicle.feed(buf, n, quad::tlog::unix_micros_now());
     size_t done = 0;
     while (done < n) {
       const uint16_t w = quad::hal::serial_write(quad::hal::kUart0, buf + done, static_cast<uint16_t>(n - done));
@@ -122,6 +146,7 @@ class Link {
       uint8_t buf[512];
       uint16_t n;
       while ((n = quad::hal::serial_read(quad::hal::kUart0, buf, sizeof buf)) > 0) {
+        if (record_) record_->from_vehicle.feed(buf, n, quad::tlog::unix_micros_now());
         parser_.feed(buf, n, [&](const mav::Frame& f) {
           if (f.system_id != kVehicleSystem) return;
           if (signing_ && !mav::accepted(verifier_.check(f))) {
@@ -146,6 +171,7 @@ class Link {
     }
   }
 
+  Record* record_;
   mav::Sender sender_;
   mav::Parser parser_;
   mav::SigningKey key_;
@@ -333,12 +359,234 @@ int watch(Link& link, double seconds) {
   return 0;
 }
 
+// ---------------------------------------------------------------------------------------------------
+// The log protocol
+
+template <class Msg>
+Msg addressed() {
+  Msg m;
+  m.target_system = kVehicleSystem;
+  m.target_component = kVehicleComponent;
+  return m;
+}
+
+// LOG_ENTRY of logs first..last (0xFFFF: to the last); empty with num_logs 0 when there are none.
+bool request_entries(Link& link, uint16_t first, uint16_t last, std::map<uint16_t, mav::LogEntry>* entries) {
+  mav::LogRequestList req = addressed<mav::LogRequestList>();
+  req.start = first;
+  req.end = last;
+  int expected = -1;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    link.send(req);
+    const bool done = link.receive(2000, [&](const mav::Frame& f) {
+      mav::LogEntry e;
+      if (!mav::decode(f, e)) return false;
+      if (e.num_logs == 0) {
+        expected = 0;
+        return true;
+      }
+      (*entries)[e.id] = e;
+      const int top = std::min<int>(last, e.last_log_num);
+      expected = top - first + 1;
+      return static_cast<int>(entries->size()) >= expected;
+    });
+    if (done) return true;
+  }
+  return expected == 0 || (expected > 0 && static_cast<int>(entries->size()) >= expected);
+}
+
+int list_logs(Link& link) {
+  std::map<uint16_t, mav::LogEntry> entries;
+  if (!request_entries(link, 1, 0xFFFF, &entries)) {
+    std::fprintf(stderr, "quad_gs: no complete log list from the vehicle\n");
+    return 1;
+  }
+  if (entries.empty()) std::printf("no logs\n");
+  for (const auto& kv : entries) {
+    char when[32] = "unknown time";
+    const time_t t = static_cast<time_t>(kv.second.time_utc);
+    if (kv.second.time_utc != 0) std::strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&t));
+    std::printf("%3u %10u bytes  %s\n", kv.first, kv.second.size, when);
+  }
+  return 0;
+}
+
+int erase_logs(Link& link) {
+  link.send(addressed<mav::LogErase>());
+  std::map<uint16_t, mav::LogEntry> entries;
+  link.receive(500, [](const mav::Frame&) { return false; });  // the vehicle's answer, if any (STATUSTEXT)
+  if (!request_entries(link, 1, 0xFFFF, &entries)) {
+    std::fprintf(stderr, "quad_gs: no log list after the erase\n");
+    return 1;
+  }
+  if (!entries.empty()) {
+    std::fprintf(stderr, "quad_gs: %zu logs still on the vehicle\n", entries.size());
+    return 1;
+  }
+  std::printf("logs erased\n");
+  return 0;
+}
+
+// The byte ranges of a download received so far, merged.
+class Ranges {
+ public:
+  void add(uint32_t begin, uint32_t end) {
+    if (begin >= end) return;
+    auto it = r_.upper_bound(begin);
+    if (it != r_.begin() && std::prev(it)->second >= begin) --it;
+    while (it != r_.end() && it->first <= end) {
+      begin = std::min(begin, it->first);
+      end = std::max(end, it->second);
+      it = r_.erase(it);
+    }
+    r_[begin] = end;
+  }
+  // The first range in [0, size) not received: false when there is none.
+  bool first_gap(uint32_t size, uint32_t* begin, uint32_t* end) const {
+    uint32_t at = 0;
+    for (const auto& kv : r_) {
+      if (kv.first > at) break;
+      at = std::max(at, kv.second);
+    }
+    if (at >= size) return false;
+    *begin = at;
+    auto next = r_.upper_bound(at);
+    *end = next == r_.end() ? size : std::min(size, next->first);
+    return true;
+  }
+  uint64_t bytes() const {
+    uint64_t n = 0;
+    for (const auto& kv : r_) n += kv.second - kv.first;
+    return n;
+  }
+  const std::map<uint32_t, uint32_t>& all() const { return r_; }
+
+ private:
+  std::map<uint32_t, uint32_t> r_;
+};
+
+// FILE.part holds the bytes, FILE.part.ranges the ranges received ("BEGIN END" per line) of log `id`
+// of `size` bytes (first line "log ID SIZE"): a later run with the same log resumes from them.
+void load_partial(const std::string& file, uint16_t id, uint32_t size, std::vector<uint8_t>* data, Ranges* have) {
+  std::ifstream meta(file + ".part.ranges");
+  std::string word;
+  unsigned meta_id = 0, meta_size = 0;
+  if (!(meta >> word >> meta_id >> meta_size) || word != "log" || meta_id != id || meta_size != size) return;
+  std::ifstream part(file + ".part", std::ios::binary);
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(part)), std::istreambuf_iterator<char>());
+  if (bytes.size() != size) return;
+  *data = bytes;
+  uint32_t b, e;
+  while (meta >> b >> e) have->add(b, std::min(e, size));
+}
+
+bool save_partial(const std::string& file, uint16_t id, const std::vector<uint8_t>& data, const Ranges& have) {
+  std::ofstream part(file + ".part", std::ios::binary | std::ios::trunc);
+  part.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
+  std::ofstream meta(file + ".part.ranges", std::ios::trunc);
+  meta << "log " << id << ' ' << data.size() << '\n';
+  for (const auto& kv : have.all()) meta << kv.first << ' ' << kv.second << '\n';
+  return part.good() && meta.good();
+}
+
+int download_log(Link& link, uint16_t id, const std::string& file) {
+  std::map<uint16_t, mav::LogEntry> entries;
+  if (!request_entries(link, id, id, &entries) || entries.count(id) == 0) {
+    std::fprintf(stderr, "quad_gs: the vehicle has no log %u\n", id);
+    return 1;
+  }
+  const uint32_t size = entries[id].size;
+  std::vector<uint8_t> data(size, 0);
+  Ranges have;
+  load_partial(file, id, size, &data, &have);
+  if (have.bytes() > 0) std::fprintf(stderr, "quad_gs: resuming log %u at %llu of %u bytes\n", id, static_cast<unsigned long long>(have.bytes()), size);
+  const uint32_t start_us = quad::hal::micros();
+  const uint64_t start_bytes = have.bytes();
+  uint32_t last_print_us = start_us;
+  int silent_requests = 0;
+  uint32_t gap_begin, gap_end;
+  // Each round asks for the first missing range (the vehicle streams it to its end, or to the next range
+  // it already sent) and takes LOG_DATA until the line has been quiet for 1 s.
+  while (have.first_gap(size, &gap_begin, &gap_end) && silent_requests < 10) {
+    mav::LogRequestData req = addressed<mav::LogRequestData>();
+    req.id = id;
+    req.ofs = gap_begin;
+    req.count = gap_end - gap_begin;
+    link.send(req);
+    bool any = false;
+    for (bool more = true; more;) {
+      more = link.receive(1000, [&](const mav::Frame& f) {
+        mav::LogData d;
+        if (!mav::decode(f, d) || d.id != id) return false;
+        const uint32_t n = std::min<uint32_t>(d.count, mav::LogData::kDataLength);
+        if (d.ofs < size && n > 0) {
+          const uint32_t end = std::min(size, d.ofs + n);
+          std::copy(d.data, d.data + (end - d.ofs), data.begin() + d.ofs);
+          have.add(d.ofs, end);
+          any = true;
+        }
+        const uint32_t now = quad::hal::micros();
+        if (now - last_print_us > 500000u) {
+          last_print_us = now;
+          const double s = (now - start_us) * 1e-6;
+          std::fprintf(stderr, "\rlog %u: %llu / %u bytes (%.0f %%), %.2f kB/s   ", id, static_cast<unsigned long long>(have.bytes()), size,
+                       100.0 * have.bytes() / std::max<uint32_t>(size, 1), (have.bytes() - start_bytes) / 1000.0 / std::max(s, 1e-3));
+        }
+        // This round is over when its range is complete (or the stream ended: count 0).
+        uint32_t b, e;
+        return d.count == 0 || !have.first_gap(size, &b, &e) || b != gap_begin;
+      });
+    }
+    silent_requests = any ? 0 : silent_requests + 1;
+  }
+  link.send(addressed<mav::LogRequestEnd>());
+  const double seconds = (quad::hal::micros() - start_us) * 1e-6;
+  std::fprintf(stderr, "\rlog %u: %llu / %u bytes in %.1f s, %.2f kB/s\n", id, static_cast<unsigned long long>(have.bytes()), size,
+               seconds, (have.bytes() - start_bytes) / 1000.0 / std::max(seconds, 1e-3));
+  if (have.first_gap(size, &gap_begin, &gap_end)) {
+    save_partial(file, id, data, have);
+    std::fprintf(stderr, "quad_gs: incomplete (no data for 10 requests); run the same command again to resume\n");
+    return 1;
+  }
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
+  if (!out.good()) {
+    std::fprintf(stderr, "quad_gs: cannot write %s\n", file.c_str());
+    return 1;
+  }
+  std::remove((file + ".part").c_str());
+  std::remove((file + ".part.ranges").c_str());
+  return 0;
+}
+
 bool parse_float(const char* s, float* out) {
   char* end = nullptr;
   const double v = std::strtod(s, &end);
   if (end == s || *end != '\0' || !std::isfinite(v)) return false;
   *out = static_cast<float>(v);
   return true;
+}
+
+// The command of the command line (checked by main()). 0 done, 1 refused or no answer.
+int run_command(Link& link, const std::vector<std::string>& args, const float* f, const mav::SigningKey& key) {
+  const std::string& cmd = args[0];
+  if (cmd == "arm") return command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
+  if (cmd == "disarm") return command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
+  if (cmd == "land") return command(link, mav::kCmdNavLand, 0.0f, 0.0f);
+  if (cmd == "mode") {
+    const uint32_t mode = args[1] == "manual" ? kModeManual : (args[1] == "auto" ? kModeAuto : kModeLanding);
+    return command(link, mav::kCmdDoSetMode, static_cast<float>(mav::kModeFlagCustomModeEnabled), static_cast<float>(mode));
+  }
+  if (cmd == "setpoint") return send_setpoint(link, f[0], f[1], f[2], args.size() == 5, f[3]);
+  if (cmd == "params") return list_params(link);
+  if (cmd == "get") return get_param(link, args[1]);
+  if (cmd == "set") return set_param(link, args[1], f[0]);
+  if (cmd == "watch") return watch(link, args.size() == 2 ? f[0] : 10.0);
+  if (cmd == "signing-setup" || cmd == "signing-off") return setup_signing(link, key, cmd == "signing-off");
+  if (cmd == "logs" && args[1] == "list") return list_logs(link);
+  if (cmd == "logs" && args[1] == "erase") return erase_logs(link);
+  if (cmd == "logs") return download_log(link, static_cast<uint16_t>(f[0]), args[3]);
+  return 1;
 }
 
 int usage(const char* why) {
@@ -352,7 +600,7 @@ int main(int argc, char** argv) {
   quad::hal::host::Config config;
   config.ports[quad::hal::kUart0].baud = 57600;
   std::vector<std::string> args;
-  std::string key_secret;
+  std::string key_secret, tlog_path;
   bool has_key = false;
   mav::SigningKey key{};
   for (int i = 1; i < argc; ++i) {
@@ -366,6 +614,11 @@ int main(int argc, char** argv) {
       key_secret = argv[++i];
       has_key = true;
       if (!key_from_secret(key_secret, &key)) return usage("--key: empty secret");
+      continue;
+    }
+    if (a == "--tlog") {
+      if (i + 1 >= argc) return usage("--tlog: missing value");
+      tlog_path = argv[++i];
       continue;
     }
     if (a == "--port" || a == "--baud") {
@@ -410,6 +663,11 @@ int main(int argc, char** argv) {
     if (!parse_float(args[2].c_str(), &f[0])) return usage(("not a number: '" + args[2] + "'").c_str());
   } else if (cmd == "watch") {
     if (args.size() > 2 || (args.size() == 2 && !parse_float(args[1].c_str(), &f[0]))) return usage("watch [SECONDS]");
+  } else if (cmd == "logs") {
+    const bool list_or_erase = args.size() == 2 && (args[1] == "list" || args[1] == "erase");
+    const bool download = args.size() == 4 && args[1] == "download" && parse_float(args[2].c_str(), &f[0]) &&
+                          f[0] >= 1.0f && f[0] <= 65535.0f && f[0] == std::floor(f[0]);
+    if (!list_or_erase && !download) return usage("logs list | logs download ID FILE (ID 1..65535) | logs erase");
   } else if (cmd == "signing-setup" || cmd == "signing-off") {
     if (args.size() != 1) return usage((cmd + " takes no arguments").c_str());
     if (cmd == "signing-setup" && !has_key) return usage("signing-setup needs --key SECRET");
@@ -417,26 +675,34 @@ int main(int argc, char** argv) {
     return usage(("unknown command '" + cmd + "'").c_str());
   }
 
+  std::unique_ptr<Record> record;
+  if (!tlog_path.empty()) {
+    try {
+      record = std::make_unique<Record>(tlog_path);
+    } catch (const std::runtime_error& e) {
+      std::fprintf(stderr, "quad_gs: --tlog %s\n", e.what());
+      return 2;
+    }
+  }
   std::string error;
   if (!quad::hal::host::open(config, &error)) {
     std::fprintf(stderr, "quad_gs: %s\n", error.c_str());
     return 2;
   }
-  Link link(has_key && cmd != "signing-setup" ? &key : nullptr);
+  Link link(has_key && cmd != "signing-setup" ? &key : nullptr, record.get());
   int status = 0;
-  if (cmd == "arm") status = command(link, mav::kCmdComponentArmDisarm, 1.0f, 0.0f);
-  else if (cmd == "disarm") status = command(link, mav::kCmdComponentArmDisarm, 0.0f, args.size() == 2 ? 21196.0f : 0.0f);
-  else if (cmd == "land") status = command(link, mav::kCmdNavLand, 0.0f, 0.0f);
-  else if (cmd == "mode") {
-    const uint32_t mode = args[1] == "manual" ? kModeManual : (args[1] == "auto" ? kModeAuto : kModeLanding);
-    status = command(link, mav::kCmdDoSetMode, static_cast<float>(mav::kModeFlagCustomModeEnabled), static_cast<float>(mode));
-  } else if (cmd == "setpoint") status = send_setpoint(link, f[0], f[1], f[2], args.size() == 5, f[3]);
-  else if (cmd == "params") status = list_params(link);
-  else if (cmd == "get") status = get_param(link, args[1]);
-  else if (cmd == "set") status = set_param(link, args[1], f[0]);
-  else if (cmd == "watch") status = watch(link, args.size() == 2 ? f[0] : 10.0);
-  else if (cmd == "signing-setup" || cmd == "signing-off") status = setup_signing(link, key, cmd == "signing-off");
+  try {
+    status = run_command(link, args, f, key);
+  } catch (const std::runtime_error& e) {  // the record could not be written
+    std::fprintf(stderr, "quad_gs: %s\n", e.what());
+    status = 1;
+  }
   if (link.rejected() > 0) std::fprintf(stderr, "quad_gs: %u frames with a wrong signature dropped\n", link.rejected());
+  if (record) {
+    record->file.flush();
+    std::fprintf(stderr, "quad_gs: %llu frames recorded in %s\n",
+                 static_cast<unsigned long long>(record->file.records()), tlog_path.c_str());
+  }
   quad::hal::host::close();
   return status;
 }

@@ -8,20 +8,26 @@
 #include <sstream>
 #include <string>
 
+#include "firmware_replay.h"
 #include "replay.h"
+#include "ulog_input.h"
 
 namespace {
 
 using quad::replay::AttitudeFilter;
 using quad::replay::ReplayOptions;
 
-const char* kUsage = R"(usage: estimation_replay [options] LOG.csv   (LOG "-" reads standard input)
+const char* kUsage = R"(usage: estimation_replay [options] LOG.csv|LOG.ulg   (LOG "-" reads CSV from standard input)
 
 Input: CSV with a header row; columns t gx gy gz ax ay az mx my mz, optionally vis_t vis_x vis_y vis_z.
+Or the firmware's flight log (ULog): sensor_combined, sensor_mag, vision_fix and its parameters.
 Output: CSV t,qw,qx,qy,qz,roll,pitch,yaw,bgx,bgy,bgz,px,py,pz,vx,vy,vz.
 
   -o FILE                 write the estimates to FILE (default: standard output)
-  --filter NAME           conditioned (default, thesis eq. 4.9), unconditioned (eq. 4.4), mahony, linear
+  --filter NAME           conditioned (default, thesis eq. 4.9), unconditioned (eq. 4.4), mahony, linear;
+                          firmware (ULog only): the firmware's StateEstimator with the logged parameters
+  --check-attitude TOL    (with --filter firmware) exit 1 unless every replayed attitude is within TOL of
+                          the logged vehicle_attitude.q (per component)
   --propagator NAME       second-order (default) or exact (thesis eq. 4.14)
   --k1 --k2 --k3 --k4 --kb --delta X   conditioned observer gains (thesis table 8.1 by default)
   --ki X                  integral gain of the unconditioned observer
@@ -61,6 +67,40 @@ quad::Vec3 triple(const std::string& option, const std::string& text) {
   return {number(option, a), number(option, b), number(option, c)};
 }
 
+// The firmware's estimator over a flight log; with tolerance >= 0, exit status 1 unless it reproduces
+// the logged attitude.
+int replay_firmware(const quad::ulog::File& log, double tolerance, std::ostream& out) {
+  const auto s = quad::replay::replay_firmware(log, tolerance < 0.0 ? 0.0 : tolerance, out);
+  out.flush();
+  if (!out) {
+    std::cerr << "estimation_replay: write error\n";
+    return 1;
+  }
+  std::cerr << "estimation_replay: firmware estimator, " << s.iterations << " iterations, " << s.fixes
+            << " vision fixes; " << s.compared << " logged attitudes compared, largest difference "
+            << s.max_q_difference << "\n";
+  if (!s.hovering_logged) {
+    std::cerr << "estimation_replay: warning: sensor_combined has no 'hovering' field: the in-flight "
+                 "accelerometer bias (EST_ABIAS_TAU) is replayed as never learning\n";
+  }
+  if (!s.calibrated) {
+    std::cerr << "estimation_replay: the boot calibration did not finish over the log's samples (a log that "
+                 "starts at arming lacks them: log from boot)\n";
+  }
+  if (tolerance < 0.0) return 0;
+  if (s.compared == 0) {
+    std::cerr << "estimation_replay: no logged vehicle_attitude shares a timestamp with a sensor_combined "
+                 "record: nothing to check (the IMU logged below the loop rate?)\n";
+    return 1;
+  }
+  if (!(s.max_q_difference <= tolerance)) {
+    std::cerr << "estimation_replay: the replayed attitude differs from the logged one by " << s.max_q_difference
+              << " > " << tolerance << ", first at t = " << s.first_difference_t << " s\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -68,12 +108,17 @@ int main(int argc, char** argv) {
   std::string input, output;
   bool mag_ref_given = false;
   quad::Vec3 mag_ref;
+  bool firmware = false;
+  double check_tolerance = -1.0;
 
   using Setter = std::function<void(const std::string&, const std::string&)>;
   const std::map<std::string, Setter> with_value = {
       {"-o", [&](auto&, auto& v) { output = v; }},
+      {"--check-attitude", [&](auto& k, auto& v) { check_tolerance = number(k, v); }},
       {"--filter",
        [&](auto& k, auto& v) {
+         firmware = v == "firmware";
+         if (firmware) return;
          static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::kConditioned},
                                                                      {"unconditioned", AttitudeFilter::kUnconditioned},
                                                                      {"mahony", AttitudeFilter::kMahony},
@@ -165,9 +210,26 @@ int main(int argc, char** argv) {
     o.linear.mag_ref_ned = quad::Vec3{1.0f, 0.0f, 0.0f};  // no declination: heading from magnetic north
   }
 
+  const bool ulog_input = input != "-" && quad::replay::is_ulog(input);
+  if (firmware && !ulog_input) usage_error("--filter firmware needs a ULog flight log");
+  if (check_tolerance >= 0.0 && !firmware) usage_error("--check-attitude needs --filter firmware");
+  std::ofstream file;
+  if (!output.empty()) {
+    file.open(output);
+    if (!file) {
+      std::cerr << "estimation_replay: cannot write '" << output << "'\n";
+      return 1;
+    }
+  }
+  std::ostream& out = output.empty() ? std::cout : file;
+
   std::vector<quad::replay::LogRow> rows;
   try {
-    if (input == "-") {
+    if (ulog_input) {
+      const quad::ulog::File log(input);
+      if (firmware) return replay_firmware(log, check_tolerance, out);
+      rows = quad::replay::rows_from_ulog(log);
+    } else if (input == "-") {
       rows = quad::replay::read_log(std::cin, "<stdin>");
     } else {
       std::ifstream in(input);
@@ -180,17 +242,11 @@ int main(int argc, char** argv) {
   } catch (const quad::replay::LogError& e) {
     std::cerr << "estimation_replay: " << e.what() << "\n";
     return 1;
+  } catch (const quad::ulog::Error& e) {
+    std::cerr << "estimation_replay: " << e.what() << "\n";
+    return 1;
   }
 
-  std::ofstream file;
-  if (!output.empty()) {
-    file.open(output);
-    if (!file) {
-      std::cerr << "estimation_replay: cannot write '" << output << "'\n";
-      return 1;
-    }
-  }
-  std::ostream& out = output.empty() ? std::cout : file;
   const auto s = quad::replay::replay(rows, o, out);
   out.flush();
   if (!out) {

@@ -6,6 +6,7 @@
 //   FlightControl   modes and failsafes, setpoints, trim, cascade, mixer, landing (flight_control.h)
 //   GroundLink      MAVLink on both ports: parsers, signing, parameters, commands (ground_link.h),
 //                   with the telemetry streams (telemetry.h)
+//   FlightLogger    the flight's ULog in the target's log store (flight_logger.h)
 //
 // It references no HAL symbol. A per-target runner owns the loop: it hands the application the bytes each
 // serial port received (receive()) and, on boards with sensors, each IMU sample (step()); the application
@@ -24,6 +25,7 @@
 #include <stdint.h>
 
 #include "quad/firmware/flight_control.h"
+#include "quad/firmware/flight_logger.h"
 #include "quad/firmware/frame_schedule.h"
 #include "quad/firmware/ground_link.h"
 #include "quad/firmware/params.h"
@@ -47,6 +49,11 @@ struct AppIo {
   void (*console)(uint8_t severity, const char* text, uint8_t length) = nullptr;
   // Optional: marks the phases of an iteration for a profiler (hal::trace on a board).
   void (*trace)(hal::TracePoint point) = nullptr;
+  // Optional: the flight logs (a target's LogStore: log_store.h), written by the flight log and served by
+  // the log protocol; null: no logs (nothing written, LOG_ENTRY num_logs 0).
+  const LogStore* log_store = nullptr;
+  // Optional: bytes a port's transmit queue takes now (hal::serial_tx_free); null: as many as offered.
+  uint16_t (*tx_free)(uint8_t port) = nullptr;
   // Hardware-in-the-loop: HIL_SENSOR frames go to this hook (HilBridge::connect sets it); null on a board,
   // whose sensors come from its drivers.
   void (*hil_sensor)(void* context, const mavlink::Frame& frame) = nullptr;
@@ -97,7 +104,7 @@ class FlightApp {
 
   FlightMode mode() const { return control_.mode(); }
   bool armed() const { return control_.armed(); }
-  bool hil() const { return io_.hil_sensor != nullptr; }
+  bool hil() const { return hil_sensor_ != nullptr; }
   // Status LED: fast blink while calibrating, slow blink when ready, steady when armed.
   bool led(uint32_t now_us) const;
   bool calibrated() const { return estimator_.calibrated(); }
@@ -109,6 +116,9 @@ class FlightApp {
   LoopTimer& loop_timer() { return loop_timer_; }
   const StateEstimator& estimator() const { return estimator_; }
   const FlightControl& control() const { return control_; }
+  const FlightLogger& logger() const { return logger_; }
+  // Closes the open flight log (the host firmware at exit).
+  void close_log() { logger_.stop(); }
   GroundLink& link() { return link_; }
   const GroundLink& link() const { return link_; }
   Vec3 position() const { return estimator_.position(); }
@@ -150,17 +160,26 @@ class FlightApp {
   // One step of the fusion (the whole of it at 100 Hz, else a gate or an update), traced, with its
   // result counted once it is final.
   template <class Step>
-  void fix_step(Step step);
-  // A fix as a NED position at its capture time: fused, queued, or refused.
-  void position_fix_at(const Vec3& p_ned, uint32_t capture_us);
+  LogFixResult fix_step(Step step);
+  // A fix as a NED position at its capture time: fused, queued, or refused; q: the star's attitude
+  // (LANDING_TARGET.q) for the log, or null.
+  void position_fix_at(const Vec3& p_ned, uint32_t capture_us, const float* q);
+  // A LANDING_TARGET for the EKF: queued with its body-frame star and attitude, logged.
   void star_fix_ekf(const mavlink::LandingTarget& msg, uint32_t capture_us);
+  // Every STATUSTEXT line, for the flight log (GroundLink::Io::statustext; context: the application).
+  static void log_statustext(void* app, const mavlink::Statustext& msg);
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).
   void fix_result(est::FixResult r, bool reset);
   void mark(hal::TracePoint point) const {
-    if (io_.trace != nullptr) io_.trace(point);
+    if (trace_ != nullptr) trace_(point);
   }
 
-  AppIo io_{};
+  // The hooks of AppIo the application calls itself; the ground link keeps the storage, write and
+  // console ones (one copy of each in SRAM).
+  uint32_t (*micros_)() = nullptr;
+  void (*trace_)(hal::TracePoint point) = nullptr;
+  void (*hil_sensor_)(void* context, const mavlink::Frame& frame) = nullptr;
+  void* hil_context_ = nullptr;
   Params params_;
   StoreStatus store_status_ = StoreStatus::kEmpty;
   LoopTimer loop_timer_;
@@ -169,6 +188,7 @@ class FlightApp {
   FlightControl control_;
   GroundLink link_;
   Telemetry telemetry_;
+  FlightLogger logger_;
   RcSwitchEdges switch_edges_;
 
   uint32_t now_us_ = 0;        // vehicle time: the last step, or (on a board) the last receive()
@@ -179,7 +199,6 @@ class FlightApp {
   bool overrun_reported_ = false;  // in this flight (cleared while disarmed)
   uint32_t vision_time_us_ = 0;   // when the last fix was taken, on the vehicle clock
   uint8_t fixes_rejected_in_a_row_ = 0;  // vision fixes the filter refused since it last took one
-  uint32_t iterations_ = 0;
   uint32_t fixes_received_ = 0;
   uint32_t fixes_fused_ = 0;
   uint32_t fixes_rejected_ = 0;

@@ -76,6 +76,8 @@ class FlightControl {
   bool rc_fresh(const ModeInputs& in) const { return modes_.rc_fresh(in); }
   bool landed() const { return landed_; }
   const float (&motors() const)[hal::kMotorCount] { return motors_; }
+  // The position setpoint the mode set (AUTO: the shaper's; LANDING: where the descent started).
+  const ctrl::PositionSetpoint& setpoint() const { return setpoint_; }
   Vec3 position_trim() const { return trim_.accel(); }
   float hover_trim() const { return trim_.accel_z(); }
 

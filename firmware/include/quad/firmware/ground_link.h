@@ -3,7 +3,8 @@
 //
 // It owns the parsers and senders, the radio's signing, the one check that a message is addressed to this
 // vehicle, the parameter protocol's wire side, the translation of commands and RC frames, TIMESYNC and key
-// provisioning. What the messages ask of the vehicle goes to a handler (the flight application) through
+// provisioning, and the log protocol's wire side (LOG_REQUEST_LIST .. LOG_REQUEST_END, served from the
+// LogStore in Io). What the messages ask of the vehicle goes to a handler (the flight application) through
 // plain member calls resolved at compile time (receive() is a template): no virtual dispatch.
 //
 // The handler provides:
@@ -22,6 +23,7 @@
 #include <stdint.h>
 
 #include "quad/firmware/flight_control.h"
+#include "quad/firmware/log_store.h"
 #include "quad/firmware/params.h"
 #include "quad/firmware/radio_signing.h"
 #include "quad/firmware/status_text.h"
@@ -52,11 +54,20 @@ class GroundLink {
     uint16_t (*write)(uint8_t port, const uint8_t* data, uint16_t length);
     // Optional: every STATUSTEXT line also goes here (the host prints it on stderr).
     void (*console)(uint8_t severity, const char* text, uint8_t length);
+    // Optional: every STATUSTEXT message also goes here, with its context (the flight log).
+    void (*statustext)(void* context, const mavlink::Statustext& msg);
+    void* statustext_context;
+    // Optional: the flight logs served by the log protocol (null: the vehicle holds none).
+    const LogStore* log_store;
+    // Optional: bytes a port's transmit queue takes now (null: as many as offered); LOG_DATA waits for
+    // room for a whole frame.
+    uint16_t (*tx_free)(uint8_t port);
   };
 
   // params: the table in force, read by the parameter protocol.
   void init(const Io& io, const Params* params);
   // False when the key store is corrupt.
+  const StorageIo& storage() const { return io_.storage; }
   bool load_signing_key() { return radio_.load(io_.storage); }
   void configure(const Params& p) { radio_.set_enabled(p.get(kSignEnable) >= 0.5f); }
 
@@ -66,7 +77,11 @@ class GroundLink {
   void receive(uint8_t port, const uint8_t* data, uint16_t length, Handler& h);
 
   // Work spread over the loop's iterations: the next parameter of a PARAM_REQUEST_LIST being answered.
-  void stream_params();
+  // Returns whether it sent one.
+  bool stream_params();
+  // The next LOG_ENTRY of a LOG_REQUEST_LIST, else the next LOG_DATA of a LOG_REQUEST_DATA when its port
+  // has room for it (ground_link_logs.cpp). Returns whether it sent one.
+  bool stream_logs();
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground,
   // at most every few seconds, and at once with force.
   void persist_signing_clock(uint32_t now_us, bool force) { radio_.persist_clock(io_.storage, now_us, force); }
@@ -98,6 +113,13 @@ class GroundLink {
   bool to_mode_command(uint8_t port, const mavlink::CommandLong& cmd, Command* c);
   void on_setup_signing(uint8_t port, const mavlink::SetupSigning& msg);
   void on_timesync(uint8_t port, const mavlink::Timesync& msg, uint64_t now_us);
+  // The log protocol's messages (ground_link_logs.cpp); other frames are ignored.
+  void dispatch_log(uint8_t port, const mavlink::Frame& frame);
+  void on_log_request_list(uint8_t port, const mavlink::LogRequestList& msg);
+  void on_log_request_data(uint8_t port, const mavlink::LogRequestData& msg);
+  void on_log_erase();
+  void send_log_entry(uint8_t port, uint16_t id);
+  void send_log_data();
   void report_param_update(ParamUpdate u, uint8_t index);
   void send_param(uint8_t port, uint8_t index);
   void send_ack(uint8_t port, uint16_t command, uint8_t result);
@@ -113,6 +135,12 @@ class GroundLink {
       mavlink::Sender(mavlink::kVehicleSystemId, mavlink::kVehicleComponentId)};
   int16_t param_stream_next_ = -1;  // next index of a PARAM_REQUEST_LIST being answered, -1 when idle
   uint8_t param_stream_port_ = 0;
+  // The log protocol's streams: LOG_ENTRY list_next..list_last (list_next 0: idle), LOG_DATA of log
+  // data_id (0: idle) from data_ofs up to data_end (exclusive).
+  uint16_t list_next_ = 0, list_last_ = 0;
+  uint8_t list_port_ = 0, data_port_ = 0;
+  uint16_t data_id_ = 0;
+  uint32_t data_ofs_ = 0, data_end_ = 0;
   LinkCounters counters_;
 };
 
@@ -216,6 +244,7 @@ void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h)
       break;
     }
     default:
+      dispatch_log(port, frame);
       break;
   }
 }

@@ -96,6 +96,12 @@ class StateEstimator {
   Vec3 position() const;
   Vec3 velocity() const;
   Vec3 accel_bias() const { return accel_bias_.bias(); }
+  // The observer's gyro bias (rad/s, FRD); the position filter's acceleration bias states (m/s^2, NED;
+  // zero on axes without one) and the diagonal of its covariance (the flight log).
+  Vec3 gyro_bias() const { return observer_.gyro_bias(); }
+  Vec3 filter_accel_bias() const { return filter_.accel_bias(); }
+  Vec3 position_variance() const;
+  Vec3 velocity_variance() const;
 
  private:
   void calibrate(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, EstimatorEvent* event);

@@ -51,6 +51,9 @@ void idle(uint32_t max_wait_us);
 // queues as many bytes as fit and returns that number.
 uint16_t serial_read(Port port, uint8_t* dst, uint16_t capacity);
 uint16_t serial_write(Port port, const uint8_t* src, uint16_t length);
+// Bytes serial_write() would take now (the transmit queue's free space; on the host, the room a UART of
+// the port's baud rate with the AVR's queue would have).
+uint16_t serial_tx_free(Port port);
 
 // Persistent storage for the parameters (EEPROM on the AVR, a file on the host). Returns false when
 // the range lies outside the storage or the device fails.

@@ -427,6 +427,107 @@ struct HilStateQuaternion {
   }
 };
 
+// LOG_REQUEST_LIST (117): ask for the LOG_ENTRY of logs start..end (0xFFFF: to the last).
+struct LogRequestList {
+  static constexpr uint32_t kId = 117;
+  static constexpr uint8_t kCrcExtra = 128;
+  static constexpr uint8_t kBaseLength = 6;
+  static constexpr uint8_t kLength = 6;
+  static constexpr const char* kName = "LOG_REQUEST_LIST";
+  uint16_t start = 0;
+  uint16_t end = 0;
+  uint8_t target_system = 0;
+  uint8_t target_component = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.start); io(m.end); io(m.target_system); io(m.target_component);
+  }
+};
+
+// LOG_ENTRY (118): one log held by the vehicle (id 1..num_logs; num_logs 0: none).
+struct LogEntry {
+  static constexpr uint32_t kId = 118;
+  static constexpr uint8_t kCrcExtra = 56;
+  static constexpr uint8_t kBaseLength = 14;
+  static constexpr uint8_t kLength = 14;
+  static constexpr const char* kName = "LOG_ENTRY";
+  uint32_t time_utc = 0;  // s since 1970, 0 when unknown
+  uint32_t size = 0;      // bytes
+  uint16_t id = 0;
+  uint16_t num_logs = 0;
+  uint16_t last_log_num = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.time_utc); io(m.size); io(m.id); io(m.num_logs); io(m.last_log_num);
+  }
+};
+
+// LOG_REQUEST_DATA (119): ask for count bytes of log id from ofs (0xFFFFFFFF: to its end).
+struct LogRequestData {
+  static constexpr uint32_t kId = 119;
+  static constexpr uint8_t kCrcExtra = 116;
+  static constexpr uint8_t kBaseLength = 12;
+  static constexpr uint8_t kLength = 12;
+  static constexpr const char* kName = "LOG_REQUEST_DATA";
+  uint32_t ofs = 0;
+  uint32_t count = 0;
+  uint16_t id = 0;
+  uint8_t target_system = 0;
+  uint8_t target_component = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.ofs); io(m.count); io(m.id); io(m.target_system); io(m.target_component);
+  }
+};
+
+// LOG_DATA (120): count bytes of log id at ofs (count 0: ofs is at or past the end).
+struct LogData {
+  static constexpr uint32_t kId = 120;
+  static constexpr uint8_t kCrcExtra = 134;
+  static constexpr uint8_t kBaseLength = 97;
+  static constexpr uint8_t kLength = 97;
+  static constexpr const char* kName = "LOG_DATA";
+  static constexpr uint8_t kDataLength = 90;
+  uint32_t ofs = 0;
+  uint16_t id = 0;
+  uint8_t count = 0;
+  uint8_t data[kDataLength] = {};
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.ofs); io(m.id); io(m.count); io(m.data);
+  }
+};
+
+// LOG_ERASE (121): erase every log.
+struct LogErase {
+  static constexpr uint32_t kId = 121;
+  static constexpr uint8_t kCrcExtra = 237;
+  static constexpr uint8_t kBaseLength = 2;
+  static constexpr uint8_t kLength = 2;
+  static constexpr const char* kName = "LOG_ERASE";
+  uint8_t target_system = 0;
+  uint8_t target_component = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.target_system); io(m.target_component);
+  }
+};
+
+// LOG_REQUEST_END (122): stop sending LOG_DATA.
+struct LogRequestEnd {
+  static constexpr uint32_t kId = 122;
+  static constexpr uint8_t kCrcExtra = 203;
+  static constexpr uint8_t kBaseLength = 2;
+  static constexpr uint8_t kLength = 2;
+  static constexpr const char* kName = "LOG_REQUEST_END";
+  uint8_t target_system = 0;
+  uint8_t target_component = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.target_system); io(m.target_component);
+  }
+};
+
 // LANDING_TARGET (149): a target seen from the vehicle; here the star, x/y/z in body FRD (frame 12).
 struct LandingTarget {
   static constexpr uint32_t kId = 149;
@@ -485,7 +586,8 @@ void for_each_message_type(F&& f) {
   f(Heartbeat{}); f(SysStatus{}); f(ParamRequestRead{}); f(ParamRequestList{}); f(ParamValue{});
   f(ParamSet{}); f(AttitudeQuaternion{}); f(LocalPositionNed{}); f(ManualControl{}); f(CommandLong{});
   f(CommandAck{}); f(SetPositionTargetLocalNed{}); f(HilActuatorControls{}); f(VisionPositionEstimate{});
-  f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LandingTarget{}); f(Statustext{});
+  f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LogRequestList{}); f(LogEntry{});
+  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(Statustext{});
 }
 
 // The declared lengths must equal the sum of the declared fields: a missing or mistyped field fails to
@@ -512,6 +614,12 @@ static_assert(lengths_match_fields<VisionPositionEstimate>(), "VISION_POSITION_E
 static_assert(lengths_match_fields<HilSensor>(), "HIL_SENSOR layout");
 static_assert(lengths_match_fields<Timesync>(), "TIMESYNC layout");
 static_assert(lengths_match_fields<HilStateQuaternion>(), "HIL_STATE_QUATERNION layout");
+static_assert(lengths_match_fields<LogRequestList>(), "LOG_REQUEST_LIST layout");
+static_assert(lengths_match_fields<LogEntry>(), "LOG_ENTRY layout");
+static_assert(lengths_match_fields<LogRequestData>(), "LOG_REQUEST_DATA layout");
+static_assert(lengths_match_fields<LogData>(), "LOG_DATA layout");
+static_assert(lengths_match_fields<LogErase>(), "LOG_ERASE layout");
+static_assert(lengths_match_fields<LogRequestEnd>(), "LOG_REQUEST_END layout");
 static_assert(lengths_match_fields<LandingTarget>(), "LANDING_TARGET layout");
 static_assert(lengths_match_fields<Statustext>(), "STATUSTEXT layout");
 

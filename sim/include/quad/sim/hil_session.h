@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "quad/sim/scenario.h"
+#include "quad/sim/udp_link.h"
 
 namespace quad::sim {
 
@@ -32,6 +33,11 @@ struct SessionOptions {
   // station): a symlink at this path to a pseudo-terminal. Frames written there cross the emulated
   // radio to UART2; what the firmware sends on UART2 comes out there. Empty: no ground port.
   std::string ground_port_link;
+  // A ground station over UDP (quad/sim/udp_link.h): the frames coming out of the ground side of the
+  // radio go to it, its datagrams enter the radio there, like the ground port's frames.
+  std::optional<UdpEndpoint> gcs_udp;
+  // RUN/link.tlog: every frame at the ground side of the radio, both ways (quad/link/tlog.h).
+  bool link_record = true;
   // The vision station command, used when the scenario renders the cameras (`camera: {enabled: true}`):
   // the sim appends --calib FILE --settings FILE --source sim:SOCKET --out PTY --baud B --status-s 10 --timeout-ms 60000
   // (quad/sim/station_loop.h).

@@ -1,0 +1,113 @@
+// A PX4 ULog writer (https://docs.px4.io/main/en/dev_log/ulog_file_format.html, version 1, little-endian)
+// over a LogStore (log_store.h): the file header, the flag bits, formats, information, parameters,
+// add_logged, data and logged strings, as whole records.
+//
+// It owns one small staging buffer and no other storage. A record is composed in the buffer and handed to
+// the store; what the store does not take at once (busy) stays in the buffer and goes first on the next
+// call, so the stream never loses part of a record. A record that finds no room behind the pending bytes
+// is dropped whole and counted (dropped()). A format record is longer than the buffer: its text stays in
+// flash and is copied in behind the buffer as the store drains it, and no other record is queued until it
+// has all gone.
+//
+// All three targets are little-endian with IEEE-754 floats, so a field's bytes are its memory image.
+#pragma once
+
+#include <stdint.h>
+#include <string.h>
+
+#include "quad/firmware/flash.h"
+#include "quad/firmware/log_store.h"
+
+namespace quad {
+namespace fw {
+
+namespace ulog {
+// Message types.
+constexpr uint8_t kFlagBits = 'B';
+constexpr uint8_t kFormat = 'F';
+constexpr uint8_t kInfo = 'I';
+constexpr uint8_t kParameter = 'P';
+constexpr uint8_t kAddLogged = 'A';
+constexpr uint8_t kData = 'D';
+constexpr uint8_t kLogging = 'L';
+
+constexpr uint8_t kFileHeaderBytes = 16;   // "ULog" 01 12 35, version, uint64 timestamp
+constexpr uint8_t kMessageHeaderBytes = 3;  // uint16 msg_size (payload), uint8 msg_type
+constexpr uint8_t kFlagBitsPayload = 40;    // compat[8], incompat[8], appended_offsets[3] (uint64)
+constexpr uint8_t kDataHeaderBytes = kMessageHeaderBytes + 2;  // and the uint16 msg_id
+
+// Bytes a data record of a topic whose fields take `fields` bytes occupies in the file.
+constexpr uint8_t data_record_bytes(uint8_t fields) { return static_cast<uint8_t>(kDataHeaderBytes + fields); }
+}  // namespace ulog
+
+// Fills a data record's fields in order (a cursor into the staging buffer). Out of line: one copy of each
+// on the AVR rather than a memcpy per field of every record.
+class UlogFields {
+ public:
+  explicit UlogFields(uint8_t* p) : p_(p) {}
+  UlogFields& u8(uint8_t v);
+  UlogFields& u32(uint32_t v);
+  UlogFields& u64(uint64_t v);
+  UlogFields& f32(float v);
+  UlogFields& f32(const float* v, uint8_t n);
+  UlogFields& bytes(const void* v, uint8_t n);
+
+ private:
+  uint8_t* p_;
+};
+
+class UlogWriter {
+ public:
+  // The largest record composed in RAM: the biggest data record (vehicle_local_position, 73 bytes) with
+  // a little room for one more behind bytes the store has not taken yet.
+  static constexpr uint8_t kStagingBytes = 80;
+
+  // store: where the log goes; null, or a store without open(), means nowhere (every open() fails).
+  void attach(const LogStore* store) { store_ = store; }
+  bool has_store() const { return store_ != nullptr && store_->open != nullptr && store_->append != nullptr; }
+
+  // Opens a new log in the store and queues the file header (timestamp_us: the vehicle clock) and the
+  // flag bits. False when there is no store or it refused.
+  bool open(uint64_t timestamp_us, uint32_t time_utc_s);
+  // Hands what it can of the pending bytes to the store, and closes the log (the rest is lost).
+  void close();
+  bool is_open() const { return open_; }
+
+  // Definitions (before the first add_logged) and data. Each queues one whole record and returns true,
+  // or queues nothing and counts a drop.
+  bool format(FlashText format);                   // "name:type field;type field;..."
+  bool add_logged(uint16_t msg_id, FlashText format);  // the name is format's text before ':'
+  bool info(FlashText name, FlashText value);      // key "char[N] name"
+  bool info(FlashText name, uint32_t value);       // key "uint32_t name"
+  bool parameter(const char* name, float value);   // key "float NAME"
+  bool logged_string(uint8_t level, uint64_t timestamp_us, const char* text, uint8_t length);
+  // A data record of `size` field bytes: returns the cursor for its fields, or null (dropped). The
+  // caller writes exactly `size` bytes, then calls commit().
+  uint8_t* begin_data(uint16_t msg_id, uint8_t size);
+  void commit() { flush(); }
+
+  // Hands pending bytes to the store; true when nothing is left.
+  bool flush();
+  bool idle() const { return head_ == tail_ && flash_left_ == 0; }
+  uint32_t dropped() const { return dropped_; }
+
+ private:
+  // Room for a record of `in_buffer` bytes after the message header; the header is written with
+  // msg_size = payload. Null (and a drop counted) when there is none.
+  uint8_t* reserve(uint8_t type, uint16_t payload, uint8_t in_buffer);
+
+  const LogStore* store_ = nullptr;
+  uint8_t buffer_[kStagingBytes];
+  uint8_t head_ = 0;  // the first byte the store has not taken
+  uint8_t tail_ = 0;  // the end of the queued bytes
+  const char* flash_rest_ = nullptr;  // what remains of a format's text in flash, after the buffer
+  uint16_t flash_left_ = 0;
+  uint32_t dropped_ = 0;
+  bool open_ = false;
+};
+
+// Length of a text in flash.
+uint16_t flash_length(FlashText text);
+
+}  // namespace fw
+}  // namespace quad

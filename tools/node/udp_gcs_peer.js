@@ -1,0 +1,263 @@
+#!/usr/bin/env node
+// A ground station made of node-mavlink, over a real UDP socket, against `quad_sim --gcs` (the
+// simulator's ground-station bridge, docs/logging.md "Ground stations over UDP"): it listens on a free
+// port of 127.0.0.1 as QGroundControl listens on 14550, starts the simulator with
+// `--gcs udp:127.0.0.1:PORT --realtime`, answers the address the vehicle's datagrams come from, and
+// runs the steps below in order. Each step prints one line `step NAME: ok ...` or `step NAME: FAILED ...`.
+//
+//   node udp_gcs_peer.js --sim QUAD_SIM --scenario FILE --out DIR --modes DIALECT_H [-- EXTRA SIM ARGS]
+//
+// --modes: link/include/quad/link/dialect.h, where the flight-mode numbers are defined (the number of
+// AUTO is read from it, as a user reads it from docs/mavlink.md). When every step has passed, the
+// simulator is stopped with SIGINT (its run folder keeps link.tlog and summary.json). Exit status 0 all
+// steps passed; 1 a step failed or the simulator ended early; 2 usage.
+'use strict';
+
+const dgram = require('dgram');
+const fs = require('fs');
+const { spawn } = require('child_process');
+const {
+  minimal, common, MavLinkProtocolV2, MavLinkPacketSplitter, MavLinkPacketParser,
+} = require('node-mavlink');
+
+const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
+const VEHICLE = { system: 1, component: 1 };
+const MAV_MODE_FLAG_SAFETY_ARMED = 128;
+const MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1;
+const MAV_RESULT_ACCEPTED = 0;
+
+function usage(message) {
+  console.error(`udp_gcs_peer: ${message}\n` +
+    'usage: node udp_gcs_peer.js --sim QUAD_SIM --scenario FILE --out DIR --modes DIALECT_H [-- EXTRA SIM ARGS]');
+  process.exit(2);
+}
+
+function parseArguments(argv) {
+  const o = { sim: null, scenario: null, out: null, modes: null, extra: [] };
+  for (let i = 0; i < argv.length; ++i) {
+    const a = argv[i];
+    if (a === '--') {
+      o.extra = argv.slice(i + 1);
+      break;
+    }
+    const key = { '--sim': 'sim', '--scenario': 'scenario', '--out': 'out', '--modes': 'modes' }[a];
+    if (!key) usage(`unknown argument ${a}`);
+    if (i + 1 >= argv.length) usage(`${a} needs a value`);
+    o[key] = argv[++i];
+  }
+  for (const k of ['sim', 'scenario', 'out', 'modes']) if (!o[k]) usage(`--${k} is required`);
+  return o;
+}
+
+// The custom_mode number of a flight mode, from the X-macro list `X(kAuto, 2, "AUTO")`.
+function flightModeNumber(header, name) {
+  const m = new RegExp(`X\\(k\\w+,\\s*(\\d+),\\s*"${name}"\\)`).exec(fs.readFileSync(header, 'utf8'));
+  if (!m) throw new Error(`${header}: no flight mode "${name}"`);
+  return Number(m[1]);
+}
+
+// The ground station's side of the UDP link: node-mavlink frames and parses, the peer is whoever the
+// vehicle's datagrams come from.
+class UdpGroundStation {
+  constructor(socket) {
+    this.socket = socket;
+    this.protocol = new MavLinkProtocolV2(255, 190);
+    this.sequence = 0;
+    this.peer = null;
+    this.waiters = [];
+    this.received = 0;
+    this.splitter = new MavLinkPacketSplitter();
+    this.splitter.pipe(new MavLinkPacketParser()).on('data', (packet) => this.dispatch(packet));
+    socket.on('message', (datagram, from) => {
+      this.peer = { address: from.address, port: from.port };
+      this.splitter.write(datagram);
+    });
+  }
+
+  dispatch(packet) {
+    const clazz = REGISTRY[packet.header.msgid];
+    if (!clazz || packet.header.sysid !== VEHICLE.system) return;
+    ++this.received;
+    const message = packet.protocol.data(packet.payload, clazz);
+    for (const w of [...this.waiters]) w(clazz.MSG_NAME, message, packet);
+  }
+
+  send(message) {
+    if (!this.peer) throw new Error('no datagram from the vehicle yet: nowhere to send');
+    const bytes = this.protocol.serialize(message, this.sequence);
+    this.sequence = (this.sequence + 1) & 255;
+    this.socket.send(bytes, this.peer.port, this.peer.address);
+  }
+
+  // Calls onMessage(name, message, packet) for every vehicle message until it returns a value other
+  // than undefined (resolves with it) or timeoutMs pass (resolves with undefined).
+  collect(timeoutMs, onMessage) {
+    return new Promise((resolve) => {
+      const waiter = (name, message, packet) => {
+        const result = onMessage(name, message, packet);
+        if (result !== undefined) finish(result);
+      };
+      const timer = setTimeout(() => finish(undefined), timeoutMs);
+      const finish = (result) => {
+        clearTimeout(timer);
+        this.waiters = this.waiters.filter((w) => w !== waiter);
+        resolve(result);
+      };
+      this.waiters.push(waiter);
+    });
+  }
+
+  waitFor(name, timeoutMs, predicate = () => true) {
+    return this.collect(timeoutMs, (n, m) => (n === name && predicate(m) ? m : undefined));
+  }
+
+  // COMMAND_LONG, answered by COMMAND_ACK of the same command (one attempt).
+  async command(command, params, timeoutMs = 1500) {
+    const msg = new common.CommandLong();
+    msg.targetSystem = VEHICLE.system;
+    msg.targetComponent = VEHICLE.component;
+    msg.command = command;
+    [msg._param1, msg._param2] = params;  // node-mavlink names COMMAND_LONG's params '_param1' ...
+    const ack = this.waitFor('COMMAND_ACK', timeoutMs, (a) => a.command === command);
+    this.send(msg);
+    return ack;
+  }
+}
+
+function paramName(value) {
+  return String(value.paramId).replace(/\0.*$/s, '');
+}
+
+// The steps, in order. Each takes the ground station and the run's context, returns the text of its
+// `ok` line, and throws to fail. A step added here runs after the ones before it (the vehicle armed in
+// AUTO, climbing to the setpoint) and before the simulator is stopped.
+const STEPS = [
+  async function heartbeat(gs) {
+    const hb = await gs.waitFor('HEARTBEAT', 20000);
+    if (!hb) throw new Error('no HEARTBEAT from the vehicle within 20 s');
+    return `HEARTBEAT from ${gs.peer.address}:${gs.peer.port}, custom_mode ${hb.customMode}`;
+  },
+
+  async function parameterList(gs, run) {
+    const request = new common.ParamRequestList();
+    request.targetSystem = VEHICLE.system;
+    request.targetComponent = VEHICLE.component;
+    const seen = new Map();
+    let count = -1;
+    const done = gs.collect(15000, (name, v) => {
+      if (name !== 'PARAM_VALUE') return undefined;
+      count = v.paramCount;
+      seen.set(v.paramIndex, paramName(v));
+      return seen.size >= count ? true : undefined;
+    });
+    gs.send(request);  // one request, no retry: the list must come complete over the radio
+    if (!(await done)) throw new Error(`${seen.size} of ${count} parameters within 15 s`);
+    for (let i = 0; i < count; ++i) if (!seen.has(i)) throw new Error(`index ${i} of ${count} missing`);
+    if (new Set(seen.values()).size !== count) throw new Error('a parameter name came twice under two indices');
+    run.parameters = new Set(seen.values());
+    return `${count} parameters, every index 0..${count - 1} once (param_count ${count})`;
+  },
+
+  async function parameterSet(gs, run) {
+    const name = 'LAND_SPEED';  // only the landing uses it, which this run does not reach
+    if (!run.parameters.has(name)) throw new Error(`the vehicle has no ${name}`);
+    const set = new common.ParamSet();
+    set.targetSystem = VEHICLE.system;
+    set.targetComponent = VEHICLE.component;
+    set.paramId = name;
+    set.paramValue = 0.625;  // exact in float
+    set.paramType = common.MavParamType.REAL32;
+    const ack = gs.waitFor('PARAM_VALUE', 3000, (v) => paramName(v) === name);
+    gs.send(set);
+    const v = await ack;
+    if (!v) throw new Error(`no PARAM_VALUE for ${name} within 3 s`);
+    if (v.paramValue !== 0.625) throw new Error(`${name} answered ${v.paramValue}, not 0.625`);
+    return `${name} = ${v.paramValue} acknowledged by PARAM_VALUE`;
+  },
+
+  async function arm(gs) {
+    // The firmware refuses to arm until its still calibration is over: try once a second.
+    for (let attempt = 1; attempt <= 10; ++attempt) {
+      const ack = await gs.command(common.MavCmd.COMPONENT_ARM_DISARM, [1, 0]);
+      if (ack && ack.result === MAV_RESULT_ACCEPTED) return `COMMAND_ACK accepted (attempt ${attempt})`;
+      await new Promise((r) => setTimeout(r, 1000));
+    }
+    throw new Error('arming not accepted in 10 attempts');
+  },
+
+  async function modeAuto(gs, run) {
+    const heartbeat = gs.waitFor('HEARTBEAT', 5000, (hb) => hb.customMode === run.autoMode);
+    const ack = await gs.command(common.MavCmd.DO_SET_MODE, [MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, run.autoMode]);
+    if (!ack) throw new Error('no COMMAND_ACK for DO_SET_MODE');
+    if (ack.result !== MAV_RESULT_ACCEPTED) throw new Error(`DO_SET_MODE refused (MAV_RESULT ${ack.result})`);
+    const hb = await heartbeat;
+    if (!hb) throw new Error(`no HEARTBEAT with custom_mode ${run.autoMode} within 5 s`);
+    if ((hb.baseMode & MAV_MODE_FLAG_SAFETY_ARMED) === 0) throw new Error('HEARTBEAT in AUTO but not armed');
+    return `COMMAND_ACK accepted, HEARTBEAT custom_mode ${hb.customMode} armed`;
+  },
+
+  async function setpointFollowed(gs) {
+    const target = { x: 0, y: 0, z: -1.0 };
+    const start = await gs.waitFor('LOCAL_POSITION_NED', 2000);
+    const distance = (p) => Math.hypot(p.x - target.x, p.y - target.y, p.z - target.z);
+    if (!start) throw new Error('no LOCAL_POSITION_NED');
+    if (distance(start) < 0.5) throw new Error(`already ${distance(start).toFixed(2)} m from (0, 0, -1): nothing to follow`);
+    const sp = new common.SetPositionTargetLocalNed();
+    sp.targetSystem = VEHICLE.system;
+    sp.targetComponent = VEHICLE.component;
+    sp.coordinateFrame = common.MavFrame.LOCAL_NED;
+    sp.typeMask = 0x38 | 0x1C0 | 0x400 | 0x800;  // position only: no velocity, acceleration, yaw, yaw rate
+    [sp.x, sp.y, sp.z] = [target.x, target.y, target.z];
+    const reached = gs.waitFor('LOCAL_POSITION_NED', 15000, (p) => distance(p) < 0.1);
+    gs.send(sp);
+    const p = await reached;
+    if (!p) throw new Error(`not within 0.1 m of (0, 0, -1) within 15 s (started ${distance(start).toFixed(2)} m away)`);
+    return `from ${distance(start).toFixed(3)} m to ${distance(p).toFixed(3)} m of (0, 0, -1), position (${p.x.toFixed(2)}, ` +
+      `${p.y.toFixed(2)}, ${p.z.toFixed(2)}) at t ${(p.timeBootMs / 1000).toFixed(2)} s`;
+  },
+];
+
+async function main() {
+  const o = parseArguments(process.argv.slice(2));
+  const run = { autoMode: flightModeNumber(o.modes, 'AUTO') };
+  const socket = dgram.createSocket('udp4');
+  await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
+  const port = socket.address().port;
+  const gs = new UdpGroundStation(socket);
+
+  const args = ['--scenario', o.scenario, '--out', o.out, '--gcs', `udp:127.0.0.1:${port}`, '--realtime',
+    '--no-plots', '--quiet', ...o.extra];
+  console.log(`ground station on udp 127.0.0.1:${port}; ${o.sim} ${args.join(' ')}`);
+  const sim = spawn(o.sim, args, { stdio: ['ignore', 'inherit', 'inherit'] });
+  let simExit = null;
+  const exited = new Promise((resolve) => sim.on('exit', (code, signal) => {
+    simExit = { code, signal };
+    resolve();
+  }));
+
+  let failed = false;
+  for (const step of STEPS) {
+    if (simExit) {
+      console.log(`step ${step.name}: FAILED the simulator ended (status ${simExit.code}) before it`);
+      failed = true;
+      break;
+    }
+    try {
+      console.log(`step ${step.name}: ok ${await step(gs, run)}`);
+    } catch (e) {
+      console.log(`step ${step.name}: FAILED ${e.message}`);
+      failed = true;
+      break;
+    }
+  }
+  if (!simExit) sim.kill('SIGINT');
+  await exited;
+  socket.close();
+  console.log(`vehicle frames received ${gs.received}; simulator exit ${simExit.code ?? simExit.signal}`);
+  process.exit(failed ? 1 : 0);
+}
+
+main().catch((e) => {
+  console.error(`udp_gcs_peer: ${e.stack || e}`);
+  process.exit(1);
+});
