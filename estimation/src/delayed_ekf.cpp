@@ -20,9 +20,10 @@ Quat small_turn(const Vec3& dtheta) {
 
 }  // namespace
 
-void DelayedEkfCore::set_params(const EkfParams& p, float delay_s, bool use_mag) {
+void DelayedEkfCore::set_params(const EkfParams& p, float delay_s, bool use_mag, bool use_hover_force) {
   filter_.set_params(p);
   use_mag_ = use_mag;
+  use_hover_force_ = use_hover_force;
   const float d = clampf(delay_s, 0.0f, 10.0f);
   delay_us_ = static_cast<uint32_t>(d * 1e6f + 0.5f);
 }
@@ -68,11 +69,12 @@ void DelayedEkfCore::mag(const Vec3& field) {
   acc_.has_mag = true;
 }
 
-void DelayedEkfCore::predict(uint32_t t_us, bool still) {
+void DelayedEkfCore::predict(uint32_t t_us, bool still, bool hovering) {
   if (!started_) return;
   if (acc_.dt > 0.0f) {
     acc_.t_us = t_us;
     acc_.still = still;
+    acc_.hovering = hovering;
     buffer_[head_] = acc_;
     head_ = static_cast<uint16_t>((head_ + 1u) % capacity_);
     if (count_ < capacity_) {
@@ -103,6 +105,8 @@ void DelayedEkfCore::advance(const ImuIncrement& e) {
   filter_.predict(e.delta_angle, e.delta_velocity, e.dt);
   filter_us_ = e.t_us;
   if (e.still) filter_.fuse_zero_velocity();
+  if (e.hovering && use_hover_force_ && filter_.fuse_hover_force(e.delta_velocity * (1.0f / e.dt)) == EkfFuse::kFused)
+    ++health_.hover_forces_fused;
   if (e.has_mag && use_mag_) {
     const EkfFuse r = filter_.fuse_heading(e.mag);
     if (r == EkfFuse::kFused) ++health_.headings_fused;

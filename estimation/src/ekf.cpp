@@ -340,28 +340,63 @@ void ErrorStateEkf::fuse_star(const StarFix& fix, EkfFuse* position_result, EkfF
     }
   }
   if (fix.has_attitude && is_finite(fix.q_bs) && norm_sq(fix.q_bs) > 0.5f) {
-    Group g;
-    g.rows = 3;
-    g.c0 = kEkfTheta;
-    g.width = 3;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
-    const Quat measured = attitude_from_star(fix.q_bs, x_.q);
-    const Vec3 nu = to_rotation_vector(conjugate(x_.q) * measured);  // body-frame rotation to the measurement
-    g.nu[0] = nu.x;
-    g.nu[1] = nu.y;
-    g.nu[2] = nu.z;
-    fix_noise(fix.att_cov, fix.has_covariance, params_.attitude_sigma, params_.attitude_sigma_floor, g.noise);
-    float y[kN][3], w[3], s[3];
-    const float nis = whiten(P_, g, y, w, s);
-    if (nis >= 0.0f) {
-      ratios_.attitude = nis / params_.gate_chi2_3;
-      ar = nis > params_.gate_chi2_3 ? EkfFuse::kRejectedGate : EkfFuse::kFused;
-      if (ar == EkfFuse::kFused) apply_group(P_, x_, y, w, 3);
-    }
+    if (params_.star_attitude == StarAttitudeUse::kFull) ar = fuse_star_attitude(fix);
+    if (params_.star_attitude == StarAttitudeUse::kHeading) ar = fuse_star_heading(fix);
   }
   if (position_result != nullptr) *position_result = pr;
   if (attitude_result != nullptr) *attitude_result = ar;
+}
+
+EkfFuse ErrorStateEkf::fuse_star_attitude(const StarFix& fix) {
+  Group g;
+  g.rows = 3;
+  g.c0 = kEkfTheta;
+  g.width = 3;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
+  const Quat measured = attitude_from_star(fix.q_bs, x_.q);
+  const Vec3 nu = to_rotation_vector(conjugate(x_.q) * measured);  // body-frame rotation to the measurement
+  g.nu[0] = nu.x;
+  g.nu[1] = nu.y;
+  g.nu[2] = nu.z;
+  fix_noise(fix.att_cov, fix.has_covariance, params_.attitude_sigma, params_.attitude_sigma_floor, g.noise);
+  float y[kN][3], w[3], s[3];
+  const float nis = whiten(P_, g, y, w, s);
+  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
+  ratios_.attitude = nis / params_.gate_chi2_3;
+  if (nis > params_.gate_chi2_3) return EkfFuse::kRejectedGate;
+  apply_group(P_, x_, y, w, 3);
+  return EkfFuse::kFused;
+}
+
+EkfFuse ErrorStateEkf::fuse_star_heading(const StarFix& fix) {
+  // The heading of q_IB measured from the star against the estimate's, H = e3^T R as for the
+  // magnetometer; its variance the attitude covariance's share about NED down.
+  const Mat3 r = to_dcm(x_.q);
+  const Mat3 rm = to_dcm(attitude_from_star(fix.q_bs, x_.q));
+  if (!(rm.m[0][0] * rm.m[0][0] + rm.m[1][0] * rm.m[1][0] > 0.25f)) return EkfFuse::kRejectedInvalid;
+  Group g;
+  g.rows = 1;
+  g.c0 = kEkfTheta;
+  g.width = 3;
+  g.nu[0] = wrap_pi(atan2f(rm.m[1][0], rm.m[0][0]) - atan2f(r.m[1][0], r.m[0][0]));
+  for (int j = 0; j < 3; ++j) g.h[0][j] = r.m[2][j];
+  float var = params_.attitude_sigma * params_.attitude_sigma;
+  if (fix.has_covariance) {
+    float c[3][3];
+    unpack_upper(fix.att_cov, c);
+    var = params_.attitude_sigma_floor * params_.attitude_sigma_floor;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) var += r.m[2][i] * c[i][j] * r.m[2][j];
+  }
+  g.noise[0] = var;
+  float y[kN][3], w[3], s[3];
+  const float nis = whiten(P_, g, y, w, s);
+  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
+  ratios_.heading = nis / params_.gate_chi2_1;
+  if (nis > params_.gate_chi2_1) return EkfFuse::kRejectedGate;
+  apply_group(P_, x_, y, w, 1);
+  return EkfFuse::kFused;
 }
 
 void ErrorStateEkf::initialize_position(const StarFix& fix) {
@@ -435,6 +470,35 @@ EkfFuse ErrorStateEkf::fuse_zero_velocity() {
   // Not gated: standing still is known, and a gate would refuse it after a drift it exists to stop.
   apply_group(P_, x_, y, w, 3);
   return EkfFuse::kFused;
+}
+
+EkfFuse ErrorStateEkf::fuse_hover_force(const Vec3& specific_force) {
+  // h = b_a (x, y), H = I on the accelerometer bias: one scalar group per axis, each gated.
+  if (!is_finite(specific_force)) return EkfFuse::kRejectedInvalid;
+  const float f[2] = {specific_force.x, specific_force.y};
+  const float b[2] = {x_.accel_bias.x, x_.accel_bias.y};
+  EkfFuse result = EkfFuse::kFused;
+  float worst = 0.0f;
+  for (int axis = 0; axis < 2; ++axis) {
+    Group g;
+    g.rows = 1;
+    g.c0 = kEkfAccelBias;
+    g.width = 3;
+    for (int j = 0; j < 3; ++j) g.h[0][j] = j == axis ? 1.0f : 0.0f;
+    g.nu[0] = f[axis] - b[axis];
+    g.noise[0] = params_.hover_force_sigma * params_.hover_force_sigma;
+    float y[kN][3], w[3], s[3];
+    const float nis = whiten(P_, g, y, w, s);
+    if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
+    worst = maxf(worst, nis / params_.gate_chi2_1);
+    if (nis > params_.gate_chi2_1) {
+      result = EkfFuse::kRejectedGate;
+      continue;
+    }
+    apply_group(P_, x_, y, w, 1);
+  }
+  ratios_.hover_force = worst;
+  return result;
 }
 
 // ---------------------------------------------------------------------------------------------------

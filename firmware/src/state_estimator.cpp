@@ -89,7 +89,8 @@ EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, co
   const Vec3 b = accel_bias_.bias();
   estimate(t_us, gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt, plan);
   // The EKF learns its own accelerometer bias: the hover tracker's is not taken off.
-  if (ekf_selected()) step_ekf(t_us, gyro - bias_.bias.gyro, accel, m, dt, plan);
+  if (plan.frame_work) ekf_hovering_ = hovering && accel_valid;
+  if (ekf_selected()) step_ekf(t_us, gyro - bias_.bias.gyro, accel, m, dt, plan, ekf_hovering_);
   return event;
 }
 

@@ -7,7 +7,7 @@
 //   ekf.reset(q0, gyro_bias, accel_bias, t_us);   // after the boot calibration; position unknown
 //   every IMU sample:     ekf.imu(gyro_frd, accel_frd, dt);
 //   magnetometer sample:  ekf.mag(mag_frd);
-//   at the predict rate:  ekf.predict(t_us, on_ground_and_still);
+//   at the predict rate:  ekf.predict(t_us, on_ground_and_still, hovering_still);
 //   a fix arrives:        ekf.queue_fix(fix);  its covariance:  ekf.attach_covariance(...)
 //   ekf.attitude(), position(), velocity(), rate()
 //
@@ -40,6 +40,7 @@ struct ImuIncrement {
   Vec3 mag;
   bool has_mag = false;
   bool still = false;
+  bool hovering = false;
 };
 
 enum class EkfFixResult : uint8_t { kQueued, kRejectedTooOld, kRejectedOutOfOrder, kRejectedInvalid, kRejectedBusy };
@@ -51,6 +52,7 @@ struct DelayedEkfHealth {
   uint32_t attitudes_rejected = 0;  // gate
   uint32_t headings_fused = 0;
   uint32_t headings_rejected = 0;
+  uint32_t hover_forces_fused = 0;
   uint32_t fixes_too_old = 0;
   uint32_t fixes_refused = 0;      // out of order, invalid, queue full
   uint32_t resets = 0;             // position set from a fix (first, lost, or after rejections)
@@ -72,7 +74,8 @@ class DelayedEkfCore {
   static constexpr int kFixQueue = 8;
 
   // delay_s: how far behind the newest increment the filter runs (the largest fix delay it accepts).
-  void set_params(const EkfParams& p, float delay_s, bool use_mag);
+  // use_hover_force: fuse the hovering specific force as the accelerometer's bias (predict's hovering).
+  void set_params(const EkfParams& p, float delay_s, bool use_mag, bool use_hover_force = false);
   const EkfParams& params() const { return filter_.params(); }
   // Attitude and biases from the boot calibration; velocity zero, position unknown until the first fix.
   void reset(const Quat& q, const Vec3& gyro_bias, const Vec3& accel_bias, uint32_t t_us);
@@ -80,7 +83,9 @@ class DelayedEkfCore {
 
   void imu(const Vec3& gyro, const Vec3& accel, float dt);
   void mag(const Vec3& field);
-  void predict(uint32_t t_us, bool still);
+  // still: on the ground and still (zero velocity); hovering: hovering still in flight (the step's
+  // horizontal specific force is the accelerometer's bias).
+  void predict(uint32_t t_us, bool still, bool hovering = false);
 
   EkfFixResult queue_fix(const StarFix& fix);
   // The station's covariances for the queued fix captured at capture_us (LANDING_TARGET_COVARIANCE);
@@ -122,6 +127,7 @@ class DelayedEkfCore {
   Vec3 rate_;
   uint32_t delay_us_ = 100000;
   bool use_mag_ = true;
+  bool use_hover_force_ = false;
   bool started_ = false;
   bool position_initialized_ = false;
   bool converged_ = false;

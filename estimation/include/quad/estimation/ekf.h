@@ -36,6 +36,8 @@ struct EkfState {
   Vec3 accel_bias;  // m/s^2, body FRD
 };
 
+enum class StarAttitudeUse : uint8_t { kNone = 0, kHeading = 1, kFull = 2 };
+
 struct EkfParams {
   // Process noise (seed 004 eq. 3.17-3.18 as spectral densities, so that Q scales with the step).
   float gyro_noise = 2e-3f;        // rad/s/sqrt(Hz): angle random walk
@@ -57,11 +59,18 @@ struct EkfParams {
   float attitude_sigma_floor = 0.0017f;  // rad (0.1 deg)
   float heading_sigma = 0.05f;     // rad, the magnetometer's heading
   float zero_velocity_sigma = 0.02f;  // m/s, while on the ground and still
+  // A multirotor's specific force has no body x, y component but drag: hovering still, the
+  // accelerometer's x, y are its bias (per prediction step: noise, vibration and the hold's motion).
+  float hover_force_sigma = 0.1f;     // m/s^2
   // Chi-square gates on the normalised innovation squared of a group (probability 1e-4 of refusing a
   // good measurement): 3 degrees of freedom for a position or attitude fix, 1 for the heading.
   float gate_chi2_3 = 21.1f;
   float gate_chi2_1 = 15.1f;
   Vec3 star_ned;                   // the star's centre in NED, m (its tips along north and east)
+  // What the star's attitude corrects: its heading only, or heading and tilt. The station's tilt comes
+  // from the depth gradient across the star (0.1 px of disparity per 0.6 deg at 1.5 m), which a small
+  // stereo calibration or rendering error biases; its heading does not depend on depth.
+  StarAttitudeUse star_attitude = StarAttitudeUse::kHeading;
   Vec3 mag_ref_ned{0.42f, 0.0f, 0.91f};  // Earth field in NED, magnetometer units
 };
 
@@ -84,8 +93,9 @@ struct EkfTestRatios {
   float pos_horiz = 0.0f;  // body x, y of the star fix (horizontal at hover), NIS / chi2(2) gate
   float pos_vert = 0.0f;   // body z
   float attitude = 0.0f;
-  float heading = 0.0f;    // magnetometer
+  float heading = 0.0f;    // magnetometer, or the star's heading when only that is fused
   float velocity = 0.0f;   // zero-velocity update
+  float hover_force = 0.0f;  // the hovering specific force's larger axis, NIS / chi2(1) gate
 };
 
 class ErrorStateEkf {
@@ -111,6 +121,8 @@ class ErrorStateEkf {
   EkfFuse fuse_heading(const Vec3& mag_frd);
   // Zero velocity (the vehicle stands still on the ground).
   EkfFuse fuse_zero_velocity();
+  // Hovering still: the mean specific force over a step (body FRD) has x, y = the accelerometer's bias.
+  EkfFuse fuse_hover_force(const Vec3& specific_force);
 
   const EkfState& state() const { return x_; }
   EkfState& mutable_state() { return x_; }
@@ -138,6 +150,9 @@ class ErrorStateEkf {
   // A group of three whitened measurements: Mahalanobis gate, then sequential scalar updates.
   EkfFuse update3(const float H[3][kEkfErrorStates], const Vec3& innovation, const float cov[6], float* nis,
                   Vec3* per_axis);
+  // The star's attitude as a whole (residual rotation vector), or its heading only.
+  EkfFuse fuse_star_attitude(const StarFix& fix);
+  EkfFuse fuse_star_heading(const StarFix& fix);
   void predict_covariance(const Mat3& a, const Mat3& m, const Mat3& n, float dt);
   void add_process_noise(float dt);
   void symmetrize_and_floor();

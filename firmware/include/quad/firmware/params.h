@@ -62,6 +62,9 @@ namespace fw {
   /* in the EKF (heading from the star's attitude alone) */                                     \
   X(kEstType, "EST_TYPE", 0.0f, 0.0f, 1.0f)                                                      \
   X(kEstMagUse, "EST_MAG_USE", 1.0f, 0.0f, 1.0f)                                                 \
+  /* what the EKF takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and tilt */  \
+  /* (docs/estimation.md, "The star's attitude") */                                              \
+  X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
   /* vision: the star's NED position (m) */                                                      \
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \

@@ -112,7 +112,7 @@ class StateEstimator {
   void predict_position(uint32_t t_us);
   // The EKF's share of an iteration (the observer still runs: the switch back needs its attitude).
   void step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt,
-                const IterationPlan& plan);
+                const IterationPlan& plan, bool hovering);
   void start_ekf(uint32_t t_us);
   void configure_ekf(const Params& p);
 
@@ -138,6 +138,8 @@ class StateEstimator {
   EstimatorType type_ = EstimatorType::kThesisPair;
   bool armed_ = false;
   bool ekf_mag_use_ = true;
+  bool ekf_hover_force_ = true;  // EST_ABIAS_TAU > 0
+  bool ekf_hovering_ = false;    // the frame-rate work's hovering flag, held between frames
 #if !defined(__AVR__)
   est::DelayedEkf<kPositionHistory> ekf_;
   est::EkfParams ekf_params_;
