@@ -122,6 +122,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.fix_step) logger_.vision_fix_result(fix_step([&] { return estimator_.advance_fix(); }));
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
+  estimator_.set_armed(control_.armed());
   const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
   report(event);
   mark(hal::TracePoint::kEstimated);
@@ -266,6 +267,10 @@ void FlightApp::star_fix(const mav::LandingTarget& msg) {
     logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kInvalid);
     return;
   }
+  if (estimator_.ekf_selected()) {
+    star_fix_ekf(msg, capture_us);
+    return;
+  }
   Vec3 p_ned;
   if (!estimator_.position_from_star(Vec3{msg.x, msg.y, msg.z}, capture_us, &p_ned)) {
     ++fixes_rejected_;
@@ -273,6 +278,28 @@ void FlightApp::star_fix(const mav::LandingTarget& msg) {
     return;
   }
   position_fix_at(p_ned, capture_us, msg.q);
+}
+
+void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us) {
+  // The EKF takes the star in the body frame (and its attitude, q = 1 0 0 0 when none was fitted) and
+  // fuses it at its capture time; the station's covariances follow in LANDING_TARGET_COVARIANCE.
+  est::StarFix fix;
+  fix.capture_us = capture_us;
+  fix.star_body = Vec3{msg.x, msg.y, msg.z};
+  fix.q_bs = Quat{msg.q[0], msg.q[1], msg.q[2], msg.q[3]};
+  fix.has_attitude = !(msg.q[0] == 1.0f && msg.q[1] == 0.0f && msg.q[2] == 0.0f && msg.q[3] == 0.0f);
+  const est::FixResult r = estimator_.queue_star(fix);
+  fix_result(r, false);
+  // The log records the fix as the thesis pair would have taken it (NED through the attitude at the
+  // capture time; none when no attitude is recorded there) and what the EKF did with it.
+  Vec3 p_ned;
+  const bool converted = estimator_.position_from_star(fix.star_body, capture_us, &p_ned);
+  logger_.vision_fix(now_us_, converted ? &p_ned : nullptr, capture_us, msg.q, log_fix_result(r, false));
+}
+
+void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
+  estimator_.attach_covariance(static_cast<uint32_t>(msg.time_usec), msg.position_covariance,
+                               msg.attitude_covariance, msg.attitude_valid == 1);
 }
 
 void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {

@@ -26,6 +26,9 @@ const char* StateEstimator::check(const Params& p) const {
   load_fields(p, mag_cal, kMagFields);
   // A (nearly) singular soft-iron matrix would flatten the field onto a line or a plane: no heading.
   if (absf(determinant(mag_cal.soft_iron)) < kMinSoftIronDeterminant) return "MAG_SI (singular)";
+  const EstimatorType wanted = p.get(kEstType) >= 0.5f ? EstimatorType::kEkf : EstimatorType::kThesisPair;
+  if (wanted == EstimatorType::kEkf && !kImageHasEkf) return "EST_TYPE (this image holds only the thesis pair: 0)";
+  if (wanted != type_ && armed_) return "EST_TYPE (changed on the ground only)";
   return nullptr;
 }
 
@@ -57,6 +60,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
+  configure_ekf(p);
 }
 
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
@@ -84,6 +88,9 @@ EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, co
   // The learned bias has z = +0: accel.z - 0.0f is accel.z itself (IEEE: x - (+0) = x, -0 included).
   const Vec3 b = accel_bias_.bias();
   estimate(t_us, gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt, plan);
+  // The EKF learns its own accelerometer bias: the hover tracker's is not taken off.
+  if (plan.frame_work) ekf_hovering_ = hovering && accel_valid;
+  if (ekf_selected()) step_ekf(t_us, gyro - bias_.bias.gyro, accel, m, dt, plan, ekf_hovering_);
   return event;
 }
 
@@ -116,6 +123,7 @@ void StateEstimator::calibrate(uint32_t t_us, const hal::ImuSample& imu, const h
     observer_.initialize(down_force, bias_.mag_mean);
     observer_.reset(observer_.attitude(), Vec3{});
   }
+  if (ekf_selected()) start_ekf(t_us);
   *event = EstimatorEvent::kCalibrated;
 }
 
@@ -182,8 +190,8 @@ bool StateEstimator::position_from_star(const Vec3& star_body, uint32_t capture_
 
 bool StateEstimator::healthy() const {
   // An IMU clipping for longer than IMU_CLIP_HOLD leaves the attitude on guessed rates: unhealthy.
-  return converged() && imu_clip_.healthy() && is_finite(observer_.attitude()) && is_finite(filter_.position()) &&
-         healthy_speed(filter_.velocity());
+  return converged() && imu_clip_.healthy() && is_finite(attitude()) && is_finite(position()) &&
+         healthy_speed(velocity());
 }
 
 Vec3 StateEstimator::position_variance() const {

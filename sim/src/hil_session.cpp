@@ -191,6 +191,7 @@ class Session {
   std::FILE* events_ = nullptr;
   FlightMetrics metrics_;
   ErrorStats est_horizontal_, est_vertical_;
+  ErrorStats est_hold_horizontal_, est_hold_tilt_;  // the same within the hold; the attitude's tilt error
   std::deque<std::pair<long long, Eigen::Vector3d>> truth_history_;  // (ms, position) of the last rows
   std::optional<double> altitude_reached_s_;
   Clock::time_point wall_start_;
@@ -686,6 +687,11 @@ void Session::log_row(double t) {
              static_cast<double>(ru.bytes_sent), static_cast<double>(ru.bits_flipped)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
   metrics_.add(t, tr.position_ned, tr.velocity_ned, tilt, setpoint_, setpoint_time_);
+  if (t >= s_.hold_start_s && t <= s_.hold_end_s && !std::isnan(tele_.q_ib.w())) {
+    // The angle between the true and the estimated body z (the latest attitude telemetry).
+    const Eigen::Vector3d z_true = tr.q_ib * Eigen::Vector3d::UnitZ(), z_est = tele_.q_ib * Eigen::Vector3d::UnitZ();
+    est_hold_tilt_.add(std::atan2(z_true.cross(z_est).norm(), z_true.dot(z_est)));
+  }
   truth_history_.emplace_back(std::llround(t * 1000.0), tr.position_ned);
   if (truth_history_.size() > 200) truth_history_.pop_front();  // 2 s at 100 Hz
   if (setpoint_ && !altitude_reached_s_ && std::abs(tr.position_ned.z() - setpoint_->z()) < 0.05)
@@ -700,6 +706,8 @@ void Session::score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estim
     if (it->first != static_cast<long long>(time_boot_ms)) continue;
     est_horizontal_.add((estimate - it->second).head<2>().norm());
     est_vertical_.add(estimate.z() - it->second.z());
+    const double t = 1e-3 * static_cast<double>(time_boot_ms);
+    if (t >= s_.hold_start_s && t <= s_.hold_end_s) est_hold_horizontal_.add((estimate - it->second).head<2>().norm());
     return;
   }
 }
@@ -770,6 +778,10 @@ void Session::write_summary(bool complete, const std::string& reason) {
   Json est;
   est.add("horizontal_rms_m", est_horizontal_.rms()).add("vertical_rms_m", est_vertical_.rms())
       .add("samples", est_horizontal_.count());
+  Json est_hold;
+  est_hold.add("horizontal_rms_m", est_hold_horizontal_.rms()).add("samples", est_hold_horizontal_.count())
+      .add("tilt_rms_deg", est_hold_tilt_.rms() * 180.0 / M_PI).add("tilt_samples", est_hold_tilt_.count());
+  est.add("hold", est_hold);
   auto line_json = [](const LineStats& l) {
     Json j;
     j.add("frames_sent", static_cast<long>(l.frames_sent)).add("frames_lost", static_cast<long>(l.frames_lost))

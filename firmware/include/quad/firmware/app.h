@@ -141,6 +141,7 @@ class FlightApp {
   void report_transition(const Transition& t);
   void position_target(const Vec3& target, const float* yaw);
   void star_fix(const mavlink::LandingTarget& msg);
+  void star_covariance(const mavlink::LandingTargetCovariance& msg);
   void position_fix(const Vec3& p_ned, uint32_t capture_us);
   ParamUpdate set_param(uint8_t index, float value);
   uint64_t timesync_us() const { return hil() ? hil_time_usec_ : now_us_; }
@@ -163,6 +164,8 @@ class FlightApp {
   // A fix as a NED position at its capture time: fused, queued, or refused; q: the star's attitude
   // (LANDING_TARGET.q) for the log, or null.
   void position_fix_at(const Vec3& p_ned, uint32_t capture_us, const float* q);
+  // A LANDING_TARGET for the EKF: queued with its body-frame star and attitude, logged.
+  void star_fix_ekf(const mavlink::LandingTarget& msg, uint32_t capture_us);
   // Every STATUSTEXT line, for the flight log (GroundLink::Io::statustext; context: the application).
   static void log_statustext(void* app, const mavlink::Statustext& msg);
   // Counters, freshness and the jump report for a fix the filter finished with (reset: it reset to it).

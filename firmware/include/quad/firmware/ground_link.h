@@ -14,6 +14,7 @@
 //   void rc_input(const ctrl::RcSticks&, uint32_t, const RcSwitches*)
 //   void position_target(const Vec3&, const float* yaw)      SET_POSITION_TARGET_LOCAL_NED
 //   void star_fix(const mavlink::LandingTarget&)             LANDING_TARGET from the vision station
+//   void star_covariance(const mavlink::LandingTargetCovariance&)   its covariances (the project's dialect)
 //   void position_fix(const Vec3&, uint32_t capture_us)      VISION_POSITION_ESTIMATE
 //   ParamUpdate set_param(uint8_t index, float value)        PARAM_SET, found by name
 //   uint32_t now_us() const, uint64_t timesync_us() const    the vehicle clock
@@ -199,6 +200,11 @@ void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h)
     case mav::LandingTarget::kId: {
       mav::LandingTarget msg;
       if (mav::decode(frame, msg)) h.star_fix(msg);
+      break;
+    }
+    case mav::LandingTargetCovariance::kId: {
+      mav::LandingTargetCovariance msg;
+      if (mav::decode(frame, msg)) h.star_covariance(msg);
       break;
     }
     case mav::VisionPositionEstimate::kId: {

@@ -57,6 +57,14 @@ namespace fw {
   /* time constant (s; 0 = off) and the largest bias it may learn (m/s^2) */                     \
   X(kEstABiasTau, "EST_ABIAS_TAU", 10.0f, 0.0f, 600.0f)                                          \
   X(kEstABiasMax, "EST_ABIAS_MAX", 0.15f, 0.0f, 1.0f)                                            \
+  /* the estimator: 0 the thesis pair (conditioned observer + per-axis Kalman filter), 1 the EKF */ \
+  /* (seed 004; not in the AVR image); changed on the ground only. EST_MAG_USE 0: no magnetometer */ \
+  /* in the EKF (heading from the star's attitude alone) */                                     \
+  X(kEstType, "EST_TYPE", 0.0f, 0.0f, 1.0f)                                                      \
+  X(kEstMagUse, "EST_MAG_USE", 1.0f, 0.0f, 1.0f)                                                 \
+  /* what the EKF takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and tilt */  \
+  /* (docs/estimation.md, "The star's attitude") */                                              \
+  X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
   /* vision: the star's NED position (m) */                                                      \
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \

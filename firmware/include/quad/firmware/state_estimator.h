@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/delayed_ekf.h"
 #include "quad/estimation/hover_accel_bias.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
@@ -27,6 +28,17 @@ namespace fw {
 
 // The filter's history covers 250 ms of vision delay at the 100 Hz prediction rate.
 constexpr int kPositionHistory = est::history_length(100);
+
+// The estimators an image holds, chosen by EST_TYPE: the thesis pair everywhere; the EKF (seed 004)
+// where there is room for it (not the ATmega2560: docs/estimation.md, "The EKF on the AVR").
+enum class EstimatorType : uint8_t { kThesisPair = 0, kEkf = 1 };
+#if defined(__AVR__)
+constexpr bool kImageHasEkf = false;
+#else
+constexpr bool kImageHasEkf = true;
+#endif
+// How far behind now the EKF runs: the largest fix delay it fuses (the station's is about 40 ms).
+constexpr float kEkfDelayS = 0.1f;
 
 // What an estimator iteration has to report to the operator.
 enum class EstimatorEvent : uint8_t {
@@ -45,6 +57,10 @@ class StateEstimator {
 
   // Starts the boot calibration over (keep the vehicle still).
   void restart_calibration() { calibration_.restart(); }
+  // Armed or not: EST_TYPE changes only on the ground; the EKF fuses zero velocity while disarmed and still.
+  void set_armed(bool armed) { armed_ = armed; }
+  EstimatorType type() const { return type_; }
+  bool ekf_selected() const { return kImageHasEkf && type_ == EstimatorType::kEkf; }
 
   // One iteration at t_us: the sample, its period dt and what the iteration runs. hovering: the vehicle
   // hovers still in AUTO (its horizontal specific force is the accelerometer's bias), read only in the
@@ -61,21 +77,24 @@ class StateEstimator {
   est::FixResult advance_fix() { return filter_.advance_fix(); }
   bool fix_in_progress() const { return filter_.fix_in_progress(); }
   uint32_t filter_resets() const { return filter_.health().resets; }
+  // The EKF's fixes (star in body FRD, its attitude, its covariances), fused at the capture time.
+  est::FixResult queue_star(const est::StarFix& fix);
+  void attach_covariance(uint32_t capture_us, const float pos_cov[6], const float att_cov[6], bool attitude_valid);
 
   bool calibrated() const { return calibration_.done(); }
   est::CalibrationStatus calibration_rejection() const { return calibration_.rejection(); }
   bool mag_valid() const { return bias_.mag_valid; }
   // The sample was finite and its specific force plausible.
   bool sensors_ok() const { return sensors_ok_; }
-  bool converged() const { return calibration_.done() && observer_.initialized(); }
+  bool converged() const;
   // Converged, finite, not diverged, and not flying on held gyro rates longer than IMU_CLIP_HOLD.
   bool healthy() const;
   const ImuClipGuard& imu_clip() const { return imu_clip_; }
 
-  Quat attitude() const { return observer_.attitude(); }
-  Vec3 rate() const { return observer_.rate(); }
-  Vec3 position() const { return filter_.position(); }
-  Vec3 velocity() const { return filter_.velocity(); }
+  Quat attitude() const;
+  Vec3 rate() const;
+  Vec3 position() const;
+  Vec3 velocity() const;
   Vec3 accel_bias() const { return accel_bias_.bias(); }
   // The observer's gyro bias (rad/s, FRD); the position filter's acceleration bias states (m/s^2, NED;
   // zero on axes without one) and the diagonal of its covariance (the flight log).
@@ -91,6 +110,11 @@ class StateEstimator {
                 float dt, const IterationPlan& plan);
   // The rotation-corrected mean specific force since the last prediction, then the prediction (eq. 8.7).
   void predict_position(uint32_t t_us);
+  // The EKF's share of an iteration (the observer still runs: the switch back needs its attitude).
+  void step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt,
+                const IterationPlan& plan, bool hovering);
+  void start_ekf(uint32_t t_us);
+  void configure_ekf(const Params& p);
 
   BootCalibration calibration_;
   CalibrationResult bias_;
@@ -111,6 +135,15 @@ class StateEstimator {
   float mag_declination_ = 0.0f;    // MAG_DECL
   Vec3 mag_ref_magnetic_;           // Earth field learned at boot, magnetic north along x
   bool mag_ref_learned_ = false;
+  EstimatorType type_ = EstimatorType::kThesisPair;
+  bool armed_ = false;
+  bool ekf_mag_use_ = true;
+  bool ekf_hover_force_ = true;  // EST_ABIAS_TAU > 0
+  bool ekf_hovering_ = false;    // the frame-rate work's hovering flag, held between frames
+#if !defined(__AVR__)
+  est::DelayedEkf<kPositionHistory> ekf_;
+  est::EkfParams ekf_params_;
+#endif
 };
 
 }  // namespace fw

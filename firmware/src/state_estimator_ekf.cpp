@@ -1,0 +1,100 @@
+// The EKF's glue in the state estimator (EST_TYPE 1): its parameters, its start from the boot
+// calibration, its share of an iteration, the station's fixes and the outputs the estimator reports.
+// The ATmega2560's image holds only the thesis pair (kImageHasEkf false): there the outputs are the
+// thesis pair's and the EKF's members do not exist.
+#include "quad/firmware/state_estimator.h"
+
+#include "quad/firmware/app_checks.h"
+
+namespace quad {
+namespace fw {
+
+#if defined(__AVR__)
+
+void StateEstimator::configure_ekf(const Params&) { type_ = EstimatorType::kThesisPair; }
+void StateEstimator::start_ekf(uint32_t) {}
+void StateEstimator::step_ekf(uint32_t, const Vec3&, const Vec3&, const hal::MagSample*, float, const IterationPlan&, bool) {}
+est::FixResult StateEstimator::queue_star(const est::StarFix&) { return est::FixResult::kRejectedInvalid; }
+void StateEstimator::attach_covariance(uint32_t, const float*, const float*, bool) {}
+bool StateEstimator::converged() const { return calibration_.done() && observer_.initialized(); }
+Quat StateEstimator::attitude() const { return observer_.attitude(); }
+Vec3 StateEstimator::rate() const { return observer_.rate(); }
+Vec3 StateEstimator::position() const { return filter_.position(); }
+Vec3 StateEstimator::velocity() const { return filter_.velocity(); }
+
+#else
+
+namespace {
+
+// Still on the ground: the gyro and the specific force's norm within these of rest.
+constexpr float kStillRate = 0.1f;        // rad/s
+constexpr float kStillForce = 0.5f;       // m/s^2 from g
+
+}  // namespace
+
+void StateEstimator::configure_ekf(const Params& p) {
+  const EstimatorType before = type_;
+  type_ = p.get(kEstType) >= 0.5f ? EstimatorType::kEkf : EstimatorType::kThesisPair;
+  ekf_mag_use_ = p.get(kEstMagUse) >= 0.5f;
+  // The hover tracker's assumption (no horizontal specific force but bias while hovering still), off
+  // with it (EST_ABIAS_TAU 0: a steady wind's drag is a real force).
+  ekf_hover_force_ = p.get(kEstABiasTau) > 0.0f;
+  ekf_params_.star_ned = star_ned_;
+  const float star_att = p.get(kEstStarAtt);
+  ekf_params_.star_attitude = star_att >= 1.5f   ? est::StarAttitudeUse::kFull
+                              : star_att >= 0.5f ? est::StarAttitudeUse::kHeading
+                                                 : est::StarAttitudeUse::kNone;
+  // The observer's reference field (learned at the boot calibration, turned by MAG_DECL).
+  ekf_params_.mag_ref_ned = observer_.params().mag_ref_ned;
+  ekf_.set_params(ekf_params_, kEkfDelayS, ekf_mag_use_ && mag_ref_learned_, ekf_hover_force_);
+  // Selected on the ground after the calibration: start from the observer's attitude.
+  if (type_ == EstimatorType::kEkf && before != type_ && calibration_.done()) start_ekf(filter_.time_us());
+}
+
+void StateEstimator::start_ekf(uint32_t t_us) {
+  ekf_params_.mag_ref_ned = observer_.params().mag_ref_ned;
+  ekf_.set_params(ekf_params_, kEkfDelayS, ekf_mag_use_ && mag_ref_learned_, ekf_hover_force_);
+  // The boot calibration's biases are already off the samples the EKF gets: it starts from zero.
+  ekf_.reset(observer_.attitude(), Vec3{}, Vec3{}, t_us);
+}
+
+void StateEstimator::step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag,
+                              float dt, const IterationPlan& plan, bool hovering) {
+  if (!ekf_.started()) start_ekf(t_us);
+  ekf_.imu(gyro, accel, dt);
+  if (mag != nullptr) ekf_.mag(mag->field);
+  if (!plan.predict) return;
+  const float force_error = absf(norm(accel) - kGravity);
+  const bool still = !armed_ && norm(gyro) < kStillRate && force_error < kStillForce;
+  ekf_.predict(t_us, still, hovering);
+}
+
+est::FixResult StateEstimator::queue_star(const est::StarFix& fix) {
+  switch (ekf_.queue_fix(fix)) {
+    case est::EkfFixResult::kQueued: return est::FixResult::kFused;
+    case est::EkfFixResult::kRejectedTooOld: return est::FixResult::kRejectedTooOld;
+    case est::EkfFixResult::kRejectedOutOfOrder: return est::FixResult::kRejectedOutOfOrder;
+    case est::EkfFixResult::kRejectedBusy: return est::FixResult::kRejectedBusy;
+    default: return est::FixResult::kRejectedInvalid;
+  }
+}
+
+void StateEstimator::attach_covariance(uint32_t capture_us, const float pos_cov[6], const float att_cov[6],
+                                       bool attitude_valid) {
+  if (ekf_selected()) ekf_.attach_covariance(capture_us, pos_cov, att_cov, attitude_valid);
+}
+
+bool StateEstimator::converged() const {
+  if (!calibration_.done() || !observer_.initialized()) return false;
+  return !ekf_selected() || ekf_.converged();
+}
+
+Quat StateEstimator::attitude() const { return ekf_selected() && ekf_.started() ? ekf_.attitude() : observer_.attitude(); }
+Vec3 StateEstimator::rate() const { return ekf_selected() && ekf_.started() ? ekf_.rate() : observer_.rate(); }
+Vec3 StateEstimator::position() const { return ekf_selected() && ekf_.started() ? ekf_.position() : filter_.position(); }
+Vec3 StateEstimator::velocity() const { return ekf_selected() && ekf_.started() ? ekf_.velocity() : filter_.velocity(); }
+
+#endif
+
+}  // namespace fw
+}  // namespace quad
