@@ -215,11 +215,66 @@ const STEPS = [
     return `from ${distance(start).toFixed(3)} m to ${distance(p).toFixed(3)} m of (0, 0, -1), position (${p.x.toFixed(2)}, ` +
       `${p.y.toFixed(2)}, ${p.z.toFixed(2)}) at t ${(p.timeBootMs / 1000).toFixed(2)} s`;
   },
+
+  // The flight's log, which the vehicle is writing: listed, and its first 4 500 bytes (the definitions)
+  // downloaded with LOG_REQUEST_DATA, missing ranges asked for again, and compared with the file.
+  async function logDownload(gs, run) {
+    const list = new common.LogRequestList();
+    list.targetSystem = VEHICLE.system;
+    list.targetComponent = VEHICLE.component;
+    [list.start, list.end] = [0, 0xffff];
+    const entry = gs.waitFor('LOG_ENTRY', 3000);
+    gs.send(list);
+    const e = await entry;
+    if (!e) throw new Error('no LOG_ENTRY within 3 s');
+    if (e.numLogs < 1) throw new Error('the vehicle lists no log although it is armed');
+    const wanted = Math.min(4500, e.size);
+    const data = Buffer.alloc(wanted);
+    const have = new Set();  // offsets of the 90-byte blocks received
+    for (let round = 0; round < 10 && have.size * 90 < wanted; ++round) {
+      let ofs = 0;
+      while (have.has(ofs)) ofs += 90;
+      const request = new common.LogRequestData();
+      request.targetSystem = VEHICLE.system;
+      request.targetComponent = VEHICLE.component;
+      [request.id, request.ofs, request.count] = [e.id, ofs, wanted - ofs];
+      const done = gs.collect(2000, (name, d) => {
+        if (name !== 'LOG_DATA' || d.id !== e.id || d.count === 0) return undefined;
+        const n = Math.min(d.count, wanted - d.ofs);
+        if (n > 0) Buffer.from(d.data.slice(0, n)).copy(data, d.ofs);
+        have.add(d.ofs);
+        return have.size * 90 >= wanted ? true : undefined;
+      });
+      gs.send(request);
+      await done;
+    }
+    if (have.size * 90 < wanted) throw new Error(`${have.size * 90} of ${wanted} bytes of log ${e.id} in 10 requests`);
+    const file = findFile(run.out, `log_${String(e.id).padStart(3, '0')}.ulg`);
+    if (!file) throw new Error(`no log_${e.id}.ulg in ${run.out}`);
+    const written = fs.readFileSync(file).subarray(0, wanted);
+    if (!written.equals(data)) throw new Error(`the downloaded bytes differ from ${file}'s first ${wanted}`);
+    if (data.subarray(0, 7).toString('latin1') !== 'ULog\x01\x12\x35') throw new Error('not a ULog header');
+    return `LOG_ENTRY id ${e.id} of ${e.numLogs} (${e.size} bytes so far); its first ${wanted} bytes downloaded ` +
+      `in ${have.size} LOG_DATA, equal to ${file}`;
+  },
 ];
+
+// The first file called name under dir (the simulator's run folder is below --out).
+function findFile(dir, name) {
+  for (const entry of fs.readdirSync(dir, { withFileTypes: true })) {
+    const path = `${dir}/${entry.name}`;
+    if (entry.isFile() && entry.name === name) return path;
+    if (entry.isDirectory()) {
+      const found = findFile(path, name);
+      if (found) return found;
+    }
+  }
+  return null;
+}
 
 async function main() {
   const o = parseArguments(process.argv.slice(2));
-  const run = { autoMode: flightModeNumber(o.modes, 'AUTO') };
+  const run = { autoMode: flightModeNumber(o.modes, 'AUTO'), out: o.out };
   const socket = dgram.createSocket('udp4');
   await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
   const port = socket.address().port;
