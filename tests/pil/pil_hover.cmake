@@ -63,6 +63,20 @@ foreach(run host target)
   if(std STREQUAL "")
     list(APPEND failures "${run}: no hold statistics")
   endif()
+  # A scenario that downloads the flight's log over the radio (log_download): on the emulated board it
+  # completed, and what came is a ULog (its 7-byte magic). The host firmware paces LOG_DATA on the wall
+  # clock, which a lockstep flight outruns (docs/logging.md): its download is reported, not checked.
+  string(JSON download ERROR_VARIABLE no_download GET "${${run}_json}" log_download)
+  if(NOT no_download AND run STREQUAL "target")
+    string(JSON download_complete GET "${download}" complete)
+    get_number("${download}" download_bytes bytes_received)
+    get_number("${download}" download_rate rate_bytes_s)
+    message(STATUS "${run}: log download complete ${download_complete}, ${download_bytes} bytes, ${download_rate} bytes/s")
+    file(READ "${OUT}/${run}/log_download.ulg" magic LIMIT 7 HEX)
+    if(NOT download_complete OR NOT magic STREQUAL "554c6f67011235")
+      list(APPEND failures "${run}: the log download over the radio failed (complete ${download_complete}, starts with ${magic})")
+    endif()
+  endif()
 endforeach()
 
 # The scenario's firmware parameters must reach the emulated firmware as they reach quad_firmware.
