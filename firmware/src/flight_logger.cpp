@@ -68,9 +68,9 @@ LogFixResult log_fix_result(est::FixResult r, bool reset) {
 
 namespace {
 
-// Where a topic's format starts in kFormats and its length, counted by the compiler: a walk of the
-// texts in flash from the start costs the AVR about 8 cycles a character, up to 35 000 cycles in an
-// armed iteration of the subscriptions (docs/logging.md, "Cost on the ATmega2560").
+// Where a topic's format starts in kFormats and its length, counted by the compiler: walking the texts
+// in flash from the start for each format and subscription record costs the AVR thousands of cycles in
+// the header's armed iterations (docs/logging.md, "Cost on the ATmega2560").
 struct FormatSpan {
   uint16_t offset;
   uint16_t length;
