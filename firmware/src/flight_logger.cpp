@@ -33,8 +33,12 @@ constexpr uint8_t kSetpointBytes = 8 + 16;
 constexpr uint8_t kMotorsBytes = 8 + 16;
 constexpr uint8_t kStatusBytes = 8 + 3;
 constexpr uint8_t kLoopTimingBytes = 8 + 16 + 4;
-static_assert(ulog::data_record_bytes(kLocalPositionBytes) <= UlogWriter::kStagingBytes,
-              "the largest record must fit the writer's buffer");
+// A frame-rate iteration's records, queued together and stored in one append (FlightLogger::iteration).
+static_assert(ulog::data_record_bytes(kSensorCombinedBytes) + ulog::data_record_bytes(kAttitudeBytes) +
+                      ulog::data_record_bytes(kSensorMagBytes) + ulog::data_record_bytes(kLocalPositionBytes) +
+                      ulog::data_record_bytes(kSetpointBytes) + ulog::data_record_bytes(kMotorsBytes) <=
+                  UlogWriter::kStagingBytes,
+              "an iteration's records must fit the writer's buffer");
 
 #if defined(__AVR__)
 #define QUAD_LOG_HW "apm25"
@@ -62,14 +66,41 @@ LogFixResult log_fix_result(est::FixResult r, bool reset) {
   }
 }
 
-FlashText log_topic_format(uint8_t topic) {
-  const char* p = kFormats;
+namespace {
+
+// Where a topic's format starts in kFormats and its length, counted by the compiler: walking the texts
+// in flash from the start for each format and subscription record costs the AVR thousands of cycles in
+// the header's armed iterations (docs/logging.md, "Cost on the ATmega2560").
+struct FormatSpan {
+  uint16_t offset;
+  uint16_t length;
+};
+
+constexpr FormatSpan format_span(uint8_t topic) {
+  uint16_t at = 0;
   for (uint8_t i = 0; i < topic; ++i) {
-    while (flash_char(p) != '\0') ++p;
-    ++p;
+    while (kFormats[at] != '\0') ++at;
+    ++at;
   }
-  return FlashText{p};
+  uint16_t n = 0;
+  while (kFormats[at + n] != '\0') ++n;
+  return FormatSpan{at, n};
 }
+
+constexpr FormatSpan kFormatSpans[kLogTopicCount] QUAD_FLASH = {
+    format_span(0), format_span(1), format_span(2), format_span(3), format_span(4),
+    format_span(5), format_span(6), format_span(7), format_span(8)};
+static_assert(kLogTopicCount == 9, "one span per topic");
+
+FormatSpan log_topic_span(uint8_t topic) {
+  FormatSpan span;
+  flash_copy(&span, &kFormatSpans[topic], sizeof span);
+  return span;
+}
+
+}  // namespace
+
+FlashText log_topic_format(uint8_t topic) { return FlashText{kFormats + log_topic_span(topic).offset}; }
 
 void FlightLogger::configure(const Params& p, float loop_hz) {
   mode_ = static_cast<LogMode>(static_cast<uint8_t>(p.get(kLogMode) + 0.5f));
@@ -111,9 +142,9 @@ void FlightLogger::write_definitions(const FlightApp& app) {
 bool FlightLogger::next_definition(const FlightApp& app, uint16_t* bytes) {
   switch (phase_) {
     case kPhaseFormats: {
-      const FlashText format = log_topic_format(item_);
-      writer_.format(format);
-      *bytes = static_cast<uint16_t>(*bytes + flash_length(format));
+      const FormatSpan span = log_topic_span(item_);
+      writer_.format(FlashText{kFormats + span.offset}, span.length);
+      *bytes = static_cast<uint16_t>(*bytes + span.length);
       if (++item_ == kLogTopicCount) phase_ = kPhaseInfo, item_ = 0;
       return true;
     }
@@ -176,16 +207,16 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
     if (p != nullptr) {
       UlogFields(p).u64(now).f32(&mag->field.x, 3);
-      writer_.commit();
     }
   }
   if (plan.frame_work) write_frame_topics(app, now);
-  if (!spare) return;
-  if (timing_due_) write_loop_timing(app);
-  if (queued_result_ != kNoResult) {
+  if (spare && timing_due_) write_loop_timing(app);
+  if (spare && queued_result_ != kNoResult) {
     vision_fix(t, &queued_fix_, queued_capture_us_, nullptr, static_cast<LogFixResult>(queued_result_));
     queued_result_ = kNoResult;
   }
+  // The iteration's records, and those of the events since the last one, in one append.
+  writer_.flush();
 }
 
 void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt,
@@ -193,14 +224,12 @@ void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const ha
   uint8_t* p = writer_.begin_data(kLogSensorCombined, kSensorCombinedBytes);
   if (p != nullptr) {
     UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0);
-    writer_.commit();
   }
   p = writer_.begin_data(kLogVehicleAttitude, kAttitudeBytes);
   if (p != nullptr) {
     const Quat q = app.attitude();
     const Vec3 bias = app.estimator().gyro_bias();
     UlogFields(p).u64(now).f32(&q.w, 4).f32(&bias.x, 3);
-    writer_.commit();
   }
 }
 
@@ -211,16 +240,13 @@ void FlightLogger::write_frame_topics(const FlightApp& app, uint64_t now) {
     const Vec3 pos = est.position(), vel = est.velocity();
     const Vec3 pv = est.position_variance(), vv = est.velocity_variance(), ab = est.filter_accel_bias();
     UlogFields(p).u64(now).f32(&pos.x, 3).f32(&vel.x, 3).f32(&pv.x, 3).f32(&vv.x, 3).f32(&ab.x, 3);
-    writer_.commit();
   }
   if (app.armed() && (p = writer_.begin_data(kLogSetpoint, kSetpointBytes)) != nullptr) {
     const ctrl::PositionSetpoint& sp = app.control().setpoint();
     UlogFields(p).u64(now).f32(&sp.p_d.x, 3).f32(sp.yaw_d);
-    writer_.commit();
   }
   if ((p = writer_.begin_data(kLogActuatorMotors, kMotorsBytes)) != nullptr) {
     UlogFields(p).u64(now).f32(app.motors(), hal::kMotorCount);
-    writer_.commit();
   }
 }
 
@@ -237,7 +263,6 @@ void FlightLogger::write_loop_timing(const FlightApp& app) {
       .u32(loop.last_exec_us())
       .u32(max_us_)
       .f32(static_cast<float>(loop.load_permille()) * 1e-3f);
-  writer_.commit();
 }
 
 void FlightLogger::write_status(const FlightApp& app) {
@@ -248,7 +273,6 @@ void FlightLogger::write_status(const FlightApp& app) {
       .u8(static_cast<uint8_t>(app.mode()))
       .u8(app.armed() ? 1 : 0)
       .u8(last_reason_);
-  writer_.commit();
 }
 
 void FlightLogger::transition(const FlightApp& app, const Transition& t) {
@@ -298,7 +322,6 @@ void FlightLogger::vision_fix(uint32_t now_us, const Vec3* p_ned, uint32_t captu
       .f32(&position.x, 3)
       .f32(q != nullptr ? q : none, 4)
       .u8(static_cast<uint8_t>(result));
-  writer_.commit();
 }
 
 

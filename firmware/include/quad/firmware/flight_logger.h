@@ -13,8 +13,9 @@
 //   the frame-rate work's iteration  vehicle_local_position, actuator_motors, the setpoint (armed)
 //   an iteration with no fix step and no frame-rate work of a faster loop: the definitions, and
 //                                    loop_timing (once a second, and after an overrun)
-// Events between iterations write at once: vision fixes, mode changes (vehicle_status), STATUSTEXT lines
-// (logged strings), parameter changes.
+// Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
+// STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
+// since the last one go to the store in one append at its end.
 #pragma once
 
 #include <stdint.h>

@@ -2,12 +2,13 @@
 // over a LogStore (log_store.h): the file header, the flag bits, formats, information, parameters,
 // add_logged, data and logged strings, as whole records.
 //
-// It owns one small staging buffer and no other storage. A record is composed in the buffer and handed to
-// the store; what the store does not take at once (busy) stays in the buffer and goes first on the next
-// call, so the stream never loses part of a record. A record that finds no room behind the pending bytes
-// is dropped whole and counted (dropped()). A format record is longer than the buffer: its text stays in
-// flash and is copied in behind the buffer as the store drains it, and no other record is queued until it
-// has all gone.
+// It owns one staging buffer and no other storage. A record is composed in the buffer and waits there
+// until flush() (commit() flushes at once), or until a record behind it needs its room: the records of
+// a control iteration go to the store in one append. What the store does not take at once (busy) stays
+// in the buffer and goes first on the next call, so the stream never loses part of a record. A record
+// that finds no room behind the pending bytes is dropped whole and counted (dropped()). A format record
+// is longer than a data record: its text stays in flash and is copied in behind the buffer as the store
+// drains it, and no other record is queued until it has all gone.
 //
 // All three targets are little-endian with IEEE-754 floats, so a field's bytes are its memory image.
 #pragma once
@@ -58,9 +59,9 @@ class UlogFields {
 
 class UlogWriter {
  public:
-  // The largest record composed in RAM: the biggest data record (vehicle_local_position, 73 bytes) with
-  // a little room for one more behind bytes the store has not taken yet.
-  static constexpr uint8_t kStagingBytes = 80;
+  // The records of one control iteration: the flight log's largest (sensor_combined, vehicle_attitude,
+  // sensor_mag, vehicle_local_position, the setpoint and actuator_motors) take 239 bytes.
+  static constexpr uint8_t kStagingBytes = 255;
 
   // store: where the log goes; null, or a store without open(), means nowhere (every open() fails).
   void attach(const LogStore* store) { store_ = store; }
@@ -76,15 +77,16 @@ class UlogWriter {
   // Definitions (before the first add_logged) and data. Each queues one whole record and returns true,
   // or queues nothing and counts a drop.
   bool format(FlashText format);                   // "name:type field;type field;..."
+  bool format(FlashText format, uint16_t length);  // the same, its length known
   bool add_logged(uint16_t msg_id, FlashText format);  // the name is format's text before ':'
   bool info(FlashText name, FlashText value);      // key "char[N] name"
   bool info(FlashText name, uint32_t value);       // key "uint32_t name"
   bool parameter(const char* name, float value);   // key "float NAME"
   bool logged_string(uint8_t level, uint64_t timestamp_us, const char* text, uint8_t length);
   // A data record of `size` field bytes: returns the cursor for its fields, or null (dropped). The
-  // caller writes exactly `size` bytes, then calls commit().
+  // caller writes exactly `size` bytes; the record goes to the store with the next flush() or commit().
   uint8_t* begin_data(uint16_t msg_id, uint8_t size);
-  void commit() { flush(); }
+  void commit() { flush(); }  // the queued records to the store now
 
   // Hands pending bytes to the store; true when nothing is left.
   bool flush();
@@ -95,6 +97,8 @@ class UlogWriter {
   // Room for a record of `in_buffer` bytes after the message header; the header is written with
   // msg_size = payload. Null (and a drop counted) when there is none.
   uint8_t* reserve(uint8_t type, uint16_t payload, uint8_t in_buffer);
+
+  static constexpr uint8_t kCloseAttempts = 64;  // flush() calls close() makes at most
 
   const LogStore* store_ = nullptr;
   uint8_t buffer_[kStagingBytes];
