@@ -590,30 +590,72 @@ FixResult PositionFilterCore::update_fix() {
   }
   bool fold = false;
   for (int i = 0; i < 3; ++i) {
-    const float* k = gain_[covariance_class(i)];
-    AxisState& x = x_[i];
-    Correction& c = correction_[i];
-    const float dp = k[0] * nu[i], dv = k[1] * nu[i];
-    x.p += dp;
-    x.v += dv;
-    c.p += dp;
-    c.v += dv;
-    if (has_bias(i)) {  // elsewhere k[2] is zero
-      const float db = k[2] * nu[i];
-      x.b += db;
-      c.b += db;
-    }
-    // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
-    // monotonic and 1 is a float): two comparisons decide the usual case exactly.
-    if (!(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
-        absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) {
-      fold = true;
-    }
+    if (correct_axis(i, gain_[covariance_class(i)], nu[i])) fold = true;
   }
   if (fold) fold_correction();
   consecutive_rejections_ = 0;
   ++health_.fused;
   return FixResult::kFused;
+}
+
+bool PositionFilterCore::correct_axis(int i, const float k[3], float nu) {
+  AxisState& x = x_[i];
+  Correction& c = correction_[i];
+  const float dp = k[0] * nu, dv = k[1] * nu;
+  x.p += dp;
+  x.v += dv;
+  c.p += dp;
+  c.v += dv;
+  if (has_bias(i)) {  // elsewhere k[2] is zero
+    const float db = k[2] * nu;
+    x.b += db;
+    c.b += db;
+  }
+  // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
+  // monotonic and 1 is a float): two comparisons decide the usual case exactly.
+  return !(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
+         absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold;
+}
+
+// thesis eq. 8.11b (errata) for H = e_m, at the current time and on every axis: w = P H^T (P's column m),
+// S = w_m + r, K = w / S, x += K (y - x_m), P -= w w^T / S. The same H and r on every axis keep the
+// covariance classes as they were: shared stays shared.
+void PositionFilterCore::update_now(int m, const Vec3& y, float r) {
+  float k[2][3];
+  for (int c = 0; c < class_count(); ++c) {
+    AxisCovariance& p = p_[c];
+    const float w0 = m == 0 ? p.pp : p.pv, w1 = m == 0 ? p.pv : p.vv, w2 = m == 0 ? p.pb : p.vb;
+    const float inv_s = 1.0f / (maxf(m == 0 ? w0 : w1, 0.0f) + r);
+    k[c][0] = w0 * inv_s;
+    k[c][1] = w1 * inv_s;
+    k[c][2] = w2 * inv_s;  // (0 without a bias state: pb = vb = 0)
+    p.pp -= k[c][0] * w0;
+    p.pv -= k[c][0] * w1;
+    p.vv -= k[c][1] * w1;
+    if (class_has_bias(c)) {
+      p.pb -= k[c][0] * w2;
+      p.vb -= k[c][1] * w2;
+      p.bb -= k[c][2] * w2;
+    }
+  }
+  bool fold = false;
+  for (int i = 0; i < 3; ++i) {
+    const float nu = y[i] - (m == 0 ? x_[i].p : x_[i].v);
+    if (correct_axis(i, k[covariance_class(i)], nu)) fold = true;
+  }
+  if (fold) fold_correction();
+}
+
+bool PositionFilterCore::fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v) {
+  if (!initialized_ || fix_stage_ != kFixIdle || !is_finite(p_hold)) return false;
+  update_now(1, Vec3{}, sqf(sigma_v));
+  update_now(0, p_hold, sqf(sigma_p));
+  return true;
+}
+
+void PositionFilterCore::initialize_at(const Vec3& p) {
+  const uint32_t now = t_us_;
+  reset(p, Vec3{}, now);
 }
 
 }  // namespace est

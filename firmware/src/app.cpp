@@ -116,7 +116,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
-  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
+  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering, control_.landed());
   report(event);
   mark(hal::TracePoint::kEstimated);
 
@@ -196,6 +196,7 @@ ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   in.vision_seen = vision_seen_;
   in.vision_time_us = vision_time_us_;
   in.landed = control_.landed();
+  in.below_star_view = estimator_.height_above_star() < control_.star_view_height();
   return in;
 }
 

@@ -40,6 +40,7 @@ bool find_message_info(uint32_t message_id, MessageInfo* info) {
     case Timesync::kId: return found<Timesync>(info);
     case HilStateQuaternion::kId: return found<HilStateQuaternion>(info);
     case LandingTarget::kId: return found<LandingTarget>(info);
+    case ExtendedSysState::kId: return found<ExtendedSysState>(info);
     case Statustext::kId: return found<Statustext>(info);
     default: return false;
   }

@@ -3,6 +3,7 @@
 
 #include "quad/estimation/calibration.h"
 #include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/ground_hold.h"
 #include "quad/estimation/hover_accel_bias.h"
 #include "quad/estimation/linear_complementary_filter.h"
 #include "quad/estimation/mahony_filter.h"

@@ -152,6 +152,17 @@ class PositionFilterCore {
   FixResult advance_fix();
   bool fix_in_progress() const { return fix_stage_ != kFixIdle; }
 
+  // The vehicle stands still on the ground (ground_hold.h): zero velocity and the held position p_hold
+  // fused at the current time as two scalar measurements per axis, thesis eq. 8.11b (errata) with
+  // H = (0, 1[, 0]), R = sigma_v^2, then H = (1, 0[, 0]), R = sigma_p^2 (an extension: the thesis fuses
+  // only vision fixes). The corrections join the accumulated one like a fix's, so later delayed fixes
+  // still see a consistent history. Nothing (false) before the filter is initialised or while a fix is in
+  // progress (its D h belongs to the covariance it was gated with).
+  bool fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v);
+  // Before any fix: the state set at p (velocity zero, biases zero) at the current time, with the
+  // position standard deviation of the fixes; the first fix is then an ordinary, gated update.
+  void initialize_at(const Vec3& p);
+
   Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
   float accel_bias_z() const { return x_[2].b; }  // m/s^2; 0 unless z_accel_bias
@@ -220,6 +231,11 @@ class PositionFilterCore {
   FixResult gate_fix(const Vec3& p_ned, uint32_t capture_us);
   FixResult update_fix();
   void drop_fix();
+  // Adds k nu to axis i's state and accumulated correction; true when the correction has outgrown the
+  // fold threshold.
+  bool correct_axis(int i, const float k[3], float nu);
+  // One scalar measurement y_i of state component m (0 position, 1 velocity) on every axis, now.
+  void update_now(int m, const Vec3& y, float r);
 
   PositionFilterParams params_;
   // q_step_us_ is set by set_params() (from the constructor), q_dt_ .. h_dt_ with Q(q_dt_): no

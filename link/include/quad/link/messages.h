@@ -458,6 +458,21 @@ struct LandingTarget {
   }
 };
 
+// EXTENDED_SYS_STATE (245): VTOL state and landed state (MAV_LANDED_STATE: on ground, in air, landing).
+struct ExtendedSysState {
+  static constexpr uint32_t kId = 245;
+  static constexpr uint8_t kCrcExtra = 130;
+  static constexpr uint8_t kBaseLength = 2;
+  static constexpr uint8_t kLength = 2;
+  static constexpr const char* kName = "EXTENDED_SYS_STATE";
+  uint8_t vtol_state = 0;
+  uint8_t landed_state = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.vtol_state); io(m.landed_state);
+  }
+};
+
 // STATUSTEXT (253): a human-readable status line (severity = MAV_SEVERITY).
 struct Statustext {
   static constexpr uint32_t kId = 253;
@@ -485,7 +500,7 @@ void for_each_message_type(F&& f) {
   f(Heartbeat{}); f(SysStatus{}); f(ParamRequestRead{}); f(ParamRequestList{}); f(ParamValue{});
   f(ParamSet{}); f(AttitudeQuaternion{}); f(LocalPositionNed{}); f(ManualControl{}); f(CommandLong{});
   f(CommandAck{}); f(SetPositionTargetLocalNed{}); f(HilActuatorControls{}); f(VisionPositionEstimate{});
-  f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LandingTarget{}); f(Statustext{});
+  f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LandingTarget{}); f(ExtendedSysState{}); f(Statustext{});
 }
 
 // The declared lengths must equal the sum of the declared fields: a missing or mistyped field fails to
@@ -513,6 +528,7 @@ static_assert(lengths_match_fields<HilSensor>(), "HIL_SENSOR layout");
 static_assert(lengths_match_fields<Timesync>(), "TIMESYNC layout");
 static_assert(lengths_match_fields<HilStateQuaternion>(), "HIL_STATE_QUATERNION layout");
 static_assert(lengths_match_fields<LandingTarget>(), "LANDING_TARGET layout");
+static_assert(lengths_match_fields<ExtendedSysState>(), "EXTENDED_SYS_STATE layout");
 static_assert(lengths_match_fields<Statustext>(), "STATUSTEXT layout");
 
 }  // namespace mavlink
