@@ -137,6 +137,7 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
   clock_started_ = true;
   initialized_ = true;
   have_fix_ = false;
+  have_still_ = false;
   consecutive_rejections_ = 0;
   clear_history();
   push_history();
@@ -193,6 +194,11 @@ void PositionFilterCore::push_history() {
     if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
     const HistoryEntry& oldest = history_[k];
     if (micros_between(oldest.t_us, last_fix_us_) > 0) have_fix_ = false;
+  }
+  if (have_still_) {
+    uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);
+    if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
+    if (micros_between(history_[k].t_us, still_us_) > 0) have_still_ = false;
   }
 }
 
@@ -519,7 +525,8 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   }
   const float tau = static_cast<float>(tau_us) * 1e-6f;  // seconds_between(t_us_, capture_us)
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
-  if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
+  if ((have_fix_ && micros_between(capture_us, last_fix_us_) < 0) ||
+      (have_still_ && micros_between(capture_us, still_us_) < 0)) {
     ++health_.rejected_out_of_order;
     return FixResult::kRejectedOutOfOrder;
   }
@@ -646,10 +653,16 @@ void PositionFilterCore::update_now(int m, const Vec3& y, float r) {
   if (fold) fold_correction();
 }
 
+// The delayed fusion takes the covariance at a fix's capture time s from the current one, P_now - Q(tau),
+// which holds only while nothing was fused after s: with vision fixes in the history window the fixes
+// hold the estimate and the still measurements wait, and a fix captured before the last still
+// measurement is refused as out of order (gate_fix()).
 bool PositionFilterCore::fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v) {
-  if (!initialized_ || fix_stage_ != kFixIdle || !is_finite(p_hold)) return false;
+  if (!initialized_ || fix_stage_ != kFixIdle || have_fix_ || !is_finite(p_hold)) return false;
   update_now(1, Vec3{}, sqf(sigma_v));
   update_now(0, p_hold, sqf(sigma_p));
+  still_us_ = t_us_;
+  have_still_ = true;
   return true;
 }
 
