@@ -183,6 +183,7 @@ class Bench {
   int frames_on[quad::hal::kPortCount] = {0, 0};
   int signed_frames_on[quad::hal::kPortCount] = {0, 0};
   std::vector<mav::SysStatus> statuses;
+  std::vector<mav::ExtendedSysState> extended_states;  // UART0's
   // Frames the vehicle sent, by port and message id.
   std::map<uint32_t, int> messages_on[quad::hal::kPortCount];
   int count_on(uint8_t port, uint32_t message_id) const {
@@ -244,6 +245,8 @@ class Bench {
     if (mav::decode(f, act)) actuators.push_back(act);
     mav::SysStatus st;
     if (mav::decode(f, st)) statuses.push_back(st);
+    mav::ExtendedSysState ext;
+    if (mav::decode(f, ext) && port == quad::hal::kUart0) extended_states.push_back(ext);
     mav::Timesync ts;
     if (mav::decode(f, ts)) {
       timesync = ts;
