@@ -64,6 +64,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
   ground_.configure(est::GroundHoldParams{p.get(kEstGndGyro), p.get(kEstGndAcc), kStillTime});
   ground_height_ = p.get(kEstGndHgt);
+  star_view_height_ = p.get(kLandVisHgt);
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
 }
@@ -190,8 +191,13 @@ void StateEstimator::hold_ground(const Vec3& gyro, const Vec3& accel, bool on_gr
   if (ground_.started()) {
     // Before any fix the vehicle stands where it took off from: at the star, on its floor (the cameras,
     // close to the floor, see only a patch of it: docs/estimation.md).
-    if (!filter_.initialized()) filter_.initialize_at(Vec3{star_ned_.x, star_ned_.y, star_ned_.z - ground_height_});
-    ground_.set_reference(filter_.position());  // the last known position
+    const float ground_z = star_ned_.z - ground_height_;
+    if (!filter_.initialized()) filter_.initialize_at(Vec3{star_ned_.x, star_ned_.y, ground_z});
+    // The last known position; come down below LAND_VIS_HGT the vehicle stands on the star's floor, at
+    // the ground's height, which the landing's last metre of dead reckoning knows less well.
+    Vec3 p = filter_.position();
+    if (height_above_star() < star_view_height_) p.z = ground_z;
+    ground_.set_reference(p);
   }
   filter_.fuse_still(ground_.reference(), kStillPositionSigma, kStillVelocitySigma);
 }

@@ -94,7 +94,8 @@ class StateEstimator {
   // then the ground hold.
   void predict_position(uint32_t t_us, const Vec3& gyro, bool on_ground);
   // Standing still on the ground: zero velocity and the last known position into the filter (before the
-  // first fix, the ground's position: at the star, EST_GND_HGT above its floor).
+  // first fix, the ground's position: at the star, EST_GND_HGT above its floor; below LAND_VIS_HGT the
+  // ground's height).
   void hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground);
 
   BootCalibration calibration_;
@@ -106,6 +107,7 @@ class StateEstimator {
   est::HoverAccelBias accel_bias_;  // the accelerometer's in-flight x/y bias drift
   est::GroundHold ground_;          // still on the ground: EST_GND_GYRO, EST_GND_ACC
   float ground_height_ = 0.0f;      // EST_GND_HGT: the reference point's height above the floor, standing
+  float star_view_height_ = 0.0f;   // LAND_VIS_HGT: below it a vehicle that comes to rest is on the floor
   Vec3 accel_sum_;                  // body specific force summed between predictions (valid samples)
   uint8_t accel_count_ = 0;
   Vec3 last_good_kinematic_accel_;  // stands in for a clipped accelerometer's (eq. 8.7)
