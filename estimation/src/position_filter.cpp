@@ -195,10 +195,12 @@ void PositionFilterCore::push_history() {
     const HistoryEntry& oldest = history_[k];
     if (micros_between(oldest.t_us, last_fix_us_) > 0) have_fix_ = false;
   }
-  if (have_still_) {
+  if (have_still_ || have_offered_) {
     uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);
     if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
-    if (micros_between(history_[k].t_us, still_us_) > 0) have_still_ = false;
+    const uint32_t oldest = history_[k].t_us;
+    if (micros_between(oldest, still_us_) > 0) have_still_ = false;
+    if (micros_between(oldest, offered_us_) > 0) have_offered_ = false;
   }
 }
 
@@ -424,6 +426,8 @@ FixResult PositionFilterCore::accept_fix(const Vec3& y) {
     ++health_.rejected_invalid;
     return FixResult::kRejectedInvalid;
   }
+  offered_us_ = t_us_;
+  have_offered_ = true;
   return FixResult::kPending;
 }
 
@@ -654,11 +658,12 @@ void PositionFilterCore::update_now(int m, const Vec3& y, float r) {
 }
 
 // The delayed fusion takes the covariance at a fix's capture time s from the current one, P_now - Q(tau),
-// which holds only while nothing was fused after s: with vision fixes in the history window the fixes
-// hold the estimate and the still measurements wait, and a fix captured before the last still
-// measurement is refused as out of order (gate_fix()).
+// which holds only while nothing was fused after s: while fixes arrive (one offered within the history
+// window) they hold the estimate and the still measurements wait, and a fix captured before the last
+// still measurement is refused as out of order (gate_fix()); the first fix after a hold may be that one,
+// the next ones are fused.
 bool PositionFilterCore::fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v) {
-  if (!initialized_ || fix_stage_ != kFixIdle || have_fix_ || !is_finite(p_hold)) return false;
+  if (!initialized_ || fix_stage_ != kFixIdle || have_offered_ || !is_finite(p_hold)) return false;
   update_now(1, Vec3{}, sqf(sigma_v));
   update_now(0, p_hold, sqf(sigma_p));
   still_us_ = t_us_;

@@ -196,4 +196,31 @@ TEST(GroundHold, FuseStillWaitsForTheFilterAndForAFixInProgress) {
   EXPECT_TRUE(kf.fuse_still(Vec3{1.0f, 2.0f, -0.13f}, 0.01f, 0.01f));
 }
 
+TEST(GroundHold, FixesThatStartDuringAHoldTakeOver) {
+  // Standing still with the hold running when the star comes into view (the station starts late): the
+  // first fix, captured before the last still measurement, is refused; the hold then waits and the next
+  // fixes are fused, however often the caller asks for the hold.
+  Filter kf(firmware_params());
+  uint32_t t = 1000000;
+  kf.predict(Vec3{}, t);
+  const Vec3 ground{0.0f, 0.0f, -0.13f};
+  kf.initialize_at(ground);
+  for (int i = 0; i < 100; ++i) {
+    kf.predict(Vec3{}, t += kStepUs);
+    ASSERT_TRUE(kf.fuse_still(ground, 0.01f, 0.01f));
+  }
+  int fused = 0, refused = 0;
+  for (int i = 0; i < 300; ++i) {
+    kf.predict(Vec3{}, t += kStepUs);
+    if (i % 3 == 0) {
+      const FixResult r = kf.fuse_position(Vec3{0.01f, 0.0f, -0.13f}, t - 40000);
+      fused += r == FixResult::kFused;
+      refused += r == FixResult::kRejectedOutOfOrder;
+    }
+    kf.fuse_still(ground, 0.01f, 0.01f);
+  }
+  EXPECT_EQ(refused, 1);
+  EXPECT_EQ(fused, 99);
+}
+
 }  // namespace

@@ -157,9 +157,9 @@ class PositionFilterCore {
   // H = (0, 1[, 0]), R = sigma_v^2, then H = (1, 0[, 0]), R = sigma_p^2 (an extension: the thesis fuses
   // only vision fixes). The corrections join the accumulated one like a fix's, so later delayed fixes
   // still see a consistent history. Nothing (false) before the filter is initialised or while a fix is in
-  // progress (its D h belongs to the covariance it was gated with), nor while a fix fused in the last
-  // history window could still be followed by one captured before now; a fix captured before the last
-  // still measurement is refused as out of order (the delayed fusion's P_now - Q(tau) would not hold).
+  // progress (its D h belongs to the covariance it was gated with), nor while fixes arrive (one offered
+  // within the history window); a fix captured before the last still measurement is refused as out of
+  // order (the delayed fusion's P_now - Q(tau) would not hold).
   bool fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v);
   // Before any fix: the state set at p (velocity zero, biases zero) at the current time, with the
   // position standard deviation of the fixes; the first fix is then an ordinary, gated update.
@@ -267,6 +267,8 @@ class PositionFilterCore {
   bool have_fix_ = false;
   uint32_t still_us_ = 0;     // the last still measurement (fuse_still), valid while have_still_
   bool have_still_ = false;
+  uint32_t offered_us_ = 0;   // when the last fix was offered (any result), valid while have_offered_
+  bool have_offered_ = false;
   uint16_t consecutive_rejections_ = 0;
   HistoryEntry* history_;
   uint16_t capacity_;
