@@ -12,9 +12,13 @@ void GroundHold::configure(const GroundHoldParams& p) {
 }
 
 bool GroundHold::update(bool on_ground, const Vec3& gyro, const Vec3& accel, float dt) {
-  // (Non-finite samples compare false: not still.)
-  const float a2 = dot(accel, accel);
-  const bool still_now = dot(gyro, gyro) < gyro_max2_ && a2 > accel_lo2_ && a2 < accel_hi2_;
+  // Off the ground nothing is held: the still time counts from the ground on (and the flying
+  // iterations skip the norms: AVR cycles). (Non-finite samples compare false: not still.)
+  bool still_now = on_ground;
+  if (still_now) {
+    const float a2 = dot(accel, accel);
+    still_now = dot(gyro, gyro) < gyro_max2_ && a2 > accel_lo2_ && a2 < accel_hi2_;
+  }
   if (!still_now) {
     still_for_s_ = 0.0f;
   } else if (still_for_s_ < still_time_s_) {

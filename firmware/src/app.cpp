@@ -116,7 +116,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.fix_step) fix_step([&] { return estimator_.advance_fix(); });
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
-  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering, control_.landed());
+  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering, control_.on_ground());
   report(event);
   mark(hal::TracePoint::kEstimated);
 

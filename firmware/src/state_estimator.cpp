@@ -186,8 +186,9 @@ void StateEstimator::predict_position(uint32_t t_us, const Vec3& gyro, bool on_g
 }
 
 void StateEstimator::hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground) {
-  // (The predictions run at the frame rate whatever the loop rate.)
-  if (!ground_.update(on_ground, gyro, accel, 1.0f / FrameSchedule::kRateHz)) return;
+  // (The predictions run at the frame rate whatever the loop rate.) While fixes arrive they hold the
+  // estimate: the still time starts when they stop.
+  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) return;
   if (ground_.started()) {
     // Before any fix the vehicle stands where it took off from: at the star, on its floor (the cameras,
     // close to the floor, see only a patch of it: docs/estimation.md).

@@ -18,8 +18,8 @@
 // position on the ground without aiding).
 //
 // "On the ground" is the caller's (the land detector, or disarmed); "still" is this unit's: the gyro's
-// rate below gyro_max and the specific force's magnitude within accel_max of g, for still_time_s without
-// a break. A quadrotor the land detector takes for landed but that still flies (less than hover thrust) is
+// rate below gyro_max and the specific force's magnitude within accel_max of g, on the ground, for
+// still_time_s without a break (a steady descent is as still as standing to an IMU). A quadrotor the land detector takes for landed but that still flies (less than hover thrust) is
 // accelerating downwards, |a| < g, so it is not still; one that is carried or bumped is not still either.
 #pragma once
 
@@ -46,7 +46,7 @@ class GroundHold {
   bool holding() const { return holding_; }
   // The hold began in the last update(): the caller sets the reference (the last known position).
   bool started() const { return started_; }
-  // Still (whether or not on the ground): for the tests and the telemetry.
+  // Still, on the ground, for the still time.
   bool still() const { return still_for_s_ >= still_time_s_; }
 
   void set_reference(const Vec3& p) { reference_ = p; }

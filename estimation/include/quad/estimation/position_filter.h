@@ -151,6 +151,8 @@ class PositionFilterCore {
   FixResult queue_fix(const Vec3& p_ned, uint32_t capture_us);
   FixResult advance_fix();
   bool fix_in_progress() const { return fix_stage_ != kFixIdle; }
+  // A fix was offered (whatever its result) within the history window: fuse_still() waits.
+  bool fixes_arriving() const { return have_offered_; }
 
   // The vehicle stands still on the ground (ground_hold.h): zero velocity and the held position p_hold
   // fused at the current time as two scalar measurements per axis, thesis eq. 8.11b (errata) with

@@ -75,6 +75,9 @@ class FlightControl {
   bool vision_fresh(const ModeInputs& in) const { return modes_.vision_fresh(in); }
   bool rc_fresh(const ModeInputs& in) const { return modes_.rc_fresh(in); }
   bool landed() const { return landed_; }
+  // Landed, or the land detector's quiet condition holds (|v_z| small, thrust below LAND_THR_FRAC of
+  // hover) while it waits LAND_TIME to be sure: the vehicle may stand on the ground.
+  bool on_ground() const { return landed_ || landed_for_s_ > 0.0f; }
   // LAND_VIS_HGT: below this height above the star a landing loses it by design (modes.h).
   float star_view_height() const { return star_view_height_; }
   const float (&motors() const)[hal::kMotorCount] { return motors_; }

@@ -50,8 +50,8 @@ class StateEstimator {
 
   // One iteration at t_us: the sample, its period dt and what the iteration runs. hovering: the vehicle
   // hovers still in AUTO (its horizontal specific force is the accelerometer's bias), read only in the
-  // frame-rate work's iteration. on_ground: disarmed, or landed by the land detector (read with the
-  // prediction: the ground hold).
+  // frame-rate work's iteration. on_ground: disarmed, or landed or touching down by the land detector
+  // (read with the prediction: the ground hold).
   EstimatorEvent step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
                       const IterationPlan& plan, bool hovering, bool on_ground);
 
