@@ -137,6 +137,7 @@ void PositionFilterCore::reset(const Vec3& p_ned, const Vec3& v_ned, uint32_t t_
   clock_started_ = true;
   initialized_ = true;
   have_fix_ = false;
+  have_still_ = false;
   consecutive_rejections_ = 0;
   clear_history();
   push_history();
@@ -193,6 +194,13 @@ void PositionFilterCore::push_history() {
     if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
     const HistoryEntry& oldest = history_[k];
     if (micros_between(oldest.t_us, last_fix_us_) > 0) have_fix_ = false;
+  }
+  if (have_still_ || have_offered_) {
+    uint16_t k = static_cast<uint16_t>(head_ + capacity_ - count_);
+    if (k >= capacity_) k = static_cast<uint16_t>(k - capacity_);
+    const uint32_t oldest = history_[k].t_us;
+    if (micros_between(oldest, still_us_) > 0) have_still_ = false;
+    if (micros_between(oldest, offered_us_) > 0) have_offered_ = false;
   }
 }
 
@@ -418,6 +426,8 @@ FixResult PositionFilterCore::accept_fix(const Vec3& y) {
     ++health_.rejected_invalid;
     return FixResult::kRejectedInvalid;
   }
+  offered_us_ = t_us_;
+  have_offered_ = true;
   return FixResult::kPending;
 }
 
@@ -519,7 +529,8 @@ FixResult PositionFilterCore::gate_fix(const Vec3& y, uint32_t capture_us) {
   }
   const float tau = static_cast<float>(tau_us) * 1e-6f;  // seconds_between(t_us_, capture_us)
   // (Fixes from before a reset or a gap find no history entry: the history starts there.)
-  if (have_fix_ && micros_between(capture_us, last_fix_us_) < 0) {
+  if ((have_fix_ && micros_between(capture_us, last_fix_us_) < 0) ||
+      (have_still_ && micros_between(capture_us, still_us_) < 0)) {
     ++health_.rejected_out_of_order;
     return FixResult::kRejectedOutOfOrder;
   }
@@ -590,30 +601,79 @@ FixResult PositionFilterCore::update_fix() {
   }
   bool fold = false;
   for (int i = 0; i < 3; ++i) {
-    const float* k = gain_[covariance_class(i)];
-    AxisState& x = x_[i];
-    Correction& c = correction_[i];
-    const float dp = k[0] * nu[i], dv = k[1] * nu[i];
-    x.p += dp;
-    x.v += dv;
-    c.p += dp;
-    c.v += dv;
-    if (has_bias(i)) {  // elsewhere k[2] is zero
-      const float db = k[2] * nu[i];
-      x.b += db;
-      c.b += db;
-    }
-    // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
-    // monotonic and 1 is a float): two comparisons decide the usual case exactly.
-    if (!(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
-        absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold) {
-      fold = true;
-    }
+    if (correct_axis(i, gain_[covariance_class(i)], nu[i])) fold = true;
   }
   if (fold) fold_correction();
   consecutive_rejections_ = 0;
   ++health_.fused;
   return FixResult::kFused;
+}
+
+bool PositionFilterCore::correct_axis(int i, const float k[3], float nu) {
+  AxisState& x = x_[i];
+  Correction& c = correction_[i];
+  const float dp = k[0] * nu, dv = k[1] * nu;
+  x.p += dp;
+  x.v += dv;
+  c.p += dp;
+  c.v += dv;
+  if (has_bias(i)) {  // elsewhere k[2] is zero
+    const float db = k[2] * nu;
+    x.b += db;
+    c.b += db;
+  }
+  // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
+  // monotonic and 1 is a float): two comparisons decide the usual case exactly.
+  return !(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
+         absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold;
+}
+
+// thesis eq. 8.11b (errata) for H = e_m, at the current time and on every axis: w = P H^T (P's column m),
+// S = w_m + r, K = w / S, x += K (y - x_m), P -= w w^T / S. The same H and r on every axis keep the
+// covariance classes as they were: shared stays shared.
+void PositionFilterCore::update_now(int m, const Vec3& y, float r) {
+  float k[2][3];
+  for (int c = 0; c < class_count(); ++c) {
+    AxisCovariance& p = p_[c];
+    const float w0 = m == 0 ? p.pp : p.pv, w1 = m == 0 ? p.pv : p.vv, w2 = m == 0 ? p.pb : p.vb;
+    const float inv_s = 1.0f / (maxf(m == 0 ? w0 : w1, 0.0f) + r);
+    k[c][0] = w0 * inv_s;
+    k[c][1] = w1 * inv_s;
+    k[c][2] = w2 * inv_s;  // (0 without a bias state: pb = vb = 0)
+    p.pp -= k[c][0] * w0;
+    p.pv -= k[c][0] * w1;
+    p.vv -= k[c][1] * w1;
+    if (class_has_bias(c)) {
+      p.pb -= k[c][0] * w2;
+      p.vb -= k[c][1] * w2;
+      p.bb -= k[c][2] * w2;
+    }
+  }
+  bool fold = false;
+  for (int i = 0; i < 3; ++i) {
+    const float nu = y[i] - (m == 0 ? x_[i].p : x_[i].v);
+    if (correct_axis(i, k[covariance_class(i)], nu)) fold = true;
+  }
+  if (fold) fold_correction();
+}
+
+// The delayed fusion takes the covariance at a fix's capture time s from the current one, P_now - Q(tau),
+// which holds only while nothing was fused after s: while fixes arrive (one offered within the history
+// window) they hold the estimate and the still measurements wait, and a fix captured before the last
+// still measurement is refused as out of order (gate_fix()); the first fix after a hold may be that one,
+// the next ones are fused.
+bool PositionFilterCore::fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v) {
+  if (!initialized_ || fix_stage_ != kFixIdle || have_offered_ || !is_finite(p_hold)) return false;
+  update_now(1, Vec3{}, sqf(sigma_v));
+  update_now(0, p_hold, sqf(sigma_p));
+  still_us_ = t_us_;
+  have_still_ = true;
+  return true;
+}
+
+void PositionFilterCore::initialize_at(const Vec3& p) {
+  const uint32_t now = t_us_;
+  reset(p, Vec3{}, now);
 }
 
 }  // namespace est

@@ -123,7 +123,8 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
 
   const bool hovering = plan.frame_work && control_.hovering(estimator_.velocity());
   estimator_.set_armed(control_.armed());
-  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering);
+  const bool on_ground = control_.on_ground();
+  const EstimatorEvent event = estimator_.step(t_us, imu, mag, dt, plan, hovering, on_ground);
   report(event);
   mark(hal::TracePoint::kEstimated);
 
@@ -149,7 +150,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   mark(hal::TracePoint::kTelemetryDone);
   if (room && !sent && !link_.stream_params()) link_.stream_logs();
   mark(hal::TracePoint::kStreamed);
-  logger_.iteration(*this, plan, imu, mag, dt, hovering);
+  logger_.iteration(*this, plan, imu, mag, dt, hovering, on_ground);
   loop_timer_.end(micros_());
   mark(hal::TracePoint::kStepEnd);
   report_overrun();
@@ -205,6 +206,7 @@ ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   in.vision_seen = vision_seen_;
   in.vision_time_us = vision_time_us_;
   in.landed = control_.landed();
+  in.below_star_view = estimator_.height_above_star() < control_.star_view_height();
   return in;
 }
 

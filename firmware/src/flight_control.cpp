@@ -62,6 +62,7 @@ const char* FlightControl::configure(const Params& p) {
   land_vz_max_ = p.get(kLandVzMax);
   land_time_s_ = p.get(kLandTime);
   land_thrust_max_ = p.get(kLandThrFrac) * cp.vehicle.hover_thrust();
+  star_view_height_ = p.get(kLandVisHgt);
   return nullptr;
 }
 

@@ -10,7 +10,7 @@ namespace {
 // The topics' formats (PX4's field names where PX4 has the topic), one after the other, each ended by a
 // NUL, in LogTopic order. Field order is the data's byte order.
 constexpr char kFormats[] QUAD_FLASH =
-    "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;float dt;uint8_t hovering;\0"
+    "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;float dt;uint8_t hovering;uint8_t on_ground;\0"
     "sensor_mag:uint64_t timestamp;float[3] magnetometer_ga;\0"
     "vehicle_attitude:uint64_t timestamp;float[4] q;float[3] gyro_bias;\0"
     "vehicle_local_position:uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;"
@@ -24,7 +24,7 @@ constexpr char kFormats[] QUAD_FLASH =
     "float load;";
 
 // Field bytes of each topic's data (the formats above).
-constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4 + 1;
+constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4 + 1 + 1;
 constexpr uint8_t kSensorMagBytes = 8 + 12;
 constexpr uint8_t kAttitudeBytes = 8 + 16 + 12;
 constexpr uint8_t kLocalPositionBytes = 8 + 24 + 36;
@@ -180,7 +180,7 @@ bool FlightLogger::next_definition(const FlightApp& app, uint16_t* bytes) {
 }
 
 void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, const hal::ImuSample& imu,
-                             const hal::MagSample* mag, float dt, bool hovering) {
+                             const hal::MagSample* mag, float dt, bool hovering, bool on_ground) {
   if (mode_ == LogMode::kBoot && !boot_log_started_) {
     boot_log_started_ = true;
     start(app);
@@ -201,7 +201,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   }
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
-    write_imu_topics(app, now, imu, dt, hovering);
+    write_imu_topics(app, now, imu, dt, hovering, on_ground);
   }
   if (mag != nullptr) {
     uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
@@ -220,10 +220,10 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
 }
 
 void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt,
-                                    bool hovering) {
+                                    bool hovering, bool on_ground) {
   uint8_t* p = writer_.begin_data(kLogSensorCombined, kSensorCombinedBytes);
   if (p != nullptr) {
-    UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0);
+    UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0).u8(on_ground ? 1 : 0);
   }
   p = writer_.begin_data(kLogVehicleAttitude, kAttitudeBytes);
   if (p != nullptr) {

@@ -163,8 +163,9 @@ Transition ModeMachine::update(const ModeInputs& in) {
     case FlightMode::kLanding:
       if (in.landed) return go(FlightMode::kDisarmed, Reason::kLandedDisarmed);
       // A landing that holds position falls back to level once the fix or the estimator is gone, and
-      // stays level for the rest of the descent.
-      if (!land_level_ && (!in.estimator_healthy || !vision_fresh(in))) {
+      // stays level for the rest of the descent. Below LAND_VIS_HGT the cameras see only a patch of the
+      // star: its loss there is the landing's, not a fault, and the estimate holds the position down.
+      if (!land_level_ && (!in.estimator_healthy || (!vision_fresh(in) && !in.below_star_view))) {
         land_level_ = true;
         return Transition{false, true, mode_, mode_,
                           in.estimator_healthy ? Reason::kFailsafeVisionLost : Reason::kFailsafeEstimator};

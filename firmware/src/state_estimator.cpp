@@ -11,6 +11,13 @@ namespace {
 // |det W| below this is not a calibration but a broken matrix (a fitted W is near a rotation-free scale).
 constexpr float kMinSoftIronDeterminant = 0.05f;
 
+// The ground hold's pseudo-measurements (docs/estimation.md, "Standing on the ground"): standing still,
+// the velocity is zero and the position the one it came to rest at, to well within these; the still
+// window before the hold begins.
+constexpr float kStillVelocitySigma = 0.01f;  // m/s
+constexpr float kStillPositionSigma = 0.01f;  // m
+constexpr float kStillTime = 0.5f;            // s
+
 // The Earth field with magnetic north along x, expressed in true NED: turned about down by the
 // declination (east positive). Out of line: two callers, and two inlined copies of sinf, cosf and six
 // products cost AVR flash.
@@ -58,13 +65,16 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   calibration_.configure(cc);
   imu_clip_.configure(p.get(kImuGyroRange), p.get(kImuAccRange), p.get(kImuClipHold));
   accel_bias_.configure(p.get(kEstABiasTau), p.get(kEstABiasMax));
+  ground_.configure(est::GroundHoldParams{p.get(kEstGndGyro), p.get(kEstGndAcc), kStillTime});
+  ground_height_ = p.get(kEstGndHgt);
+  star_view_height_ = p.get(kLandVisHgt);
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
   configure_ekf(p);
 }
 
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
-                                    const IterationPlan& plan, bool hovering) {
+                                    const IterationPlan& plan, bool hovering, bool on_ground) {
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
   // calibration is the field itself).
@@ -87,7 +97,8 @@ EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, co
   if (plan.frame_work) accel_bias_.update(accel, accel_valid && hovering, plan.frame_dt);
   // The learned bias has z = +0: accel.z - 0.0f is accel.z itself (IEEE: x - (+0) = x, -0 included).
   const Vec3 b = accel_bias_.bias();
-  estimate(t_us, gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt, plan);
+  estimate(t_us, gyro - bias_.bias.gyro, Vec3{accel.x - b.x, accel.y - b.y, accel.z}, accel_valid, m, dt, plan,
+           on_ground);
   // The EKF learns its own accelerometer bias: the hover tracker's is not taken off.
   if (plan.frame_work) ekf_hovering_ = hovering && accel_valid;
   if (ekf_selected()) step_ekf(t_us, gyro - bias_.bias.gyro, accel, m, dt, plan, ekf_hovering_);
@@ -128,7 +139,7 @@ void StateEstimator::calibrate(uint32_t t_us, const hal::ImuSample& imu, const h
 }
 
 void StateEstimator::estimate(uint32_t t_us, const Vec3& gyro, const Vec3& accel, bool accel_valid,
-                              const hal::MagSample* mag, float dt, const IterationPlan& plan) {
+                              const hal::MagSample* mag, float dt, const IterationPlan& plan, bool on_ground) {
   if (plan.correct) {
     // A magnetometer sample that arrived since the last correction counts if this iteration has none.
     const Vec3* field = mag != nullptr ? &mag->field : (mag_pending_ ? &pending_mag_ : nullptr);
@@ -161,23 +172,43 @@ void StateEstimator::estimate(uint32_t t_us, const Vec3& gyro, const Vec3& accel
     }
     ++accel_count_;
   }
-  if (plan.predict) predict_position(t_us);
+  if (plan.predict) predict_position(t_us, gyro, on_ground);
 }
 
-void StateEstimator::predict_position(uint32_t t_us) {
+void StateEstimator::predict_position(uint32_t t_us, const Vec3& gyro, bool on_ground) {
   // thesis eq. 8.7: u = g e_z + R a_B, with a_B the mean specific force over the iterations since the
   // last prediction and R the observer's DCM: this iteration's at 100 Hz; at a faster loop the rotation
   // the last correction started from, the middle of the four samples the mean covers.
   // With no valid sample the last good kinematic acceleration stands in while the clip guard is healthy,
   // then none (the filter coasts on its velocity; the estimator failsafe is already landing).
+  Vec3 mean;  // (zero without a valid sample: not still)
   if (accel_count_ > 0) {
     // One sample (a 100 Hz loop) is the sum itself, exactly, without the division and three
     // multiplications (1 100 cycles on the AVR).
-    const Vec3 mean = accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_));
+    mean = accel_count_ == 1 ? accel_sum_ : accel_sum_ * (1.0f / static_cast<float>(accel_count_));
     last_good_kinematic_accel_ = est::kinematic_acceleration(observer_.dcm(), mean);
   }
   filter_.predict(accel_count_ > 0 || imu_clip_.healthy() ? last_good_kinematic_accel_ : Vec3{}, t_us);
   accel_count_ = 0;  // the next term replaces accel_sum_
+  hold_ground(gyro, mean, on_ground);
+}
+
+void StateEstimator::hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground) {
+  // (The predictions run at the frame rate whatever the loop rate.) While fixes arrive they hold the
+  // estimate: the still time starts when they stop.
+  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) return;
+  if (ground_.started()) {
+    // Before any fix the vehicle stands where it took off from: at the star, on its floor (the cameras,
+    // close to the floor, see only a patch of it: docs/estimation.md).
+    const float ground_z = star_ned_.z - ground_height_;
+    if (!filter_.initialized()) filter_.initialize_at(Vec3{star_ned_.x, star_ned_.y, ground_z});
+    // The last known position; come down below LAND_VIS_HGT the vehicle stands on the star's floor, at
+    // the ground's height, which the landing's last metre of dead reckoning knows less well.
+    Vec3 p = filter_.position();
+    if (height_above_star() < star_view_height_) p.z = ground_z;
+    ground_.set_reference(p);
+  }
+  filter_.fuse_still(ground_.reference(), kStillPositionSigma, kStillVelocitySigma);
 }
 
 bool StateEstimator::position_from_star(const Vec3& star_body, uint32_t capture_us, Vec3* p_ned) const {

@@ -34,6 +34,11 @@ uint8_t base_mode(bool armed, bool hil) {
   return mode;
 }
 
+uint8_t landed_state(bool armed, bool landed, FlightMode mode) {
+  if (!armed || landed) return mav::kLandedStateOnGround;
+  return mode == FlightMode::kLanding ? mav::kLandedStateLanding : mav::kLandedStateInAir;
+}
+
 void Telemetry::configure(const Params& p, float loop_hz) {
   // One telemetry stream per iteration (scheduler.h: an iteration that sent all four took 45 000 more
   // cycles on the AVR than one that sent none): the slots keep the default rates apart, send_due()
@@ -43,6 +48,7 @@ void Telemetry::configure(const Params& p, float loop_hz) {
   attitude_rate_.configure(p.get(kTelAttHz), loop_hz, 0);
   position_rate_.configure(p.get(kTelPosHz), loop_hz, 5);
   status_rate_.configure(p.get(kTelSysHz), loop_hz, 3);
+  extended_state_rate_.configure(p.get(kTelHbHz), loop_hz, 7);
 }
 
 bool Telemetry::send_due(const FlightApp& app, GroundLink& link, bool room) {
@@ -50,6 +56,7 @@ bool Telemetry::send_due(const FlightApp& app, GroundLink& link, bool room) {
   if (attitude_rate_.tick()) due_ |= kAttitude;
   if (position_rate_.tick()) due_ |= kPosition;
   if (status_rate_.tick()) due_ |= kStatus;
+  if (extended_state_rate_.tick()) due_ |= kExtendedState;
   if (!room || due_ == 0) return false;
   // The lowest bit: a stream that waited is sent before one that came due later only in this order,
   // and at the default rates streams never fall due in the same iteration (their slots).
@@ -94,8 +101,13 @@ void Telemetry::send(Stream stream, const FlightApp& app, GroundLink& link) {
     pos.vy = v.y;
     pos.vz = v.z;
     link.broadcast(pos);
-  } else {
+  } else if (stream == kStatus) {
     send_status(app, link);
+  } else {
+    mav::ExtendedSysState ext;
+    ext.vtol_state = mav::kVtolStateUndefined;
+    ext.landed_state = landed_state(app.armed(), app.control().landed(), app.mode());
+    link.broadcast(ext);
   }
 }
 

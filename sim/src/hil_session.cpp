@@ -212,6 +212,7 @@ FlightMetricsConfig metrics_config(const Scenario& s, double ground_down) {
   FlightMetricsConfig c;
   c.hold_start_s = s.hold_start_s;
   c.hold_end_s = s.hold_end_s;
+  c.extra_holds = s.extra_holds;
   c.settle_band_m = s.settle_band_m;
   c.ground_down_m = ground_down;
   return c;
@@ -775,6 +776,18 @@ void Session::write_summary(bool complete, const std::string& reason) {
       .add("mean", metrics_.hold_horizontal().mean())
       .add("max", metrics_.hold_horizontal().max_abs());
   hold.add("horizontal", horizontal);
+  // The further windows as "holds": {"1": ..., "2": ...}, each laid out as "hold".
+  Json holds;
+  for (size_t i = 0; i < metrics_.extra_holds().size(); ++i) {
+    const HoldStats& h = metrics_.extra_holds()[i];
+    Json w, wh;
+    w.add("start_s", h.start_s).add("end_s", h.end_s).add("samples", h.axis[0].count());
+    w.add("north", stats_json(h.axis[0])).add("east", stats_json(h.axis[1])).add("vertical", stats_json(h.axis[2]));
+    wh.add("std_2d", h.horizontal_stddev()).add("rms", h.horizontal.rms()).add("mean", h.horizontal.mean())
+        .add("max", h.horizontal.max_abs());
+    w.add("horizontal", wh);
+    holds.add(std::to_string(i + 1), w);
+  }
   Json est;
   est.add("horizontal_rms_m", est_horizontal_.rms()).add("vertical_rms_m", est_vertical_.rms())
       .add("samples", est_horizontal_.count());
@@ -819,6 +832,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   j.add("mode", o_.realtime ? "realtime" : "lockstep").add("sim_time_s", sim).add("wall_time_s", wall);
   j.add("real_time_factor", wall > 0 ? sim / wall : 0.0).add("lockstep_exchanges", static_cast<long>(exchanges_));
   j.add("hold", hold);
+  if (!metrics_.extra_holds().empty()) j.add("holds", holds);
   if (auto st = metrics_.settling_time_s()) j.add("settling_time_s", *st);
   else j.add_null("settling_time_s");
   if (altitude_reached_s_) j.add("altitude_reached_s", *altitude_reached_s_);

@@ -13,6 +13,24 @@ void ErrorStats::add(double e) {
   max_abs_ = std::max(max_abs_, std::abs(e));
 }
 
+void HoldStats::add(const Eigen::Vector3d& e) {
+  for (int i = 0; i < 3; ++i) axis[i].add(e[i]);
+  horizontal.add(e.head<2>().norm());
+}
+
+double HoldStats::horizontal_stddev() const {
+  return std::sqrt(axis[0].stddev() * axis[0].stddev() + axis[1].stddev() * axis[1].stddev());
+}
+
+FlightMetrics::FlightMetrics(const FlightMetricsConfig& config) : c_(config) {
+  for (const auto& [start, end] : c_.extra_holds) {
+    HoldStats h;
+    h.start_s = start;
+    h.end_s = end;
+    extra_holds_.push_back(h);
+  }
+}
+
 void FlightMetrics::add(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v, double tilt,
                         const std::optional<Eigen::Vector3d>& setpoint, double setpoint_time_s) {
   if (!crashed_) {
@@ -24,6 +42,9 @@ void FlightMetrics::add(double t, const Eigen::Vector3d& p, const Eigen::Vector3
   }
   if (!setpoint) return;
   const Eigen::Vector3d e = p - *setpoint;
+  for (HoldStats& h : extra_holds_) {
+    if (t >= h.start_s && t <= h.end_s) h.add(e);
+  }
   // Settling is watched for whichever setpoint is active, and frozen at the end of the hold.
   if (setpoint_time_s != setpoint_time_s_) {
     setpoint_time_s_ = setpoint_time_s;

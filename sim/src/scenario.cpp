@@ -483,10 +483,18 @@ void parse_flight(const YAML::Node& root, const Field& top, Scenario& s) {
     }
   }
   if (const Field f = top["metrics"]; f.defined()) {
-    f.expect_map({"hold_start_s", "hold_end_s", "settle_band_m"});
+    f.expect_map({"hold_start_s", "hold_end_s", "settle_band_m", "holds"});
     s.hold_start_s = f["hold_start_s"].number(0.0, s.duration_s);
     s.hold_end_s = f["hold_end_s"].number(s.hold_start_s, s.duration_s);
     f["settle_band_m"].get(s.settle_band_m, 0.001, 10.0);
+    if (const Field h = f["holds"]; h.defined()) {
+      for (size_t i = 0; i < h.size(); ++i) {
+        const Field w = h.at(i);
+        w.expect_map({"start_s", "end_s"});
+        const double start = w["start_s"].number(0.0, s.duration_s);
+        s.extra_holds.emplace_back(start, w["end_s"].number(start, s.duration_s));
+      }
+    }
   }
   auto by_time = [](const auto& a, const auto& b) { return a.at_s < b.at_s; };
   std::stable_sort(s.commands.begin(), s.commands.end(), by_time);

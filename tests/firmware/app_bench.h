@@ -187,6 +187,7 @@ class Bench {
   std::vector<std::pair<uint8_t, mav::LogEntry>> log_entries;
   std::vector<std::pair<uint8_t, mav::LogData>> log_data;
   const quad::fw::LogStore* log_store = nullptr;  // set before boot()
+  std::vector<mav::ExtendedSysState> extended_states;  // UART0's
   // Frames the vehicle sent, by port and message id.
   std::map<uint32_t, int> messages_on[quad::hal::kPortCount];
   int count_on(uint8_t port, uint32_t message_id) const {
@@ -252,6 +253,8 @@ class Bench {
     if (mav::decode(f, entry)) log_entries.emplace_back(port, entry);
     mav::LogData data;
     if (mav::decode(f, data)) log_data.emplace_back(port, data);
+    mav::ExtendedSysState ext;
+    if (mav::decode(f, ext) && port == quad::hal::kUart0) extended_states.push_back(ext);
     mav::Timesync ts;
     if (mav::decode(f, ts)) {
       timesync = ts;

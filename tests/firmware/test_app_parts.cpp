@@ -107,12 +107,12 @@ TEST(StateEstimator, CalibratesConvergesAndTakesAFix) {
   bool calibrated = false;
   uint32_t t_us = 0;
   for (int i = 0; i < 400 && !calibrated; ++i, t_us += 10000) {
-    const quad::fw::EstimatorEvent e = est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false);
+    const quad::fw::EstimatorEvent e = est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
     calibrated = e == quad::fw::EstimatorEvent::kCalibrated;
   }
   ASSERT_TRUE(calibrated);
   EXPECT_TRUE(est.converged());
-  for (int i = 0; i < 20; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false);
+  for (int i = 0; i < 20; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
   EXPECT_TRUE(est.healthy());
   EXPECT_NEAR(std::fabs(est.attitude().w), 1.0f, 1e-4f) << "level, heading north";
   // The star 1.5 m below, seen 30 ms ago: the vehicle 1.5 m above it.

@@ -338,6 +338,39 @@ TEST(Modes, LandingHoldingPositionTurnsLevelWhenVisionIsLostAndReportsIt) {
   EXPECT_TRUE(m.land_level());
 }
 
+TEST(Modes, ALandingBelowTheStarsViewLosesItWithoutAFailsafe) {
+  // Below LAND_VIS_HGT the cameras see only a patch of the star: no failsafe, the landing keeps holding
+  // its position on the estimate; above it the same loss is the failsafe (the test before).
+  ModeMachine m = armed_in(FlightMode::kLanding);
+  ModeInputs in = ready();
+  in.landed = false;
+  in.below_star_view = true;
+  in.now_us += 3 * kSecond;
+  in.rc_time_us = in.now_us;
+  const auto t = m.update(in);
+  EXPECT_FALSE(t.changed);
+  EXPECT_EQ(t.reason, Reason::kNone);
+  EXPECT_FALSE(m.land_level());
+  // An unhealthy estimator is still the failsafe down there.
+  in.estimator_healthy = false;
+  EXPECT_EQ(m.update(in).reason, Reason::kFailsafeEstimator);
+  EXPECT_TRUE(m.land_level());
+}
+
+TEST(Modes, AutoLosingTheStarLowIsStillTheFailsafe) {
+  // Only a commanded landing expects the loss: hovering low in AUTO it is a failsafe.
+  ModeMachine m = armed_in(FlightMode::kAuto);
+  ModeInputs in = ready();
+  in.landed = false;
+  in.below_star_view = true;
+  in.now_us += kSecond;
+  in.rc_time_us = in.now_us;
+  const auto t = m.update(in);
+  EXPECT_TRUE(t.changed);
+  EXPECT_EQ(t.reason, Reason::kFailsafeVisionLost);
+  EXPECT_TRUE(m.land_level());
+}
+
 TEST(Modes, TimeoutsSurviveClockWrap) {
   ModeMachine m;
   ModeInputs in = ready(0xFFFFFF00u);

@@ -231,4 +231,30 @@ TEST(Telemetry, ConfiguredRatesAreTheRatesSent) {
   }
 }
 
+TEST(Telemetry, TheLandedStateOfEveryModeAndTheLandDetector) {
+  using quad::fw::landed_state;
+  EXPECT_EQ(landed_state(false, true, FlightMode::kDisarmed), mav::kLandedStateOnGround);
+  EXPECT_EQ(landed_state(true, true, FlightMode::kManual), mav::kLandedStateOnGround);  // armed, not lifted
+  EXPECT_EQ(landed_state(true, false, FlightMode::kManual), mav::kLandedStateInAir);
+  EXPECT_EQ(landed_state(true, false, FlightMode::kAuto), mav::kLandedStateInAir);
+  EXPECT_EQ(landed_state(true, false, FlightMode::kLanding), mav::kLandedStateLanding);
+  EXPECT_EQ(landed_state(true, true, FlightMode::kLanding), mav::kLandedStateOnGround);  // touched down
+}
+
+TEST(Telemetry, ExtendedSysStateAtTheHeartbeatsRate) {
+  Bench b;
+  b.boot();
+  Feed f(b);
+  calibrate(f);
+  const int hb_before = b.count_on(quad::hal::kUart0, mav::Heartbeat::kId);
+  const size_t before = b.extended_states.size();
+  f.steps(500);  // 5 s
+  EXPECT_NEAR(static_cast<int>(b.extended_states.size() - before), 5, 1);
+  EXPECT_EQ(b.count_on(quad::hal::kUart2, mav::ExtendedSysState::kId), b.count_on(quad::hal::kUart0, mav::ExtendedSysState::kId));
+  EXPECT_EQ(b.count_on(quad::hal::kUart0, mav::Heartbeat::kId) - hb_before, static_cast<int>(b.extended_states.size() - before));
+  ASSERT_FALSE(b.extended_states.empty());
+  EXPECT_EQ(b.extended_states.back().landed_state, mav::kLandedStateOnGround);
+  EXPECT_EQ(b.extended_states.back().vtol_state, mav::kVtolStateUndefined);
+}
+
 }  // namespace

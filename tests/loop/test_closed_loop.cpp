@@ -2,7 +2,8 @@
 // vision_station process finds the star and its LANDING_TARGET crosses the emulated radio to the real
 // quad_firmware. A 20 s hold must meet the targets of docs/results.md (with a margin where noted), one
 // seed must give one log, and losing the star for 2 s must trigger the vision failsafe and end in a safe
-// landing.
+// landing. A commanded landing loses the star close to the floor without a failsafe (below LAND_VIS_HGT),
+// and still fails safe when it loses it at 1 m.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -117,6 +118,42 @@ TEST(ClosedLoop, StarLostForTwoSecondsTriggersTheFailsafeAndLandsSafely) {
   // No fix while the star was hidden: 2 s at 30 Hz of answered pairs without one.
   EXPECT_LT(json_number(summary, {"vision_station", "fixes"}),
             json_number(summary, {"vision_station", "pairs_answered"}) - 55.0);
+}
+
+// The time of the first events.log line matching `pattern` (its first group is the time), or -1.
+double event_time(const std::string& events, const std::string& pattern) {
+  std::smatch m;
+  return std::regex_search(events, m, std::regex(pattern)) ? std::stod(m[1]) : -1.0;
+}
+
+TEST(ClosedLoop, ALandingLosesTheStarNearTheFloorWithoutAFailsafe) {
+  const std::string out = run_dir("landing");
+  const SessionResult r = fly("loop_landing.yaml", out);
+  ASSERT_TRUE(r.complete) << r.reason;
+  EXPECT_FALSE(r.crashed);
+  const std::string events = slurp(out + "/events.log");
+  ASSERT_GT(event_time(events, R"(\s*([0-9.]+) firmware \(uart0\): LANDING: land commanded)"), 7.9) << events;
+  EXPECT_EQ(events.find("FAILSAFE"), std::string::npos) << events;
+  EXPECT_EQ(events.find("position jumped"), std::string::npos) << events;
+  EXPECT_GT(event_time(events, R"(\s*([0-9.]+) firmware \(uart0\): DISARMED: landed, disarmed)"), 9.0) << events;
+  // The station did lose the star before the touchdown: its last fix came from above the floor, and
+  // the landing went on without one for longer than FS_VIS_TIMEOUT.
+  const std::string summary = slurp(out + "/summary.json");
+  EXPECT_LT(json_number(summary, {"vision_station", "fixes"}),
+            json_number(summary, {"vision_station", "pairs_answered"}) - 30.0) << summary;
+}
+
+TEST(ClosedLoop, ALandingThatLosesTheStarAtOneMetreIsTheFailsafe) {
+  const std::string out = run_dir("landing_lost");
+  const SessionResult r = fly("loop_landing_star_lost.yaml", out);
+  ASSERT_TRUE(r.complete) << r.reason;
+  EXPECT_FALSE(r.crashed);
+  const std::string events = slurp(out + "/events.log");
+  // FS_VIS_TIMEOUT (0.5 s) after the last fix, which was captured just before the star was hidden at 8 s.
+  const double failsafe_t = event_time(events, R"(\s*([0-9.]+) firmware \(uart0\): FAILSAFE vision lost: level, land)");
+  EXPECT_GT(failsafe_t, 8.4) << events;
+  EXPECT_LT(failsafe_t, 8.9) << events;
+  EXPECT_GT(event_time(events, R"(\s*([0-9.]+) firmware \(uart0\): DISARMED: landed, disarmed)"), failsafe_t) << events;
 }
 
 }  // namespace

@@ -105,6 +105,30 @@ def _altitude_settled_s(run):
                                                summary["hold"]["end_s"])
 
 
+def _ground_figure(run, name):
+    """A figure of sim/plots/ground_figures.py: NAME_N for the N-th take-off or landing, in metres."""
+    spec = importlib.util.spec_from_file_location(
+        "ground_figures", os.path.join(run["root"], "sim", "plots", "ground_figures.py"))
+    figures = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(figures)
+    kind, n = name.rsplit("_", 1)
+    n = int(n)
+    try:
+        log = figures.read_log(run["dir"])
+    except (OSError, KeyError, ValueError):
+        return None
+    if kind in ("ground_height_error", "liftoff_jump"):
+        rows = figures.take_offs(log)
+        if len(rows) < n:
+            return None
+        return rows[n - 1][1] if kind == "ground_height_error" else rows[n - 1][2]
+    rows = figures.landings(log)
+    if len(rows) < n:
+        return None
+    return {"ground_move": rows[n - 1]["move_m"], "ground_move_from_touchdown": rows[n - 1]["move_from_touchdown_m"],
+            "ground_error": rows[n - 1]["error_m"]}[kind]
+
+
 def figure_value(run, figure, summary, output):
     """One figure of a finished run, in the figure's unit; None when the run does not give it."""
     if figure["groups"] and run["group"].split("+")[0] not in figure["groups"]:
@@ -122,9 +146,11 @@ def figure_value(run, figure, summary, output):
                 v = _search(figure["regex"], f.read(), figure["sum"])
         except OSError:
             v = None
-    else:
+    elif figure["derived"] == "altitude_settled_s":
         v = _altitude_settled_s(run)
-    return None if v is None else v * figure["scale"]
+    else:
+        v = _ground_figure(run, figure["derived"])
+    return None if v is None or v != v else v * figure["scale"]
 
 
 def fly(run, commit, build):

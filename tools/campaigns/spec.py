@@ -14,7 +14,11 @@ GROUP_KEYS = {"name", "scenario", "vars", "set", "firmware", "crashed", "failed"
 FIGURE_KEYS = {"name", "label", "unit", "scale", "summary", "norm", "output", "file", "regex", "derived", "better",
                "wall_clock", "bounds", "anchors", "groups", "format", "sum"}
 BOUND_KEYS = {"median", "p95", "worst"}
-DERIVED = {"altitude_settled_s"}  # figures computed from a run's log (tools/campaigns/run.py)
+# Figures computed from a run's log (tools/campaigns/run.py): the altitude settling time, and the estimate
+# at the n-th take-off and on the ground after the n-th landing (sim/plots/ground_figures.py), in metres.
+GROUND_TAKEOFF = ("ground_height_error", "liftoff_jump")
+GROUND_LANDING = ("ground_move", "ground_move_from_touchdown", "ground_error")
+DERIVED = {"altitude_settled_s"} | {f"{k}_{n}" for k in GROUND_TAKEOFF + GROUND_LANDING for n in (1, 2, 3)}
 
 
 class CampaignError(Exception):

@@ -139,7 +139,9 @@ FirmwareReplaySummary replay_firmware(const ulog::File& log, double tolerance, s
     if (plan.fix_step) est.advance_fix();
     const bool hovering =
         plan.frame_work && s.hovering_logged && ulog::number(r, imu.field(log, "hovering")) != 0.0;
-    est.step(static_cast<uint32_t>(r.timestamp), sample, m != mags.end() ? &mag_sample : nullptr, dt, plan, hovering);
+    const bool on_ground = imu.layout->has("on_ground") && ulog::number(r, imu.field(log, "on_ground")) != 0.0;
+    est.step(static_cast<uint32_t>(r.timestamp), sample, m != mags.end() ? &mag_sample : nullptr, dt, plan, hovering,
+             on_ground);
     ++s.iterations;
     s.calibrated = s.calibrated || est.calibrated();
 

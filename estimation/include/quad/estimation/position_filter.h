@@ -151,6 +151,21 @@ class PositionFilterCore {
   FixResult queue_fix(const Vec3& p_ned, uint32_t capture_us);
   FixResult advance_fix();
   bool fix_in_progress() const { return fix_stage_ != kFixIdle; }
+  // A fix was offered (whatever its result) within the history window: fuse_still() waits.
+  bool fixes_arriving() const { return have_offered_; }
+
+  // The vehicle stands still on the ground (ground_hold.h): zero velocity and the held position p_hold
+  // fused at the current time as two scalar measurements per axis, thesis eq. 8.11b (errata) with
+  // H = (0, 1[, 0]), R = sigma_v^2, then H = (1, 0[, 0]), R = sigma_p^2 (an extension: the thesis fuses
+  // only vision fixes). The corrections join the accumulated one like a fix's, so later delayed fixes
+  // still see a consistent history. Nothing (false) before the filter is initialised or while a fix is in
+  // progress (its D h belongs to the covariance it was gated with), nor while fixes arrive (one offered
+  // within the history window); a fix captured before the last still measurement is refused as out of
+  // order (the delayed fusion's P_now - Q(tau) would not hold).
+  bool fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v);
+  // Before any fix: the state set at p (velocity zero, biases zero) at the current time, with the
+  // position standard deviation of the fixes; the first fix is then an ordinary, gated update.
+  void initialize_at(const Vec3& p);
 
   Vec3 position() const { return {x_[0].p, x_[1].p, x_[2].p}; }
   Vec3 velocity() const { return {x_[0].v, x_[1].v, x_[2].v}; }
@@ -220,6 +235,11 @@ class PositionFilterCore {
   FixResult gate_fix(const Vec3& p_ned, uint32_t capture_us);
   FixResult update_fix();
   void drop_fix();
+  // Adds k nu to axis i's state and accumulated correction; true when the correction has outgrown the
+  // fold threshold.
+  bool correct_axis(int i, const float k[3], float nu);
+  // One scalar measurement y_i of state component m (0 position, 1 velocity) on every axis, now.
+  void update_now(int m, const Vec3& y, float r);
 
   PositionFilterParams params_;
   // q_step_us_ is set by set_params() (from the constructor), q_dt_ .. h_dt_ with Q(q_dt_): no
@@ -247,6 +267,10 @@ class PositionFilterCore {
   bool clock_started_ = false;
   bool initialized_ = false;
   bool have_fix_ = false;
+  uint32_t still_us_ = 0;     // the last still measurement (fuse_still), valid while have_still_
+  bool have_still_ = false;
+  uint32_t offered_us_ = 0;   // when the last fix was offered (any result), valid while have_offered_
+  bool have_offered_ = false;
   uint16_t consecutive_rejections_ = 0;
   HistoryEntry* history_;
   uint16_t capacity_;

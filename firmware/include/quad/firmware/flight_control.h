@@ -75,6 +75,11 @@ class FlightControl {
   bool vision_fresh(const ModeInputs& in) const { return modes_.vision_fresh(in); }
   bool rc_fresh(const ModeInputs& in) const { return modes_.rc_fresh(in); }
   bool landed() const { return landed_; }
+  // Landed, or the land detector's quiet condition holds (|v_z| small, thrust below LAND_THR_FRAC of
+  // hover) while it waits LAND_TIME to be sure: the vehicle may stand on the ground.
+  bool on_ground() const { return landed_ || landed_for_s_ > 0.0f; }
+  // LAND_VIS_HGT: below this height above the star a landing loses it by design (modes.h).
+  float star_view_height() const { return star_view_height_; }
   const float (&motors() const)[hal::kMotorCount] { return motors_; }
   // The position setpoint the mode set (AUTO: the shaper's; LANDING: where the descent started).
   const ctrl::PositionSetpoint& setpoint() const { return setpoint_; }
@@ -104,6 +109,7 @@ class FlightControl {
   float land_vz_max_ = 0.0f;      // LAND_VZ_MAX, m/s
   float land_time_s_ = 0.0f;      // LAND_TIME
   float land_thrust_max_ = 0.0f;  // N: LAND_THR_FRAC of the hover thrust
+  float star_view_height_ = 0.0f; // LAND_VIS_HGT, m
   float landed_for_s_ = 0.0f;
   bool landed_ = true;
   float motors_[hal::kMotorCount] = {0.0f, 0.0f, 0.0f, 0.0f};

@@ -81,10 +81,10 @@ class FlightLogger {
   void configure(const Params& p, float loop_hz);
 
   // One control iteration of the application, after its control step (FlightApp::step).
-  // hovering: what the estimator was told this iteration (it gates the hover-bias tracker; the replay
-  // needs it).
+  // hovering, on_ground: what the estimator was told this iteration (they gate the hover-bias tracker and
+  // the ground hold; the replay needs them).
   void iteration(const FlightApp& app, const IterationPlan& plan, const hal::ImuSample& imu,
-                 const hal::MagSample* mag, float dt, bool hovering);
+                 const hal::MagSample* mag, float dt, bool hovering, bool on_ground);
   // A mode change or a refused command (FlightApp::report_transition): opens or closes the log, and
   // records the state.
   void transition(const FlightApp& app, const Transition& t);
@@ -119,7 +119,8 @@ class FlightLogger {
   void write_loop_timing(const FlightApp& app);
   // now: this iteration's stamp().
   void write_frame_topics(const FlightApp& app, uint64_t now);
-  void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering);
+  void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering,
+                        bool on_ground);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
 

@@ -10,6 +10,7 @@
 //   armed    --disarm (landed or throttle low in MANUAL, or forced)--> DISARMED
 // Failsafes (checked every iteration while armed):
 //   AUTO and vision lost > FS_VIS_TIMEOUT   -> LANDING, level (no horizontal position hold)
+//   LANDING and vision lost, above LAND_VIS_HGT -> level (below it the loss is expected: no failsafe)
 //   RC lost > FS_RC_TIMEOUT (MANUAL, AUTO)  -> LANDING
 //   estimator unhealthy (MANUAL, AUTO)      -> LANDING, level
 #pragma once
@@ -45,6 +46,7 @@ struct ModeInputs {
   bool vision_seen = false;          // at least one vision fix fused
   uint32_t vision_time_us = 0;       // capture time of the last fused fix
   bool landed = false;               // land detector
+  bool below_star_view = false;      // the estimate is below LAND_VIS_HGT: the cameras lose the star
 };
 
 enum class Command : uint8_t { kArm, kDisarm, kForceDisarm, kManual, kAuto, kLand };

@@ -65,6 +65,12 @@ namespace fw {
   /* what the EKF takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and tilt */  \
   /* (docs/estimation.md, "The star's attitude") */                                              \
   X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
+  /* ground hold (quad/estimation/ground_hold.h): still on the ground below these rates (rad/s) and */ \
+  /* specific-force deviations from g (m/s^2); the reference point's height above the floor standing */ \
+  /* on the gear (m; the Quad-C of the simulator: 0.13) */                                      \
+  X(kEstGndGyro, "EST_GND_GYRO", 0.1f, 0.001f, 2.0f)                                             \
+  X(kEstGndAcc, "EST_GND_ACC", 0.5f, 0.01f, 5.0f)                                                \
+  X(kEstGndHgt, "EST_GND_HGT", 0.13f, 0.0f, 5.0f)                                                \
   /* vision: the star's NED position (m) */                                                      \
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
@@ -128,6 +134,8 @@ namespace fw {
   X(kLandVzMax, "LAND_VZ_MAX", 0.25f, 0.05f, 1.0f)                                               \
   X(kLandThrFrac, "LAND_THR_FRAC", 0.9f, 0.1f, 1.0f)                                             \
   X(kLandTime, "LAND_TIME", 1.0f, 0.1f, 10.0f)                                                   \
+  /* height above the star (m) below which a commanded landing expects to lose it: no failsafe */ \
+  X(kLandVisHgt, "LAND_VIS_HGT", 0.55f, 0.0f, 10.0f)                                             \
   X(kFsVisTimeout, "FS_VIS_TIMEOUT", 0.5f, 0.05f, 10.0f)                                         \
   X(kFsRcTimeout, "FS_RC_TIMEOUT", 1.0f, 0.1f, 10.0f)                                            \
   X(kFsRcEnable, "FS_RC_ENABLE", 1.0f, 0.0f, 1.0f)                                               \

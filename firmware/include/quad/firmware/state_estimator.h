@@ -1,7 +1,8 @@
 // The vehicle's state estimate from the IMU, the magnetometer and the vision fixes: the boot calibration
 // hand-off, the IMU clip guard, the conditioned observer (attitude, gyro bias; thesis ch. 4), the
 // per-axis Kalman filter (position, velocity; thesis eq. 8.7-8.12) with the fusion of delayed fixes at
-// their capture time, and the in-flight accelerometer bias learned while hovering.
+// their capture time, the in-flight accelerometer bias learned while hovering, and the ground hold (zero
+// velocity and the last known position fused while the vehicle stands still on the ground).
 //
 // It knows no MAVLink and no time source: the application hands it samples, the iteration's plan
 // (frame_schedule.h) and the parameters, and reports what it returns. This is where another estimator
@@ -13,6 +14,7 @@
 
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/delayed_ekf.h"
+#include "quad/estimation/ground_hold.h"
 #include "quad/estimation/hover_accel_bias.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
@@ -64,9 +66,10 @@ class StateEstimator {
 
   // One iteration at t_us: the sample, its period dt and what the iteration runs. hovering: the vehicle
   // hovers still in AUTO (its horizontal specific force is the accelerometer's bias), read only in the
-  // frame-rate work's iteration.
+  // frame-rate work's iteration. on_ground: disarmed, or landed or touching down by the land detector
+  // (read with the prediction: the ground hold).
   EstimatorEvent step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
-                      const IterationPlan& plan, bool hovering);
+                      const IterationPlan& plan, bool hovering, bool on_ground);
 
   // Vision fixes (thesis eq. 8.5 with the errata sign): the vehicle's NED position from the star seen in
   // body FRD at capture_us; false when the attitude at that time is no longer (or not yet) recorded.
@@ -102,14 +105,23 @@ class StateEstimator {
   Vec3 filter_accel_bias() const { return filter_.accel_bias(); }
   Vec3 position_variance() const;
   Vec3 velocity_variance() const;
+  // On the ground and still: the filter holds zero velocity and the last known position.
+  bool holding_ground() const { return ground_.holding(); }
+  // The estimate's height above the star (VIS_STAR_D, the floor it lies on), m.
+  float height_above_star() const { return star_ned_.z - filter_.position().z; }
 
  private:
   void calibrate(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, EstimatorEvent* event);
   // accel_valid false: the accelerometer clipped (no gravity correction, the held kinematic acceleration).
   void estimate(uint32_t t_us, const Vec3& gyro, const Vec3& accel, bool accel_valid, const hal::MagSample* mag,
-                float dt, const IterationPlan& plan);
-  // The rotation-corrected mean specific force since the last prediction, then the prediction (eq. 8.7).
-  void predict_position(uint32_t t_us);
+                float dt, const IterationPlan& plan, bool on_ground);
+  // The rotation-corrected mean specific force since the last prediction, then the prediction (eq. 8.7),
+  // then the ground hold.
+  void predict_position(uint32_t t_us, const Vec3& gyro, bool on_ground);
+  // Standing still on the ground: zero velocity and the last known position into the filter (before the
+  // first fix, the ground's position: at the star, EST_GND_HGT above its floor; below LAND_VIS_HGT the
+  // ground's height).
+  void hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground);
   // The EKF's share of an iteration (the observer still runs: the switch back needs its attitude).
   void step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel, const hal::MagSample* mag, float dt,
                 const IterationPlan& plan, bool hovering);
@@ -123,6 +135,9 @@ class StateEstimator {
   AttitudeHistory history_;
   ImuClipGuard imu_clip_;
   est::HoverAccelBias accel_bias_;  // the accelerometer's in-flight x/y bias drift
+  est::GroundHold ground_;          // still on the ground: EST_GND_GYRO, EST_GND_ACC
+  float ground_height_ = 0.0f;      // EST_GND_HGT: the reference point's height above the floor, standing
+  float star_view_height_ = 0.0f;   // LAND_VIS_HGT: below it a vehicle that comes to rest is on the floor
   Vec3 accel_sum_;                  // body specific force summed between predictions (valid samples)
   uint8_t accel_count_ = 0;
   Vec3 last_good_kinematic_accel_;  // stands in for a clipped accelerometer's (eq. 8.7)

@@ -1,10 +1,12 @@
-// The vehicle's telemetry streams, each at its own TEL_*_HZ out of the loop rate: HEARTBEAT,
-// ATTITUDE_QUATERNION, LOCAL_POSITION_NED and SYS_STATUS, broadcast on both ports.
+// The vehicle's telemetry streams, each at its own TEL_*_HZ out of the loop rate: HEARTBEAT (and
+// EXTENDED_SYS_STATE at the heartbeat's rate), ATTITUDE_QUATERNION, LOCAL_POSITION_NED and SYS_STATUS,
+// broadcast on both ports.
 #pragma once
 
 #include <stdint.h>
 
 #include "quad/firmware/ground_link.h"
+#include "quad/firmware/modes.h"
 #include "quad/firmware/params.h"
 #include "quad/firmware/scheduler.h"
 
@@ -22,12 +24,12 @@ class Telemetry {
     accel_clipped_ = accel_clipped_ || accel;
   }
   // Once per iteration: counts the streams' rates and sends at most one stream that is due (the first in
-  // the order heartbeat, attitude, position, status; the others wait for the next iterations), none when
+  // the order heartbeat, attitude, position, status, extended state; the others wait for the next iterations), none when
   // the iteration has no room (`room` false: a vision fix's step took it). Returns whether it sent one.
   bool send_due(const FlightApp& app, GroundLink& link, bool room);
 
  private:
-  enum Stream : uint8_t { kHeartbeat = 1, kAttitude = 2, kPosition = 4, kStatus = 8 };
+  enum Stream : uint8_t { kHeartbeat = 1, kAttitude = 2, kPosition = 4, kStatus = 8, kExtendedState = 16 };
   void send(Stream stream, const FlightApp& app, GroundLink& link);
   void send_status(const FlightApp& app, GroundLink& link);
 
@@ -35,6 +37,7 @@ class Telemetry {
   RateDivider attitude_rate_;
   RateDivider position_rate_;
   RateDivider status_rate_;
+  RateDivider extended_state_rate_;
   uint8_t due_ = 0;             // streams due and not sent yet (Stream bits)
   bool gyro_clipped_ = false;   // since the last SYS_STATUS
   bool accel_clipped_ = false;
@@ -43,6 +46,9 @@ class Telemetry {
 
 // MAVLink HEARTBEAT.base_mode of the vehicle.
 uint8_t base_mode(bool armed, bool hil);
+// MAV_LANDED_STATE: on the ground while disarmed or landed (the land detector), landing in LANDING,
+// else in the air.
+uint8_t landed_state(bool armed, bool landed, FlightMode mode);
 
 }  // namespace fw
 }  // namespace quad

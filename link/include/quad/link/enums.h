@@ -32,6 +32,14 @@ constexpr uint8_t kStateActive = 4;
 constexpr uint8_t kStateCritical = 5;
 constexpr uint8_t kStateEmergency = 6;
 
+// MAV_VTOL_STATE and MAV_LANDED_STATE (EXTENDED_SYS_STATE).
+constexpr uint8_t kVtolStateUndefined = 0;  // not a VTOL
+constexpr uint8_t kLandedStateUndefined = 0;
+constexpr uint8_t kLandedStateOnGround = 1;
+constexpr uint8_t kLandedStateInAir = 2;
+constexpr uint8_t kLandedStateTakeoff = 3;
+constexpr uint8_t kLandedStateLanding = 4;
+
 // MAV_CMD (COMMAND_LONG.command)
 constexpr uint16_t kCmdNavLand = 21;
 constexpr uint16_t kCmdDoSetMode = 176;

@@ -559,6 +559,21 @@ struct LandingTarget {
   }
 };
 
+// EXTENDED_SYS_STATE (245): VTOL state and landed state (MAV_LANDED_STATE: on ground, in air, landing).
+struct ExtendedSysState {
+  static constexpr uint32_t kId = 245;
+  static constexpr uint8_t kCrcExtra = 130;
+  static constexpr uint8_t kBaseLength = 2;
+  static constexpr uint8_t kLength = 2;
+  static constexpr const char* kName = "EXTENDED_SYS_STATE";
+  uint8_t vtol_state = 0;
+  uint8_t landed_state = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.vtol_state); io(m.landed_state);
+  }
+};
+
 // STATUSTEXT (253): a human-readable status line (severity = MAV_SEVERITY).
 struct Statustext {
   static constexpr uint32_t kId = 253;
@@ -587,7 +602,8 @@ void for_each_message_type(F&& f) {
   f(ParamSet{}); f(AttitudeQuaternion{}); f(LocalPositionNed{}); f(ManualControl{}); f(CommandLong{});
   f(CommandAck{}); f(SetPositionTargetLocalNed{}); f(HilActuatorControls{}); f(VisionPositionEstimate{});
   f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LogRequestList{}); f(LogEntry{});
-  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(Statustext{});
+  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(ExtendedSysState{});
+  f(Statustext{});
 }
 
 // The declared lengths must equal the sum of the declared fields: a missing or mistyped field fails to
@@ -621,6 +637,7 @@ static_assert(lengths_match_fields<LogData>(), "LOG_DATA layout");
 static_assert(lengths_match_fields<LogErase>(), "LOG_ERASE layout");
 static_assert(lengths_match_fields<LogRequestEnd>(), "LOG_REQUEST_END layout");
 static_assert(lengths_match_fields<LandingTarget>(), "LANDING_TARGET layout");
+static_assert(lengths_match_fields<ExtendedSysState>(), "EXTENDED_SYS_STATE layout");
 static_assert(lengths_match_fields<Statustext>(), "STATUSTEXT layout");
 
 }  // namespace mavlink

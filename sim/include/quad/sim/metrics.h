@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -23,8 +25,19 @@ class ErrorStats {
   double mean_ = 0.0, m2_ = 0.0, sum_sq_ = 0.0, max_abs_ = 0.0;
 };
 
+// The error statistics of one hold window.
+struct HoldStats {
+  double start_s = 0.0, end_s = 0.0;
+  ErrorStats axis[3];     // north, east, down
+  ErrorStats horizontal;  // north-east error magnitude
+  void add(const Eigen::Vector3d& e);
+  // 2-D standard deviation of the horizontal position: sqrt(var_n + var_e).
+  double horizontal_stddev() const;
+};
+
 struct FlightMetricsConfig {
   double hold_start_s = 0.0, hold_end_s = 0.0;
+  std::vector<std::pair<double, double>> extra_holds;  // further hold windows (start, end), e.g. a second flight's
   double settle_band_m = 0.05;
   double crash_tilt_rad = 1.05;         // 60 deg: a multirotor beyond this is not flying any more
   double crash_impact_speed_m_s = 2.0;  // touching the ground faster than this breaks the gear
@@ -33,13 +46,15 @@ struct FlightMetricsConfig {
 
 class FlightMetrics {
  public:
-  explicit FlightMetrics(const FlightMetricsConfig& config) : c_(config) {}
+  explicit FlightMetrics(const FlightMetricsConfig& config);
 
   // One sample (at the log rate). `setpoint_time_s` is when the active setpoint was commanded.
   void add(double t, const Eigen::Vector3d& position_ned, const Eigen::Vector3d& velocity_ned, double tilt_rad,
            const std::optional<Eigen::Vector3d>& setpoint_ned, double setpoint_time_s);
 
   const ErrorStats& hold(int axis) const { return hold_[axis]; }
+  // The further windows, in the configuration's order.
+  const std::vector<HoldStats>& extra_holds() const { return extra_holds_; }
   // Horizontal (north-east) error magnitude during the hold.
   const ErrorStats& hold_horizontal() const { return hold_horizontal_; }
   // 2-D standard deviation of the horizontal position during the hold: sqrt(var_n + var_e).
@@ -54,6 +69,7 @@ class FlightMetrics {
   FlightMetricsConfig c_;
   ErrorStats hold_[3];
   ErrorStats hold_horizontal_;
+  std::vector<HoldStats> extra_holds_;
   struct Settle {
     double setpoint_time_s, last_outside_s, last_sample_s;
   };

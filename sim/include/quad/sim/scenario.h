@@ -150,8 +150,10 @@ struct Scenario {
   // Firmware parameters for this run (NAME value), written to the run folder and passed as --params.
   std::vector<std::pair<std::string, double>> firmware_params;
 
-  // Metrics window (the hold) and the settling band.
+  // Metrics window (the hold) and the settling band; further hold windows (metrics.holds: a second
+  // flight's hover), reported apart in summary.json's "holds".
   double hold_start_s = 0.0, hold_end_s = 0.0;
+  std::vector<std::pair<double, double>> extra_holds;
   double settle_band_m = 0.05;
 
   Eigen::Vector3d wind_at(double t) const;

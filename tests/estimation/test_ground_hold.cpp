@@ -1,0 +1,230 @@
+// Standing on the ground (quad/estimation/ground_hold.h and PositionFilterCore::fuse_still): when the
+// vehicle counts as still, that the pseudo-measurements are eq. 8.11b's update (against Eigen's Kalman
+// update in double), that they hold a dead-reckoning filter still for 30 s where it would otherwise run
+// away, and that the next fix is then an ordinary update.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include <Eigen/Dense>
+
+#include "quad/estimation/ground_hold.h"
+#include "quad/estimation/position_filter.h"
+
+namespace {
+
+using quad::Vec3;
+using quad::est::FixResult;
+using quad::est::GroundHold;
+using quad::est::GroundHoldParams;
+using quad::est::PositionFilterParams;
+
+constexpr float kG = 9.80665f;
+constexpr float kDt = 0.01f;
+constexpr uint32_t kStepUs = 10000;
+using Filter = quad::est::PositionFilter<quad::est::history_length(100)>;
+
+TEST(GroundHold, HoldsAfterTheStillTimeOnlyOnTheGround) {
+  GroundHold g;
+  g.configure(GroundHoldParams{0.1f, 0.5f, 0.5f});
+  const Vec3 rest{0.0f, 0.0f, -kG};
+  int started = 0, first_hold = -1;
+  for (int i = 0; i < 100; ++i) {
+    if (g.update(true, Vec3{0.01f, -0.02f, 0.0f}, rest, kDt) && first_hold < 0) first_hold = i;
+    if (g.started()) ++started;
+  }
+  // 0.5 s of still samples at 100 Hz (the 50th sample completes it; float sums land on either side).
+  EXPECT_GE(first_hold, 48);
+  EXPECT_LE(first_hold, 50);
+  EXPECT_EQ(started, 1);
+  // Off the ground (the land detector says flying) nothing is held, and the still time starts again
+  // from the ground on (a steady descent is as still as standing to an IMU).
+  EXPECT_FALSE(g.update(false, Vec3{}, rest, kDt));
+  EXPECT_FALSE(g.still());
+  int again = 0;
+  while (!g.update(true, Vec3{}, rest, kDt) && again < 100) ++again;
+  EXPECT_GE(again, 48);
+  EXPECT_LE(again, 50);
+  EXPECT_TRUE(g.started());
+}
+
+TEST(GroundHold, MovingTurningOrFallingIsNotStill) {
+  GroundHold g;
+  g.configure(GroundHoldParams{0.1f, 0.5f, 0.5f});
+  auto holds_after = [&](const Vec3& w, const Vec3& a) {
+    g.update(true, Vec3{0.2f, 0.0f, 0.0f}, Vec3{0.0f, 0.0f, -kG}, kDt);  // a break first
+    bool held = false;
+    for (int i = 0; i < 200; ++i) held = g.update(true, w, a, kDt);
+    return held;
+  };
+  EXPECT_TRUE(holds_after(Vec3{0.05f, 0.05f, 0.05f}, Vec3{0.3f, -0.2f, -kG + 0.2f}));
+  EXPECT_FALSE(holds_after(Vec3{0.0f, 0.0f, 0.11f}, Vec3{0.0f, 0.0f, -kG}));  // turning at 6.3 deg/s
+  // Less than hover thrust in the air (LAND_THR_FRAC 0.9): the specific force is 0.9 g.
+  EXPECT_FALSE(holds_after(Vec3{}, Vec3{0.0f, 0.0f, -0.9f * kG}));
+  EXPECT_FALSE(holds_after(Vec3{}, Vec3{0.0f, 0.0f, -kG - 0.6f}));  // lifting off
+  EXPECT_FALSE(holds_after(Vec3{}, Vec3{0.0f, 0.0f, NAN}));
+  // One sample over the bound restarts the still time.
+  bool held = holds_after(Vec3{}, Vec3{0.0f, 0.0f, -kG});
+  ASSERT_TRUE(held);
+  EXPECT_FALSE(g.update(true, Vec3{}, Vec3{0.0f, 0.0f, -kG + 0.7f}, kDt));
+  EXPECT_FALSE(g.update(true, Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt));
+}
+
+// The firmware's configuration: thesis Q, horizontal bias states, no z bias (so z has its own class).
+PositionFilterParams firmware_params() {
+  PositionFilterParams p;
+  p.xy_accel_bias = true;
+  return p;
+}
+
+// Eigen's Kalman update in double for one axis with state (p, v, b): P - P h (h^T P h + r)^-1 h^T P.
+struct AxisOracle {
+  Eigen::Matrix3d p;
+  Eigen::Vector3d x;
+  void update(const Eigen::Vector3d& h, double y, double r) {
+    const double s = h.dot(p * h) + r;
+    const Eigen::Vector3d k = p * h / s;
+    x += k * (y - h.dot(x));
+    p -= k * h.transpose() * p;
+  }
+};
+
+TEST(GroundHold, FuseStillIsTheKalmanUpdateOfZeroVelocityThenThePosition) {
+  for (const bool z_shares : {false, true}) {
+    PositionFilterParams fp = firmware_params();
+    fp.z_accel_bias = z_shares;  // the same bias choice on every axis: z shares x's covariance
+    Filter kf(fp);
+    kf.predict(Vec3{}, 1000000);
+    ASSERT_EQ(kf.fuse_position(Vec3{0.1f, -0.2f, -1.0f}, 1000000), FixResult::kInitialized);
+    uint32_t t = 1000000;
+    for (int i = 0; i < 50; ++i) kf.predict(Vec3{0.05f, -0.03f, 0.2f}, t += kStepUs);
+    const Vec3 hold{0.12f, -0.18f, -0.97f};
+    AxisOracle o[3];
+    for (int i = 0; i < 3; ++i) {
+      const quad::est::AxisCovariance& c = kf.covariance(i);
+      o[i].p << c.pp, c.pv, c.pb, c.pv, c.vv, c.vb, c.pb, c.vb, c.bb;
+      o[i].x << kf.position()[i], kf.velocity()[i], kf.accel_bias()[i];
+      // The bias state's variance is zero on an axis without one: the update leaves b alone there.
+      o[i].update(Eigen::Vector3d(0, 1, 0), 0.0, 0.01 * 0.01);
+      o[i].update(Eigen::Vector3d(1, 0, 0), hold[i], 0.02 * 0.02);
+    }
+    ASSERT_TRUE(kf.fuse_still(hold, 0.02f, 0.01f));
+    for (int i = 0; i < 3; ++i) {
+      const quad::est::AxisCovariance& c = kf.covariance(i);
+      EXPECT_NEAR(kf.position()[i], o[i].x[0], 1e-6) << "axis " << i << " shares " << z_shares;
+      EXPECT_NEAR(kf.velocity()[i], o[i].x[1], 1e-6) << "axis " << i;
+      EXPECT_NEAR(kf.accel_bias()[i], o[i].x[2], 1e-5) << "axis " << i;
+      // P - w w^T / S in float cancels: its error is float epsilon times the prior's entries (up to 1).
+      EXPECT_NEAR(c.pp, o[i].p(0, 0), 1e-6) << "axis " << i;
+      EXPECT_NEAR(c.pv, o[i].p(0, 1), 1e-6) << "axis " << i;
+      EXPECT_NEAR(c.vv, o[i].p(1, 1), 1e-6) << "axis " << i;
+      EXPECT_NEAR(c.bb, o[i].p(2, 2), 1e-6) << "axis " << i;
+    }
+  }
+}
+
+// 30 s standing still after a fix, dead-reckoning on an input with a tilt error of 0.5 deg (0.085 m/s^2)
+// and a vertical accelerometer error of 0.1 m/s^2, a fix every 33 ms before; then a fix again.
+TEST(GroundHold, HoldsTheEstimateStillForThirtySecondsAndTheNextFixIsAnUpdate) {
+  const Vec3 u_error{0.085f, -0.06f, 0.1f};
+  const Vec3 truth{0.3f, -0.4f, -0.13f};
+  for (const bool hold : {false, true}) {
+    Filter kf(firmware_params());
+    uint32_t t = 1000000;
+    kf.predict(Vec3{}, t);
+    for (int i = 0; i < 300; ++i) {
+      t += kStepUs;
+      kf.predict(u_error, t);
+      if (i % 3 == 0) kf.fuse_position(truth, t - 40000);
+    }
+    GroundHold g;
+    g.configure(GroundHoldParams{});
+    // Still from the last fix on: the hold begins after the still time, the first still measurement
+    // when the last fix has left the history window (250 ms).
+    Vec3 start = kf.position();
+    float moved = 0.0f;
+    int still_fused = 0;
+    for (int i = 0; i < 3000 + 50; ++i) {
+      t += kStepUs;
+      kf.predict(u_error, t);
+      if (hold && g.update(true, Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt)) {
+        if (g.started()) g.set_reference(kf.position());
+        if (kf.fuse_still(g.reference(), 0.01f, 0.01f) && ++still_fused == 1) start = kf.position();
+      }
+      if (i >= 50) moved = quad::maxf(moved, quad::norm(kf.position() - start));
+    }
+    std::printf("[figure] 30 s still, input error (%.3f, %.3f, %.3f) m/s^2: estimate moved %.4f m %s the hold\n",
+                u_error.x, u_error.y, u_error.z, moved, hold ? "with" : "without");
+    if (!hold) {
+      EXPECT_GT(moved, 10.0f);
+      continue;
+    }
+    EXPECT_LT(moved, 0.02f);
+    EXPECT_LT(quad::norm(kf.velocity()), 0.005f);
+    EXPECT_LT(std::sqrt(kf.covariance(0).pp), 0.05f);
+    // From the hold's start on (its still time, 0.5 s, outlasts the last fix's history window).
+    EXPECT_EQ(still_fused, 3000);
+    // A fix captured before the last still measurement is refused; after a lift-off (0.1 s without the
+    // hold) one 40 ms late at the true position is fused through the gate, no reset.
+    const uint32_t resets = kf.health().resets;
+    EXPECT_EQ(kf.fuse_position(truth, t - 20000), FixResult::kRejectedOutOfOrder);
+    for (int i = 0; i < 10; ++i) kf.predict(u_error, t += kStepUs);
+    EXPECT_EQ(kf.fuse_position(truth, t - 40000), FixResult::kFused);
+    EXPECT_EQ(kf.health().resets, resets);
+    EXPECT_LT(quad::norm(kf.position() - truth), 0.02f);
+  }
+}
+
+TEST(GroundHold, FuseStillWaitsForTheFilterAndForAFixInProgress) {
+  Filter kf(firmware_params());
+  EXPECT_FALSE(kf.fuse_still(Vec3{}, 0.01f, 0.01f));  // not initialised
+  kf.predict(Vec3{}, 1000000);
+  kf.initialize_at(Vec3{1.0f, 2.0f, -0.13f});
+  EXPECT_TRUE(kf.initialized());
+  EXPECT_EQ(kf.position().z, -0.13f);
+  EXPECT_EQ(kf.queue_fix(Vec3{1.0f, 2.0f, -0.13f}, 1000000), FixResult::kPending);
+  EXPECT_FALSE(kf.fuse_still(Vec3{1.0f, 2.0f, -0.13f}, 0.01f, 0.01f));
+  EXPECT_EQ(kf.advance_fix(), FixResult::kPending);
+  EXPECT_FALSE(kf.fuse_still(Vec3{1.0f, 2.0f, -0.13f}, 0.01f, 0.01f));
+  // Initialised at the ground, the first fix is an ordinary update, not a reset.
+  EXPECT_EQ(kf.advance_fix(), FixResult::kFused);
+  EXPECT_EQ(kf.health().resets, 0u);
+  // A fix in the history window (26 entries, 250 ms) holds the estimate itself: no still measurement
+  // until it has left it.
+  uint32_t t = 1000000;
+  for (int i = 0; i < 26; ++i) {
+    EXPECT_FALSE(kf.fuse_still(Vec3{1.0f, 2.0f, -0.13f}, 0.01f, 0.01f)) << i;
+    kf.predict(Vec3{}, t += kStepUs);
+  }
+  EXPECT_TRUE(kf.fuse_still(Vec3{1.0f, 2.0f, -0.13f}, 0.01f, 0.01f));
+}
+
+TEST(GroundHold, FixesThatStartDuringAHoldTakeOver) {
+  // Standing still with the hold running when the star comes into view (the station starts late): the
+  // first fix, captured before the last still measurement, is refused; the hold then waits and the next
+  // fixes are fused, however often the caller asks for the hold.
+  Filter kf(firmware_params());
+  uint32_t t = 1000000;
+  kf.predict(Vec3{}, t);
+  const Vec3 ground{0.0f, 0.0f, -0.13f};
+  kf.initialize_at(ground);
+  for (int i = 0; i < 100; ++i) {
+    kf.predict(Vec3{}, t += kStepUs);
+    ASSERT_TRUE(kf.fuse_still(ground, 0.01f, 0.01f));
+  }
+  int fused = 0, refused = 0;
+  for (int i = 0; i < 300; ++i) {
+    kf.predict(Vec3{}, t += kStepUs);
+    if (i % 3 == 0) {
+      const FixResult r = kf.fuse_position(Vec3{0.01f, 0.0f, -0.13f}, t - 40000);
+      fused += r == FixResult::kFused;
+      refused += r == FixResult::kRejectedOutOfOrder;
+    }
+    kf.fuse_still(ground, 0.01f, 0.01f);
+  }
+  EXPECT_EQ(refused, 1);
+  EXPECT_EQ(fused, 99);
+}
+
+}  // namespace
