@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The flight log of an APM 2.5 processor-in-the-loop flight (tests/pil/CMakeLists.txt, pil_flight_avr_200hz).
+"""The flight log of an APM 2.5 processor-in-the-loop flight (tests/pil/CMakeLists.txt, pil_flight_avr_100hz).
 
     check_flight_log.py NODE RUN IMAGE
 
