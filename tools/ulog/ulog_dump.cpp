@@ -18,6 +18,13 @@ namespace {
 using quad::ulog::File;
 using quad::ulog::FormatField;
 
+size_t type_size(const std::string& t) {
+  if (t == "double" || t == "int64_t" || t == "uint64_t") return 8;
+  if (t == "float" || t == "int32_t" || t == "uint32_t") return 4;
+  if (t == "int16_t" || t == "uint16_t") return 2;
+  return 1;
+}
+
 void print_value(const std::string& type, const uint8_t* p) {
   if (type == "float" || type == "double") {
     const size_t n = type == "float" ? 4 : 8;
@@ -27,7 +34,8 @@ void print_value(const std::string& type, const uint8_t* p) {
     return;
   }
   quad::ulog::Record r;
-  r.bytes.assign(p, p + 8);
+  r.bytes.assign(8, 0);  // the field's own bytes only: it may end the record
+  std::memcpy(r.bytes.data(), p, type_size(type));
   const double v = quad::ulog::number(r, quad::ulog::FieldRef{type, 0, 1});
   if (type == "uint64_t") {
     uint64_t u;
@@ -40,13 +48,6 @@ void print_value(const std::string& type, const uint8_t* p) {
   } else {
     std::printf(" %.0f", v);
   }
-}
-
-size_t type_size(const std::string& t) {
-  if (t == "double" || t == "int64_t" || t == "uint64_t") return 8;
-  if (t == "float" || t == "int32_t" || t == "uint32_t") return 4;
-  if (t == "int16_t" || t == "uint16_t") return 2;
-  return 1;
 }
 
 bool basic(const std::string& t) {
