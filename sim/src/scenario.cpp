@@ -67,7 +67,7 @@ class Field {
   }
   Field at(size_t i) const { return Field(node_[i], key_ + "[" + std::to_string(i) + "]", file_); }
   size_t size() const {
-    if (!node_.IsSequence()) fail("must be a list");
+    if (!defined() || !node_.IsSequence()) fail("must be a list");
     return node_.size();
   }
 
@@ -109,10 +109,12 @@ class Field {
     return node_.as<std::string>();
   }
   Eigen::Vector3d vec3() const {
+    if (!defined()) fail("is required");
     if (!node_.IsSequence() || node_.size() != 3) fail("must be a list of three numbers");
     return {at(0).number(), at(1).number(), at(2).number()};
   }
   Eigen::Vector2d vec2() const {
+    if (!defined()) fail("is required");
     if (!node_.IsSequence() || node_.size() != 2) fail("must be a list of two numbers");
     return {at(0).number(), at(1).number()};
   }

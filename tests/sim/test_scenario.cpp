@@ -140,6 +140,9 @@ TEST(Scenario, ErrorsNameTheFileLineAndKey) {
   EXPECT_NE(error_of("duration_s: 10\n").find("'name' is required"), std::string::npos);
   EXPECT_NE(error_of(head + "wind: {mean_ned_m_s: [1, 2]}\n").find("'wind.mean_ned_m_s' must be a list of three numbers"),
             std::string::npos);
+  // A list or vector that is not there at all (the fuzzer's find: a gust without its velocity).
+  EXPECT_NE(error_of(head + "wind:\n  gusts:\n    - {start_s: 2, end_s: 5}\n").find("'wind.gusts[0].velocity_ned_m_s' is required"),
+            std::string::npos);
   EXPECT_NE(error_of("name: [unclosed\n").find("bad.yaml:"), std::string::npos);
 }
 
