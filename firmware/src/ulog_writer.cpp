@@ -167,32 +167,29 @@ bool UlogWriter::info(FlashText name, FlashText value) {
   return true;
 }
 
+bool UlogWriter::key_value(uint8_t type, const uint8_t* key, uint8_t key_length, const void* value, uint8_t size) {
+  const uint8_t payload = static_cast<uint8_t>(1 + key_length + size);
+  uint8_t* p = reserve(type, payload, payload);
+  if (p == nullptr) return false;
+  p[0] = key_length;
+  memcpy(p + 1, key, key_length);
+  memcpy(p + 1 + key_length, value, size);
+  flush();
+  return true;
+}
+
 bool UlogWriter::info(FlashText name, uint32_t value) {
   uint8_t key[kKeyCapacity];
   uint8_t n = put_text(key, 0, QUAD_TEXT("uint32_t "));
   n = put_text(key, n, name);
-  const uint8_t payload = static_cast<uint8_t>(1 + n + sizeof value);
-  uint8_t* p = reserve(ulog::kInfo, payload, payload);
-  if (p == nullptr) return false;
-  p[0] = n;
-  memcpy(p + 1, key, n);
-  memcpy(p + 1 + n, &value, sizeof value);
-  flush();
-  return true;
+  return key_value(ulog::kInfo, key, n, &value, sizeof value);
 }
 
 bool UlogWriter::parameter(const char* name, float value) {
   uint8_t key[kKeyCapacity];
   uint8_t n = put_text(key, 0, QUAD_TEXT("float "));
   n = put_ram(key, n, name);
-  const uint8_t payload = static_cast<uint8_t>(1 + n + sizeof value);
-  uint8_t* p = reserve(ulog::kParameter, payload, payload);
-  if (p == nullptr) return false;
-  p[0] = n;
-  memcpy(p + 1, key, n);
-  memcpy(p + 1 + n, &value, sizeof value);
-  flush();
-  return true;
+  return key_value(ulog::kParameter, key, n, &value, sizeof value);
 }
 
 bool UlogWriter::logged_string(uint8_t level, uint64_t timestamp_us, const char* text, uint8_t length) {

@@ -94,6 +94,8 @@ class UlogWriter {
   uint32_t dropped() const { return dropped_; }
 
  private:
+  // An information or parameter record: the key ("type name", key_length bytes), then the value.
+  bool key_value(uint8_t type, const uint8_t* key, uint8_t key_length, const void* value, uint8_t size);
   // Room for a record of `in_buffer` bytes after the message header; the header is written with
   // msg_size = payload. Null (and a drop counted) when there is none.
   uint8_t* reserve(uint8_t type, uint16_t payload, uint8_t in_buffer);
