@@ -297,6 +297,18 @@ void apply_group(float P[kN][kN], EkfState& x, const float y[kN][3], const float
   ErrorStateEkf::inject(x, dx);
 }
 
+// The whole of a group's update: whitened, its normalised innovation squared over the gate as the test
+// ratio, refused above the gate, else applied.
+EkfFuse gated_update(float P[kN][kN], EkfState& x, const Group& g, float gate_chi2, float* ratio) {
+  float y[kN][3], w[3], s[3];
+  const float nis = whiten(P, g, y, w, s);
+  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
+  *ratio = nis / gate_chi2;
+  if (nis > gate_chi2) return EkfFuse::kRejectedGate;
+  apply_group(P, x, y, w, g.rows);
+  return EkfFuse::kFused;
+}
+
 }  // namespace
 
 void ErrorStateEkf::inject(EkfState& x, const float dx[kN]) {
@@ -360,13 +372,7 @@ EkfFuse ErrorStateEkf::fuse_star_attitude(const StarFix& fix) {
   g.nu[1] = nu.y;
   g.nu[2] = nu.z;
   fix_noise(fix.att_cov, fix.has_covariance, params_.attitude_sigma, params_.attitude_sigma_floor, g.noise);
-  float y[kN][3], w[3], s[3];
-  const float nis = whiten(P_, g, y, w, s);
-  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
-  ratios_.attitude = nis / params_.gate_chi2_3;
-  if (nis > params_.gate_chi2_3) return EkfFuse::kRejectedGate;
-  apply_group(P_, x_, y, w, 3);
-  return EkfFuse::kFused;
+  return gated_update(P_, x_, g, params_.gate_chi2_3, &ratios_.attitude);
 }
 
 EkfFuse ErrorStateEkf::fuse_star_heading(const StarFix& fix) {
@@ -390,13 +396,7 @@ EkfFuse ErrorStateEkf::fuse_star_heading(const StarFix& fix) {
       for (int j = 0; j < 3; ++j) var += r.m[2][i] * c[i][j] * r.m[2][j];
   }
   g.noise[0] = var;
-  float y[kN][3], w[3], s[3];
-  const float nis = whiten(P_, g, y, w, s);
-  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
-  ratios_.heading = nis / params_.gate_chi2_1;
-  if (nis > params_.gate_chi2_1) return EkfFuse::kRejectedGate;
-  apply_group(P_, x_, y, w, 1);
-  return EkfFuse::kFused;
+  return gated_update(P_, x_, g, params_.gate_chi2_1, &ratios_.heading);
 }
 
 void ErrorStateEkf::initialize_position(const StarFix& fix) {
@@ -441,13 +441,7 @@ EkfFuse ErrorStateEkf::fuse_heading(const Vec3& mag_frd) {
   g.nu[0] = wrap_pi(atan2f(ref.y, ref.x) - atan2f(m.y, m.x));
   for (int j = 0; j < 3; ++j) g.h[0][j] = r.m[2][j];
   g.noise[0] = params_.heading_sigma * params_.heading_sigma;
-  float y[kN][3], w[3], s[3];
-  const float nis = whiten(P_, g, y, w, s);
-  if (nis < 0.0f) return EkfFuse::kRejectedInvalid;
-  ratios_.heading = nis / params_.gate_chi2_1;
-  if (nis > params_.gate_chi2_1) return EkfFuse::kRejectedGate;
-  apply_group(P_, x_, y, w, 1);
-  return EkfFuse::kFused;
+  return gated_update(P_, x_, g, params_.gate_chi2_1, &ratios_.heading);
 }
 
 EkfFuse ErrorStateEkf::fuse_zero_velocity() {
