@@ -173,7 +173,8 @@ struct Store {
   bool full = false;            // the open log holds the whole ring: it takes nothing more
   bool flush_pending = false;   // the closed log's last page waits in the current buffer
   bool lookup_pending = false;  // the oldest log's first page is to be read from the index
-  uint8_t index_step = 0;  // open()'s slot: 1 the replaced slot's words, 2 index to the spare buffer, 3 write, program
+  uint8_t index_step = 0;  // open()'s slot: 1 the replaced slot's words, 2 the index to the spare buffer, 3 the
+                           // next serial, update count and check into it, 4 the slot, and the program
   uint8_t buffer = 0;      // the buffer being filled
   uint8_t index_page = 0;  // the index copy that is valid
   uint16_t generation = 0;
@@ -263,38 +264,42 @@ void program_current() {
   g.full = g.page == g.last_start;
 }
 
-// The open log's slot, the next serial and the update count with its check into the spare buffer (which
-// holds the valid copy), programmed into the other copy; the check follows from the words replaced.
-void write_index_slot() {
+// The next serial, the update count and the check into the spare buffer (which holds the valid copy);
+// the check follows from the words the update replaces.
+void write_index_header() {
   const uint8_t spare = g.buffer ^ 1u;
-  const uint16_t serial = open_serial();
-  const uint16_t time_lo = static_cast<uint16_t>(g.open_time), time_hi = static_cast<uint16_t>(g.open_time >> 16);
   const uint16_t update = static_cast<uint16_t>(g.index_update + 1u);
-  const uint16_t check = static_cast<uint16_t>(g.index_check - g.index_next + g.next_serial - g.replaced_sum + serial +
-                                               g.last_start + time_lo + time_hi - g.index_update + update);
-  uint8_t bytes[8];
+  const uint16_t check = static_cast<uint16_t>(g.index_check - g.index_next + g.next_serial - g.replaced_sum +
+                                               open_serial() + g.last_start + static_cast<uint16_t>(g.open_time) +
+                                               static_cast<uint16_t>(g.open_time >> 16) - g.index_update + update);
+  uint8_t bytes[4];
   put16(bytes, g.next_serial);
   write_buffer(spare, kNextOffset, bytes, 2);
-  put16(bytes, serial);
-  put16(bytes + 2, g.last_start);
-  put16(bytes + 4, time_lo);
-  put16(bytes + 6, time_hi);
-  write_buffer(spare, slot_offset(serial), bytes, 8);
   put16(bytes, update);
   put16(bytes + 2, check);
   write_buffer(spare, kUpdateOffset, bytes, 4);
-  g.index_page ^= 1u;
-  command(kProgram[spare], g.index_page, 0);
-  deselect();
   g.index_next = g.next_serial;
   g.index_update = update;
   g.index_check = check;
 }
+// The open log's slot into the spare buffer, programmed into the other copy.
+void write_index_slot() {
+  const uint8_t spare = g.buffer ^ 1u;
+  const uint16_t serial = open_serial();
+  uint8_t bytes[8];
+  put16(bytes, serial);
+  put16(bytes + 2, g.last_start);
+  put16(bytes + 4, static_cast<uint16_t>(g.open_time));
+  put16(bytes + 6, static_cast<uint16_t>(g.open_time >> 16));
+  write_buffer(spare, slot_offset(serial), bytes, 8);
+  g.index_page ^= 1u;
+  command(kProgram[spare], g.index_page, 0);
+  deselect();
+}
 
 // Work left by open(), close() and a dropped log, one chip operation per call while the chip is ready;
 // true when it sent one.
-bool service() {
-  if (g.index_step == 0 && !g.flush_pending && !g.lookup_pending) return false;
+bool serve_pending() {
   if (!ready()) return false;
   if (g.lookup_pending) {
     read_oldest_start();
@@ -308,6 +313,9 @@ bool service() {
     deselect();
     g.index_step = 3;
   } else if (g.index_step == 3) {
+    write_index_header();
+    g.index_step = 4;
+  } else if (g.index_step == 4) {
     write_index_slot();
     g.index_step = 0;
   } else {
@@ -315,6 +323,10 @@ bool service() {
     g.flush_pending = false;
   }
   return true;
+}
+// Called by every function: inline, so that an append with nothing pending pays three tests, not a call.
+__attribute__((always_inline)) inline bool service() {
+  return (g.index_step != 0 || g.flush_pending || g.lookup_pending) && serve_pending();
 }
 
 void finish_pending() {
