@@ -23,7 +23,7 @@ int usage(const std::string& why) {
             << "                     vehicle_attitude: a calibration flight (sim/scenarios/mount_calibration.yaml)\n"
             << "  --expect-deg R,P,Y a known mount (ZYX Euler, degrees): print the recovered mount's error\n"
             << "  --min-angle-deg A  leave out sample pairs rotated less than A against each other (default 1.15)\n"
-            << "  --min-axis-spread S  refuse when Z's second singular value is below S x its first (default 0.02)\n";
+            << "  --min-axis-spread S  refuse when Z's second singular value is below S x its first (default 0.0002)\n";
   return 2;
 }
 
