@@ -55,7 +55,33 @@ Eigen::Matrix3d wahba_rotation(const Eigen::JacobiSVD<Eigen::Matrix3d>& svd) {
   return U * d.asDiagonal() * V.transpose();
 }
 
+// The proper rotation nearest M in the Frobenius norm: U diag(1, 1, det U det V) Vᵀ.
+Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& M) {
+  return wahba_rotation(Eigen::JacobiSVD<Eigen::Matrix3d>(M, Eigen::ComputeFullU | Eigen::ComputeFullV));
+}
+
+double zyx_yaw(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
+
+// X with its ZYX yaw set to the star layout's heading, the quarter turn nearest the data's: X_i = R_i Q_iᵀ
+// is X up to the few degrees of Y, enough to tell the station's four star frames apart. Turning X about
+// NED's z changes its yaw only (X = Rz(yaw) Ry Rx), so the tilt from eq. 16 stays.
+Eigen::Matrix3d with_layout_heading(const Eigen::Matrix3d& X, const std::vector<const RotationPair*>& s,
+                                    double heading) {
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const RotationPair* p : s) sum += p->R * p->Q.transpose();
+  const double coarse = zyx_yaw(nearest_rotation(sum));
+  const double quarter = M_PI / 2.0;
+  const double yaw = heading + quarter * std::round((coarse - heading) / quarter);
+  return Eigen::AngleAxisd(yaw - zyx_yaw(X), Eigen::Vector3d::UnitZ()).toRotationMatrix() * X;
+}
+
 }  // namespace
+
+Eigen::Matrix3d solve_y_given_x(const std::vector<RotationPair>& pairs, const Eigen::Matrix3d& X) {
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  for (const RotationPair& p : pairs) sum += (X * p.Q).transpose() * p.R;
+  return nearest_rotation(sum);
+}
 
 XqyResult solve_xqy(const std::vector<RotationPair>& pairs, const XqyOptions& o) {
   XqyResult r;
@@ -90,14 +116,21 @@ XqyResult solve_xqy(const std::vector<RotationPair>& pairs, const XqyOptions& o)
   r.singular_values_y = svd_y.singularValues();
   const double spread = std::min(r.singular_values_x(1) / r.singular_values_x(0),
                                  r.singular_values_y(1) / r.singular_values_y(0));
-  if (!(spread >= o.min_axis_spread)) {
+  // With the star's heading known, rotations about one axis (yaw turns) suffice: X's freedom about it is
+  // its heading.
+  if (!o.star_heading_known && !(spread >= o.min_axis_spread)) {
     r.message = "the rotations are about one axis only (second / first singular value of Z " +
                 std::to_string(spread) + " < " + std::to_string(o.min_axis_spread) +
                 "): rotate about a second axis (tilt as well as yaw)";
     return r;
   }
-  r.X = wahba_rotation(svd_x);                 // eq. 16
-  r.Y = wahba_rotation(svd_y).transpose();     // Y = V diag(1, 1, det U det V) Uᵀ (after eq. 17)
+  if (o.star_heading_known) {
+    r.X = with_layout_heading(wahba_rotation(svd_x), s, o.star_heading_rad);  // eq. 16, heading from the layout
+    r.Y = solve_y_given_x(pairs, r.X);
+  } else {
+    r.X = wahba_rotation(svd_x);               // eq. 16
+    r.Y = wahba_rotation(svd_y).transpose();   // Y = V diag(1, 1, det U det V) Uᵀ (after eq. 17)
+  }
   double sum_sq = 0.0;
   for (const RotationPair& p : pairs) {
     const double e = rotation_angle(p.R * (r.X * p.Q * r.Y).transpose());

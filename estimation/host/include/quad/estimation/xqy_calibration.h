@@ -9,6 +9,9 @@
 // floor/star-to-NED rotation), Y = R_VB (the IMU body in the rig's body frame: the mount error). The
 // firmware applies Yᵀ = R_BV to every fix (EST_CAM_ROLL/PITCH/YAW, quad/firmware/vision.h CameraMount).
 //
+// With XqyOptions::star_heading_known, X's heading is the star layout's (a departure from the seed,
+// explained there).
+//
 // Usage:
 //   std::vector<quad::est::RotationPair> pairs = ...;   // at least 3, rotated about two axes or more
 //   quad::est::XqyResult r = quad::est::solve_xqy(pairs, {});
@@ -39,6 +42,15 @@ struct XqyOptions {
   // non-parallel axes): the second singular value of Z relative to the first must reach this. A
   // calibration flight's yaw turns (up to 180°) outweigh its tilts (10°) by about 1000 in Z.
   double min_axis_spread = 2e-4;
+  // A departure from seed 002, which leaves X free: when the star's layout on the floor is known (the
+  // product's: its tips along north and east, as VIS_STAR_* and the EKF's heading update assume), X's
+  // heading (its ZYX yaw) is that layout's, star_heading_rad modulo a quarter turn (the station's star
+  // frame is one of four), and only X's tilt (the floor's) comes from eq. 15-16. Y is then the rotation
+  // nearest sum (X Q_i)ᵀ R_i (least squares for that X). Why: X's yaw and Y's yaw trade against each
+  // other unless the flight rotates well about two horizontal axes; with the heading known, yaw turns
+  // alone fix Y, and the rotations need not span two axes.
+  bool star_heading_known = false;
+  double star_heading_rad = 0.0;
 };
 
 struct XqyResult {
@@ -55,6 +67,10 @@ struct XqyResult {
 };
 
 XqyResult solve_xqy(const std::vector<RotationPair>& pairs, const XqyOptions& options);
+
+// The rotation Y minimising sum ||R_i - X Q_i Y||² for a given X: U diag(1, 1, det U Vᵀ) Vᵀ from the SVD
+// of sum (X Q_i)ᵀ R_i.
+Eigen::Matrix3d solve_y_given_x(const std::vector<RotationPair>& pairs, const Eigen::Matrix3d& X);
 
 // The rotation vector r with exp(r^) = R (seed 002 eq. 13), angle in [0, pi].
 Eigen::Vector3d rotation_log(const Eigen::Matrix3d& R);
