@@ -2,13 +2,15 @@
 """The camera-mount benchmark of docs/estimation.md ("The camera mount"), one seed:
 
     calibrate_and_fly.py --build DIR --seed N --mount-deg ROLL,PITCH,YAW --out DIR [--hover SCENARIO]
+                         [--hover-param NAME=VALUE ...] [--tool-arg ARG ...]
 
 1. flies sim/scenarios/mount_calibration.yaml with the rendered rig turned by the mount error
    (camera.mount_error_deg), unknown to the station and the firmware;
 2. runs mount_calibration on the flight's log (seed 002's R = XQY) and compares the recovered mount
    with the simulated one;
 3. flies the hover (flight_plain.yaml) with the mount error and the firmware's EST_CAM_* at zero
-   (uncalibrated), and again with the EST_CAM_* the tool printed (calibrated).
+   (uncalibrated), and again with the EST_CAM_* the tool printed (calibrated); --hover-param sets
+   firmware parameters for both hovers (EST_TYPE=1: the EKF).
 
 Prints one `[mount]` line per figure (tools/campaign reads them: sim/campaigns/mount_calibration.yaml).
 Exit status: 0 done, 1 a flight or the calibration failed, 2 bad arguments.
@@ -54,6 +56,10 @@ def main():
     ap.add_argument("--root", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
     ap.add_argument("--hover", default="sim/scenarios/flight_plain.yaml")
     ap.add_argument("--calibration", default="sim/scenarios/mount_calibration.yaml")
+    ap.add_argument("--hover-param", action="append", default=[], metavar="NAME=VALUE",
+                    help="a firmware parameter for both hovers (repeatable), e.g. EST_TYPE=1")
+    ap.add_argument("--tool-arg", action="append", default=[], metavar="ARG",
+                    help="an argument for mount_calibration (repeatable), e.g. --free-star-yaw")
     a = ap.parse_args()
     try:
         mount = [float(x) for x in a.mount_deg.split(",")]
@@ -61,6 +67,11 @@ def main():
             raise ValueError
     except ValueError:
         ap.error(f"--mount-deg '{a.mount_deg}': expected ROLL,PITCH,YAW in degrees")
+    hover_sets = []
+    for p in a.hover_param:
+        if not re.fullmatch(r"[A-Z][A-Z0-9_]*=\S+", p):
+            ap.error(f"--hover-param '{p}': expected NAME=VALUE")
+        hover_sets += ["--set", f"firmware_params.{p}"]
     sim = os.path.join(a.build, "bin", "quad_sim")
     tool = os.path.join(a.build, "bin", "mount_calibration")
     for exe in (sim, tool):
@@ -76,7 +87,7 @@ def main():
     logs = sorted(f for f in os.listdir(cal_dir) if f.endswith(".ulg"))
     if not logs:
         sys.exit(f"calibrate_and_fly: {cal_dir}: no flight log")
-    r = subprocess.run([tool, os.path.join(cal_dir, logs[0]), "--expect-deg", a.mount_deg],
+    r = subprocess.run([tool, os.path.join(cal_dir, logs[0]), "--expect-deg", a.mount_deg] + a.tool_arg,
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     with open(os.path.join(a.out, "mount_calibration.txt"), "w") as f:
         f.write(r.stdout)
@@ -88,13 +99,17 @@ def main():
     if len(params) != 3 or error is None:
         sys.exit("calibrate_and_fly: mount_calibration printed no mount")
     print(f"[mount] simulated mount error {a.mount_deg} deg; recovered mount error {error.group(1)} deg from it")
+    got = re.search(r"^mount: roll (\S+) pitch (\S+) yaw (\S+) deg", r.stdout, re.M)
+    if got:
+        d = [float(g) - m for g, m in zip(got.groups(), mount)]
+        print(f"[mount] recovered minus simulated: roll {d[0]:+.3f} pitch {d[1]:+.3f} yaw {d[2]:+.3f} deg")
 
     plain = os.path.join(a.out, "hover_uncalibrated")
-    run([sim, "--scenario", os.path.join(a.root, a.hover), "--out", plain] + common,
+    run([sim, "--scenario", os.path.join(a.root, a.hover), "--out", plain] + common + hover_sets,
         os.path.join(a.out, "hover_uncalibrated.txt"))
     hover_figures("uncalibrated", plain)
     calibrated = os.path.join(a.out, "hover_calibrated")
-    sets = []
+    sets = list(hover_sets)
     for name, value in params.items():
         sets += ["--set", f"firmware_params.{name}={value}"]
     run([sim, "--scenario", os.path.join(a.root, a.hover), "--out", calibrated] + common + sets,
