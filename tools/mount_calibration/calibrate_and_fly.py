@@ -103,6 +103,7 @@ def main():
     if got:
         d = [float(g) - m for g, m in zip(got.groups(), mount)]
         print(f"[mount] recovered minus simulated: roll {d[0]:+.3f} pitch {d[1]:+.3f} yaw {d[2]:+.3f} deg")
+        print(f"[mount] recovered error by axis: roll {abs(d[0]):.3f} pitch {abs(d[1]):.3f} yaw {abs(d[2]):.3f} deg")
 
     plain = os.path.join(a.out, "hover_uncalibrated")
     run([sim, "--scenario", os.path.join(a.root, a.hover), "--out", plain] + common + hover_sets,
