@@ -59,6 +59,9 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   filter_.set_params(fp);
 
   load_fields(p, star_ned_, kStarFields);
+  Euler mount;
+  load_fields(p, mount, kCameraMountFields);
+  mount_.configure(mount);
 
   CalibrationConfig cc;
   load_fields(p, cc, kCalibrationFields);

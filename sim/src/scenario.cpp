@@ -177,7 +177,7 @@ void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) 
   f.expect_map({"enabled", "image_size", "left", "right", "star_tip_to_tip_m", "star_inner_ratio", "distractors",
                 "floor_grey", "floor_texture", "floor_texture_m", "floor_texture_contrast", "star_grey", "noise_grey",
                 "exposure_variation", "vignetting", "exposure_s", "interlaced", "jpeg_quality", "frame_loss",
-                "calibration_focal_error"});
+                "calibration_focal_error", "mount_error_deg"});
   f["enabled"].get(c.enabled);
   if (const Field size = f["image_size"]; size.defined()) {
     if (size.size() != 2) size.fail("must be [width, height] in pixels");
@@ -202,6 +202,11 @@ void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) 
   if (f["jpeg_quality"].defined()) c.jpeg_quality = f["jpeg_quality"].integer(0, 100);
   f["frame_loss"].get(c.frame_loss, 0.0, 1.0);
   f["calibration_focal_error"].get(c.calibration_focal_error, -0.5, 0.5);
+  if (const Field e = f["mount_error_deg"]; e.defined()) {
+    if (e.size() != 3) e.fail("must be [roll, pitch, yaw] in degrees");
+    for (size_t i = 0; i < 3; ++i) c.mount_error_rad(static_cast<Eigen::Index>(i)) = e.at(i).number(-10.0, 10.0) * M_PI / 180.0;
+    if (!c.enabled) e.fail("needs the rendered cameras (camera.enabled: true): the simulated fix has no rig");
+  }
 }
 
 void parse_radio(const Field& f, RadioConditions& r) {

@@ -107,6 +107,8 @@ class StateEstimator {
   Vec3 velocity_variance() const;
   // On the ground and still: the filter holds zero velocity and the last known position.
   bool holding_ground() const { return ground_.holding(); }
+  // The camera rig's mount (EST_CAM_*): the application turns every fix into the IMU's body frame with it.
+  const CameraMount& camera_mount() const { return mount_; }
   // The estimate's height above the star (VIS_STAR_D, the floor it lies on), m.
   float height_above_star() const { return star_ned_.z - filter_.position().z; }
 
@@ -145,6 +147,7 @@ class StateEstimator {
   bool mag_pending_ = false;
   bool sensors_ok_ = false;
   Vec3 star_ned_;                   // VIS_STAR_*
+  CameraMount mount_;               // EST_CAM_*
   est::MagCalibration mag_cal_;     // MAG_OFS_*, MAG_SI_*
   bool mag_cal_is_identity_ = true; // MAG_OFS zero, MAG_SI the identity: eq. 7.5 is the field itself
   float mag_declination_ = 0.0f;    // MAG_DECL

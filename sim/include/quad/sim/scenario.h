@@ -111,6 +111,10 @@ struct CameraParams {
   int jpeg_quality = 0;               // JPEG-compress each image at this quality (0: uncompressed)
   double frame_loss = 0.0;            // fraction of captured pairs that never reach the station
   double calibration_focal_error = 0.0;  // the station's focal lengths are (1 + this) x the calibrated ones
+  // The rig's mount error E (ZYX roll, pitch, yaw, rad; scenario key mount_error_deg in degrees): the
+  // rendered rig is turned by E about the body origin (R_BC = E R_BC_model, t_BC = E t_BC_model) while
+  // the station is told the model's mount. The firmware's EST_CAM_* equal to these angles undo it.
+  Eigen::Vector3d mount_error_rad = Eigen::Vector3d::Zero();
 };
 
 struct Scenario {
