@@ -76,6 +76,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
                                     const IterationPlan& plan, bool hovering, bool on_ground) {
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
+  on_ground_ = on_ground;
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
   // calibration is the field itself).
   hal::MagSample mag_calibrated;
