@@ -79,6 +79,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
                                     const IterationPlan& plan, bool hovering, bool on_ground) {
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
+  on_ground_ = on_ground;
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
   // calibration is the field itself).
   hal::MagSample mag_calibrated;
@@ -197,13 +198,20 @@ void StateEstimator::predict_position(uint32_t t_us, const Vec3& gyro, bool on_g
 }
 
 void StateEstimator::hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground) {
+  // The vehicle's centre standing on the star's floor: without fixes (the last part of a landing, on the
+  // ground) the estimate is kept above it, so a dead-reckoned descent ends where the vehicle touches down.
+  const float ground_z = star_ned_.z - ground_height_;
+  filter_.constrain_above_floor(ground_z);
   // (The predictions run at the frame rate whatever the loop rate.) While fixes arrive they hold the
   // estimate: the still time starts when they stop.
-  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) return;
+  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) {
+    // Touched down and still, the still time not yet passed: the velocity is zero already.
+    if (ground_.at_rest()) filter_.fuse_zero_velocity(kStillVelocitySigma);
+    return;
+  }
   if (ground_.started()) {
     // Before any fix the vehicle stands where it took off from: at the star, on its floor (the cameras,
     // close to the floor, see only a patch of it: docs/estimation.md).
-    const float ground_z = star_ned_.z - ground_height_;
     if (!filter_.initialized()) filter_.initialize_at(Vec3{star_ned_.x, star_ned_.y, ground_z});
     // The last known position; come down below LAND_VIS_HGT the vehicle stands on the star's floor, at
     // the ground's height, which the landing's last metre of dead reckoning knows less well.

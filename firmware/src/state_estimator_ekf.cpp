@@ -65,7 +65,8 @@ void StateEstimator::step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel
   if (mag != nullptr) ekf_.mag(mag->field);
   if (!plan.predict) return;
   const float force_error = absf(norm(accel) - kGravity);
-  const bool still = !armed_ && norm(gyro) < kStillRate && force_error < kStillForce;
+  // Disarmed, or landed or touching down by the land detector (the ground hold's condition).
+  const bool still = (!armed_ || on_ground_) && norm(gyro) < kStillRate && force_error < kStillForce;
   ekf_.predict(t_us, still, hovering);
 }
 

@@ -348,7 +348,8 @@ void parse_vehicle(const Field& top, const std::string& base_dir, Scenario& s) {
     if (f["accel"].defined()) parse_axis(f["accel"], s.imu.accel);
   }
   if (const Field f = top["magnetometer"]; f.defined()) {
-    f.expect_map({"noise_gauss", "scale", "misalignment_rad", "hard_iron_gauss"});
+    f.expect_map({"present", "noise_gauss", "scale", "misalignment_rad", "hard_iron_gauss"});
+    f["present"].get(s.mag.present);
     f["noise_gauss"].get(s.mag.noise_gauss, 0.0, 1.0);
     f["scale"].get(s.mag.scale);
     f["misalignment_rad"].get(s.mag.misalignment_rad);
@@ -403,8 +404,10 @@ void parse_links(const Field& top, Scenario& s) {
 // The vision fix: simulated, or the rendered cameras with the station, and the station's settings.
 void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
   if (const Field f = top["vision"]; f.defined()) {
-    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
+    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m", "min_height_m", "attitude_sigma_deg"});
+    f["attitude_sigma_deg"].get(s.vision.attitude_sigma_deg, 0.0, 90.0);
     f["enabled"].get(s.vision.enabled);
+    f["min_height_m"].get(s.vision.min_height_m, 0.0, 100.0);
     f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
     f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
     f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);

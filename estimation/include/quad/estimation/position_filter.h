@@ -163,6 +163,16 @@ class PositionFilterCore {
   // within the history window); a fix captured before the last still measurement is refused as out of
   // order (the delayed fusion's P_now - Q(tau) would not hold).
   bool fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v);
+  // The vehicle has come to rest on the ground but the hold's still time has not passed yet
+  // (ground_hold.h): under fuse_still()'s conditions, the velocity is reset to zero with variance
+  // sigma_v^2 and no correlation with the position or the bias; the position stays where it is.
+  bool fuse_zero_velocity(float sigma_v);
+  // The vehicle cannot be below the floor: when the position's down coordinate is beyond z_floor (the
+  // vehicle's centre standing on the floor), the position is projected onto it (down z_floor), the
+  // velocity and the covariance unchanged (the projection method of constrained Kalman filtering).
+  // Only while no fix arrives (fixes hold the estimate; their history stays consistent: the projection
+  // joins the accumulated correction like an update). Returns whether it projected.
+  bool constrain_above_floor(float z_floor);
   // Before any fix: the state set at p (velocity zero, biases zero) at the current time, with the
   // position standard deviation of the fixes; the first fix is then an ordinary, gated update.
   void initialize_at(const Vec3& p);

@@ -59,7 +59,8 @@ class StateEstimator {
 
   // Starts the boot calibration over (keep the vehicle still).
   void restart_calibration() { calibration_.restart(); }
-  // Armed or not: EST_TYPE changes only on the ground; the EKF fuses zero velocity while disarmed and still.
+  // Armed or not: EST_TYPE changes only on the ground; the EKF fuses zero velocity while disarmed (or on
+  // the ground by the land detector) and still.
   void set_armed(bool armed) { armed_ = armed; }
   EstimatorType type() const { return type_; }
   bool ekf_selected() const { return kImageHasEkf && type_ == EstimatorType::kEkf; }
@@ -158,6 +159,7 @@ class StateEstimator {
   bool ekf_mag_use_ = true;
   bool ekf_hover_force_ = true;  // EST_ABIAS_TAU > 0
   bool ekf_hovering_ = false;    // the frame-rate work's hovering flag, held between frames
+  bool on_ground_ = false;       // the step's on_ground: the EKF fuses zero velocity there when still
 #if !defined(__AVR__)
   est::DelayedEkf<kPositionHistory> ekf_;
   est::EkfParams ekf_params_;

@@ -78,6 +78,12 @@ struct VisionParams {
   double latency_s = 0.022;  // capture to the radio (station processing); with the radio: ~40 ms in all
   double noise_m = 0.005;    // per axis, NED
   bool enabled = true;
+  // No fix while the vehicle's centre is lower than this above the star (its floor, NED z = 0): the
+  // rendered cameras close to the floor see only a patch of the star (LAND_VIS_HGT, docs/estimation.md).
+  double min_height_m = 0.0;
+  // When set (>= 0), the fix carries the star's attitude in body FRD (LANDING_TARGET q, as the station's
+  // pose does) with this standard deviation per axis; otherwise q is 1 0 0 0 (no attitude).
+  double attitude_sigma_deg = -1.0;
 };
 
 // One camera's lens in OpenCV's pinhole model: focal lengths and principal point (px), distortion
