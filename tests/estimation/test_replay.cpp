@@ -664,7 +664,7 @@ TEST(ReplayTool, EkfFilterBesideTheThesisPairAndTheBaselinesAgainstTheTruth) {
   std::cout << "[figure] replay --filter ekf, 0.36 m/s, fixes 25 Hz 60 ms late 5 mm noise, position RMS (mm) "
             << 1e3 * rms.transpose() << "\n" << run.err;
   EXPECT_LT(rms.norm(), 0.015);
-  EXPECT_NE(run.err.find("EKF: "), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("; EKF: "), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("this filter"), std::string::npos) << run.err;
   // The figures the tool prints are the test's own: horizontal RMS over t >= 5 s.
   double h2 = 0.0;

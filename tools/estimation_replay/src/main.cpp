@@ -308,13 +308,15 @@ int main(int argc, char** argv) {
     std::cerr << "estimation_replay: write error\n";
     return 1;
   }
-  std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
-            << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
-            << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
   if (o.filter == AttitudeFilter::kEkf) {
-    std::cerr << " (EKF: " << s.ekf.positions_fused << " fused, " << s.ekf.positions_rejected << " outliers, "
-              << s.ekf.fixes_too_old << " too old, " << s.ekf.fixes_refused << " refused, " << s.ekf.resets
-              << " resets, " << s.ekf.headings_fused << " headings fused)";
+    std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes; EKF: " << s.ekf.positions_fused
+              << " fused, " << s.ekf.positions_rejected << " outliers, " << s.ekf.fixes_too_old << " too old, "
+              << s.ekf.fixes_refused << " refused, " << s.ekf.resets << " position resets, " << s.ekf.headings_fused
+              << " magnetometer headings fused";
+  } else {
+    std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
+              << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
+              << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
   }
   if (o.filter == AttitudeFilter::kConditioned || o.filter == AttitudeFilter::kUnconditioned) {
     std::cerr << "; observer: " << s.observer.skipped << " samples skipped, " << s.observer.accel_rejected

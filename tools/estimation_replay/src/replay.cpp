@@ -93,13 +93,13 @@ void write_row(std::ostream& out, double t, bool att_valid, const Quat& q, const
 // The EKF over the rows: IMU increments every row, the predict every row (the log's rate), fixes as the
 // star in the body frame at their capture time. It starts (attitude from the conditioned observer's
 // initialisation, the observer's learned field as its reference) on the first row with a magnetometer
-// sample; the observer keeps running for the fixes' attitude at capture time.
+// sample.
 ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& options, std::ostream& out,
                          std::vector<Estimate>* track) {
   est::ConditionedObserver observer;
   observer.set_params(options.observer);
   est::DelayedEkf<est::history_length(1000)> ekf;
-  std::vector<std::pair<double, Quat>> history;  // the observer's attitude per row, for fixes
+  std::vector<std::pair<double, Quat>> history;  // the EKF's attitude per row, for fixes
   ReplaySummary summary;
   bool initialized = false;
   Vec3 last_mag;
@@ -124,17 +124,17 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
       }
     } else {
       const float dt = static_cast<float>(r.t - t_prev);
-      observer.update(g, a, m, mag_new, dt);
       ekf.imu(g, a, dt);
       if (mag_new) ekf.mag(m);
       ekf.predict(now, false, false);
     }
     t_prev = r.t;
-    if (initialized) history.emplace_back(r.t, observer.attitude());
+    if (initialized) history.emplace_back(r.t, ekf.attitude());
     if (r.fix && initialized) {
       ++summary.fixes;
       const double tc = options.fuse_on_arrival ? r.t : r.fix->t;
-      // The observer's attitude at the row at or before the capture time.
+      // The EKF's own attitude at the row at or before the capture time: the logged fix is a NED position,
+      // taken back into the body frame so that the update sees the position alone.
       auto it = std::upper_bound(history.begin(), history.end(), tc,
                                  [](double t, const std::pair<double, Quat>& h) { return t < h.first; });
       if (it != history.begin()) --it;
@@ -149,7 +149,6 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
     ++summary.rows;
   }
   summary.ekf = ekf.health();
-  summary.observer = observer.health();
   return summary;
 }
 

@@ -21,8 +21,9 @@ struct ReplayOptions {
   est::LinearComplementaryParams linear;
   est::PositionFilterParams position;
   bool fuse_on_arrival = false;             // stamp fixes with the row time instead of vis_t (comparison)
-  // The EKF takes the star as seen from the body: a fix's NED position p is turned back into
-  // R^T (star - p) with the observer's attitude at its capture time (the firmware's eq. 8.5 inverted).
+  // The EKF takes the star as seen from the body: a logged fix's NED position p is turned back into
+  // R^T (star - p) with the EKF's own attitude at its capture time, so the update sees the position
+  // alone (a log holds no star attitude to replay).
   Vec3 star_ned;                            // VIS_STAR_N/E/D (a ULog's parameters, else --star)
   est::EkfParams ekf;
 };
