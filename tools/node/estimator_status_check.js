@@ -8,8 +8,8 @@
 //   - the first arm command is refused (COMMAND_ACK 400 DENIED) with a STATUSTEXT that starts
 //     "PREFLIGHT: estimator not converged: " and names the reason, and a later one is accepted;
 //   - at least N ESTIMATOR_STATUS (default 10), their time_usec increasing;
-//   - standing before take-off, after the calibration (the first report with ATTITUDE): CONST_POS_MODE
-//     set, POS_HORIZ_REL clear (no fix yet);
+//   - standing disarmed before the accepted arm command, after the calibration (the last report with
+//     ATTITUDE before it): CONST_POS_MODE set, POS_HORIZ_REL clear (no fix yet);
 //   - POS_HORIZ_REL set in a later report (after the first fix);
 //   - in the hold (time_usec within START..END s of the vehicle clock, the simulator's in HIL): every
 //     report has ATTITUDE, VELOCITY_HORIZ, VELOCITY_VERT, POS_HORIZ_REL, POS_VERT_ABS and
@@ -89,6 +89,11 @@ function decode(packets) {
   return events;
 }
 
+// The index in `events` of the COMMAND_ACK that accepted the arm command.
+function armedAt(events) {
+  return events.findIndex((e) => e.name === 'COMMAND_ACK' && e.data.command === 400 && e.data.result === common.MavResult.ACCEPTED);
+}
+
 function checkArming(events) {
   const acks = events.filter((e) => e.name === 'COMMAND_ACK' && e.data.command === 400);
   if (acks.length < 2) fail(`${acks.length} COMMAND_ACK for MAV_CMD_COMPONENT_ARM_DISARM, expected the refusal and the arm`);
@@ -102,7 +107,9 @@ function checkArming(events) {
   console.log(`arming: first refused with "${preflight}", then accepted`);
 }
 
-function checkReports(reports, o) {
+function checkReports(events, o) {
+  const reports = events.filter((e) => e.name === 'ESTIMATOR_STATUS').map((e) => e.data);
+  const beforeArm = events.slice(0, armedAt(events)).filter((e) => e.name === 'ESTIMATOR_STATUS').map((e) => e.data);
   if (reports.length < o.minStatus) fail(`${reports.length} ESTIMATOR_STATUS, expected at least ${o.minStatus}`);
   for (let i = 1; i < reports.length; ++i) {
     if (reports[i].timeUsec <= reports[i - 1].timeUsec) fail(`ESTIMATOR_STATUS ${i}: time_usec ${reports[i].timeUsec} not after ${reports[i - 1].timeUsec}`);
@@ -110,11 +117,13 @@ function checkReports(reports, o) {
   const t = (r) => Number(r.timeUsec) * 1e-6;
   const firstFix = reports.findIndex((r) => (r.flags & F.POS_HORIZ_REL) !== 0);
   if (firstFix < 0) fail('POS_HORIZ_REL never set: no fix fused');
-  const ground = reports.slice(0, firstFix).filter((r) => (r.flags & F.ATTITUDE) !== 0);
-  if (ground.length === 0) fail('no report with ATTITUDE before the first fix (standing after the calibration)');
+  const ground = beforeArm.filter((r) => (r.flags & F.ATTITUDE) !== 0);
+  if (ground.length === 0) fail('no report with ATTITUDE before the arm (standing after the calibration)');
   const standing = ground[ground.length - 1];
-  if ((standing.flags & F.CONST_POS_MODE) === 0) fail(`standing before the first fix at ${t(standing).toFixed(2)} s: CONST_POS_MODE clear (${flagNames(standing.flags)})`);
-  console.log(`standing: ${ground.length} reports with ATTITUDE before the first fix, the last at ${t(standing).toFixed(2)} s: ${flagNames(standing.flags)}`);
+  if ((standing.flags & F.CONST_POS_MODE) === 0 || (standing.flags & F.POS_HORIZ_REL) !== 0) {
+    fail(`standing before the arm at ${t(standing).toFixed(2)} s: flags ${flagNames(standing.flags)}, expected CONST_POS_MODE without POS_HORIZ_REL`);
+  }
+  console.log(`standing: ${ground.length} reports with ATTITUDE before the arm, the last at ${t(standing).toFixed(2)} s: ${flagNames(standing.flags)}`);
   console.log(`first fix: POS_HORIZ_REL from ${t(reports[firstFix]).toFixed(2)} s: ${flagNames(reports[firstFix].flags)}`);
 
   const hold = reports.filter((r) => t(r) >= o.hold[0] && t(r) <= o.hold[1]);
@@ -132,8 +141,8 @@ function checkReports(reports, o) {
     for (const k of Object.keys(worst)) worst[k] = Math.max(worst[k], r[k]);
   }
   console.log(`hold ${o.hold[0]}-${o.hold[1]} s: ${hold.length} reports, flags ${flagNames(hold[hold.length - 1].flags)}; largest ` +
-    `vel_ratio ${worst.velRatio.toFixed(3)}, pos_horiz_ratio ${worst.posHorizRatio.toFixed(3)}, pos_vert_ratio ` +
-    `${worst.posVertRatio.toFixed(3)}, mag_ratio ${worst.magRatio.toFixed(3)}, pos_horiz_accuracy ` +
+    `vel_ratio ${worst.velRatio.toPrecision(3)}, pos_horiz_ratio ${worst.posHorizRatio.toPrecision(3)}, pos_vert_ratio ` +
+    `${worst.posVertRatio.toPrecision(3)}, mag_ratio ${worst.magRatio.toPrecision(3)}, pos_horiz_accuracy ` +
     `${worst.posHorizAccuracy.toFixed(4)} m, pos_vert_accuracy ${worst.posVertAccuracy.toFixed(4)} m`);
 }
 
@@ -147,7 +156,7 @@ async function main() {
   }
   const events = decode(await readPackets(data));
   checkArming(events);
-  checkReports(events.filter((e) => e.name === 'ESTIMATOR_STATUS').map((e) => e.data), o);
+  checkReports(events, o);
   console.log('estimator status: all checks passed');
 }
 
