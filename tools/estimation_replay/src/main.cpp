@@ -33,6 +33,9 @@ Output: CSV t,qw,qx,qy,qz,roll,pitch,yaw,bgx,bgy,bgz,px,py,pz,vx,vy,vz.
   --truth FILE            print the error figures against a simulated flight's truth (the run folder's
                           log.csv: t, true_n, true_e, true_d, true_roll, true_pitch, true_yaw)
   --from S --to S         the time window of the error figures (default: the whole log)
+  --calibrate S           the boot calibration (thesis eq. 7.2, 7.4) over the log's first S seconds (the
+                          vehicle still and level): its gyro and accelerometer biases off every sample,
+                          as the firmware takes them off (a ULog's samples are the raw ones)
   --compare               (with --truth) every filter over the same log, one line of figures each:
                           conditioned + Kalman (the thesis pair), unconditioned, mahony, linear, ekf
   --check-attitude TOL    (with --filter firmware) exit 1 unless every replayed attitude is within TOL of
@@ -110,6 +113,34 @@ int replay_firmware(const quad::ulog::File& log, double tolerance, std::ostream&
   return 0;
 }
 
+// The stationary calibration over the rows of the first `seconds`, taken off every row; false (said) when
+// the window is refused.
+bool calibrate(std::vector<quad::replay::LogRow>& rows, double seconds) {
+  quad::est::StationaryCalibrator cal;
+  for (const auto& r : rows) {
+    if (r.t > rows.front().t + seconds) break;
+    cal.add(quad::Vec3{static_cast<float>(r.gyro[0]), static_cast<float>(r.gyro[1]), static_cast<float>(r.gyro[2])},
+            quad::Vec3{static_cast<float>(r.accel[0]), static_cast<float>(r.accel[1]), static_cast<float>(r.accel[2])});
+  }
+  quad::est::ImuBias bias;
+  const quad::est::CalibrationStatus status = cal.result(bias);
+  if (status != quad::est::CalibrationStatus::kOk) {
+    std::cerr << "estimation_replay: --calibrate: the first " << seconds << " s are refused as a calibration window ("
+              << static_cast<int>(status) << ": too few samples, moved, turning or not level; calibration.h)\n";
+    return false;
+  }
+  for (auto& r : rows) {
+    for (int i = 0; i < 3; ++i) {
+      r.gyro[i] -= bias.gyro[i];
+      r.accel[i] -= bias.accel[i];
+    }
+  }
+  std::cerr << "estimation_replay: calibrated over " << seconds << " s: gyro bias " << bias.gyro.x << " "
+            << bias.gyro.y << " " << bias.gyro.z << " rad/s, accelerometer bias " << bias.accel.x << " "
+            << bias.accel.y << " " << bias.accel.z << " m/s^2\n";
+  return true;
+}
+
 void print_figures(const std::string& name, const quad::replay::ErrorFigures& f) {
   char line[256];
   std::snprintf(line, sizeof line,
@@ -132,6 +163,7 @@ int main(int argc, char** argv) {
   bool star_given = false, compare = false;
   std::string truth_path;
   double from = -1e300, to = 1e300;
+  double calibrate_s = 0.0;
 
   using Setter = std::function<void(const std::string&, const std::string&)>;
   const std::map<std::string, Setter> with_value = {
@@ -196,6 +228,7 @@ int main(int argc, char** argv) {
       {"--truth", [&](auto&, auto& v) { truth_path = v; }},
       {"--from", [&](auto& k, auto& v) { from = number(k, v); }},
       {"--to", [&](auto& k, auto& v) { to = number(k, v); }},
+      {"--calibrate", [&](auto& k, auto& v) { calibrate_s = number(k, v); }},
   };
 
   for (int i = 1; i < argc; ++i) {
@@ -292,6 +325,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  if (calibrate_s > 0.0 && !calibrate(rows, calibrate_s)) return 1;
   std::vector<quad::replay::TruthRow> truth;
   if (!truth_path.empty()) {
     try {
