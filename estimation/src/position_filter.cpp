@@ -499,18 +499,16 @@ QUAD_STEP void PositionFilterCore::capture_gain_terms(float tau, float h1, float
 }
 
 // Mahalanobis gate per axis: nu^2 / S <= gate^2, with nu = y - p_s the innovations (also rejects a
-// non-finite innovation). Keeps the normalised innovation squared for last_nis().
+// non-finite innovation). Keeps each axis' normalised innovation squared for last_nis() and the test ratios.
 QUAD_STEP bool PositionFilterCore::within_gate(const Vec3& y, const float p_s[3], float nu[3]) {
-  float nis = 0.0f;
   const float gate2 = sqf(params_.gate_sigma);
   bool pass = true;
   for (int i = 0; i < 3; ++i) {
     nu[i] = y[i] - p_s[i];
     const float d2 = nu[i] * nu[i] * fix_inv_s_[covariance_class(i)];
     if (!(d2 <= gate2)) pass = false;
-    nis += d2;
+    last_d2_[i] = d2;
   }
-  last_nis_ = nis;
   return pass;
 }
 
@@ -707,6 +705,18 @@ void PositionFilterCore::initialize_at(const Vec3& p) {
   const uint32_t now = t_us_;
   reset(p, Vec3{}, now);
 }
+
+}  // namespace est
+}  // namespace quad
+
+namespace quad {
+namespace est {
+
+float PositionFilterCore::test_ratio_horizontal() const {
+  return maxf(last_d2_[0], last_d2_[1]) / sqf(params_.gate_sigma);
+}
+
+float PositionFilterCore::test_ratio_vertical() const { return last_d2_[2] / sqf(params_.gate_sigma); }
 
 }  // namespace est
 }  // namespace quad

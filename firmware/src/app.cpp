@@ -210,6 +210,12 @@ ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   return in;
 }
 
+Transition FlightApp::mode_command(Command c) {
+  ModeInputs in = mode_inputs();
+  if (c == Command::kArm) in.estimator_converged = in.estimator_converged && estimator_.preflight() == Preflight::kReady;
+  return control_.command(c, in);
+}
+
 void FlightApp::report_transition(const Transition& t) {
   if (t.reason == Reason::kNone) return;
   if (t.changed) {
@@ -221,7 +227,9 @@ void FlightApp::report_transition(const Transition& t) {
       is_failsafe(t.reason) ? mav::kSeverityCritical : (t.accepted ? mav::kSeverityInfo : mav::kSeverityWarning);
   StatusLine line(severity);
   if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
-  link_.send_statustext((line << reason_text(t.reason)).message());
+  line << reason_text(t.reason);
+  if (t.reason == Reason::kRejectEstimatorNotConverged) line << QUAD_TEXT(": ") << preflight_text(estimator_.preflight());
+  link_.send_statustext(line.message());
   logger_.transition(*this, t);
 }
 

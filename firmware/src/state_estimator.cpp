@@ -236,6 +236,46 @@ bool StateEstimator::healthy() const {
          healthy_speed(velocity());
 }
 
+FlashText preflight_text(Preflight p) {
+  switch (p) {
+    case Preflight::kReady: return QUAD_TEXT("ready");
+    case Preflight::kCalibrating: return QUAD_TEXT("calibrating");
+    case Preflight::kAttitude: return QUAD_TEXT("attitude var");
+    case Preflight::kVelocity: return QUAD_TEXT("velocity var");
+    case Preflight::kPosition: return QUAD_TEXT("position var");
+  }
+  return QUAD_TEXT("?");
+}
+
+Preflight StateEstimator::thesis_preflight() const {
+  if (!calibration_.done() || !observer_.initialized()) return Preflight::kCalibrating;
+  if (!filter_.initialized()) return Preflight::kPosition;
+  if (!(maxf(filter_.covariance(0).pp, filter_.covariance(2).pp) <= sqf(kPreflightPositionSigma)))
+    return Preflight::kPosition;
+  return Preflight::kReady;
+}
+
+EstimatorReport StateEstimator::thesis_report() const {
+  // The flags as PX4's EKF2 sets them for its aiding sources (DelayedEkfCore::flags()): the observer's
+  // attitude once initialised (it has no covariance); position, velocity and predicted position while
+  // fixes arrive; velocity, height and constant-position mode while the ground hold holds. No magnetometer
+  // or velocity test ratio: the observer's correction and the ground hold are not gated.
+  EstimatorReport r;
+  if (calibration_.done() && observer_.initialized()) r.flags |= est::kEstAttitude;
+  if (!sensors_ok_ || imu_clip_.accel_clipped()) r.flags |= est::kEstAccelError;
+  if (!filter_.initialized()) return r;
+  const bool aided = filter_.fixes_arriving() && (filter_.health().fused > 0 || filter_.health().resets > 0);
+  if (aided) r.flags |= est::kEstPosHorizRel | est::kEstPredPosHorizRel;
+  if (aided || ground_.holding()) r.flags |= est::kEstVelocityHoriz | est::kEstVelocityVert | est::kEstPosVertAbs;
+  if (ground_.holding()) r.flags |= est::kEstConstPosMode;
+  const est::AxisCovariance& h = filter_.covariance(0);
+  r.pos_horiz_ratio = filter_.test_ratio_horizontal();
+  r.pos_vert_ratio = filter_.test_ratio_vertical();
+  r.pos_horiz_accuracy = safe_sqrtf(2.0f * h.pp);
+  r.pos_vert_accuracy = safe_sqrtf(filter_.covariance(2).pp);
+  return r;
+}
+
 Vec3 StateEstimator::position_variance() const {
   return Vec3{filter_.covariance(0).pp, filter_.covariance(1).pp, filter_.covariance(2).pp};
 }

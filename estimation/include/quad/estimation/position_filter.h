@@ -190,7 +190,11 @@ class PositionFilterCore {
   float last_gain_p(int axis) const;
   float last_gain_v(int axis) const;
   // Normalised innovation squared of the last fix that reached the gate, summed over the axes.
-  float last_nis() const { return last_nis_; }
+  float last_nis() const { return last_d2_[0] + last_d2_[1] + last_d2_[2]; }
+  // The last gated fix's innovation test ratios (ESTIMATOR_STATUS), nu^2 / (gamma^2 S) per axis: the
+  // larger of x and y, and z (above 1 the fix was refused).
+  float test_ratio_horizontal() const;
+  float test_ratio_vertical() const;
   bool initialized() const { return initialized_; }
   uint32_t time_us() const { return t_us_; }
   const PositionFilterHealth& health() const { return health_; }
@@ -271,7 +275,7 @@ class PositionFilterCore {
   // Last correction gain, carried to now; while a fix is gated (kFixGated) its D h, the gain times S.
   float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
   float gain_tau_ = 0.0f;                    // age of the last fused fix when it was fused
-  float last_nis_ = 0.0f;
+  float last_d2_[3] = {0.0f, 0.0f, 0.0f};  // the last gated fix's nu^2 / S per axis
   uint32_t t_us_ = 0;
   uint32_t last_fix_us_ = 0;    // capture time of the last fused fix (valid while have_fix_)
   bool clock_started_ = false;

@@ -152,6 +152,7 @@ namespace fw {
   X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                                \
   X(kTelPosHz, "TEL_POS_HZ", 10.0f, 0.0f, 500.0f)                                                \
   X(kTelSysHz, "TEL_SYS_HZ", 1.0f, 0.0f, 50.0f)                                                  \
+  X(kTelEstHz, "TEL_EST_HZ", 2.0f, 0.0f, 50.0f)                                                  \
   /* flight log (docs/logging.md): 0 off, 1 from arming to disarming, 2 from boot; the IMU topics */ \
   /* every LOG_IMU_DIV-th iteration */                                                           \
   X(kLogMode, "LOG_MODE", 1.0f, 0.0f, 2.0f)                                                      \

@@ -50,6 +50,30 @@ enum class EstimatorEvent : uint8_t {
   kClipBurstStarted,           // the IMU began a run of clipped samples
 };
 
+// The estimator's health (ESTIMATOR_STATUS, the flight log's estimator_status): the last fusions'
+// innovation test ratios (NIS over the gate), the position's 1-sigma accuracies and the flags
+// (est::EstimatorFlag, MAVLink's ESTIMATOR_STATUS_FLAGS). docs/estimation.md, "Health report".
+struct EstimatorReport {
+  uint16_t flags = 0;
+  float vel_ratio = 0.0f;
+  float pos_horiz_ratio = 0.0f;
+  float pos_vert_ratio = 0.0f;
+  float mag_ratio = 0.0f;  // the heading: the magnetometer's or the star's (and the star's attitude)
+  float pos_horiz_accuracy = 0.0f;
+  float pos_vert_accuracy = 0.0f;
+};
+
+// Why arming waits (the pre-arm check): the first unmet condition.
+enum class Preflight : uint8_t { kReady, kCalibrating, kAttitude, kVelocity, kPosition };
+FlashText preflight_text(Preflight p);
+
+// The pre-arm threshold (1 sigma, per axis) of the thesis pair's position: on the ground the hold brings
+// it to about 0.01 m; it is above the thesis Q's steady state with fixes at 30 Hz (0.15 m), so a vehicle
+// that stands in view of the star can arm too. Its velocity variance is not checked: with table 8.1's
+// Q (q_p = 1 m^2/s) the fixes leave the velocity's sigma at about 1 m/s whatever the vehicle does. The
+// EKF's thresholds are its own (DelayedEkfCore::converged).
+constexpr float kPreflightPositionSigma = 0.3f;  // m
+
 class StateEstimator {
  public:
   // The name of the offending parameter when p cannot be applied, else nullptr (nothing changed).
@@ -91,6 +115,11 @@ class StateEstimator {
   // The sample was finite and its specific force plausible.
   bool sensors_ok() const { return sensors_ok_; }
   bool converged() const;
+  // The pre-arm check: converged() and the variances under the thresholds (the thesis pair's position
+  // filter initialised, by the ground hold or a fix, with its position variance under
+  // kPreflightPositionSigma; the EKF's tilt and velocity, DelayedEkfCore::converged()).
+  Preflight preflight() const;
+  EstimatorReport report() const;
   // Converged, finite, not diverged, and not flying on held gyro rates longer than IMU_CLIP_HOLD.
   bool healthy() const;
   const ImuClipGuard& imu_clip() const { return imu_clip_; }
@@ -130,6 +159,8 @@ class StateEstimator {
                 const IterationPlan& plan, bool hovering);
   void start_ekf(uint32_t t_us);
   void configure_ekf(const Params& p);
+  Preflight thesis_preflight() const;
+  EstimatorReport thesis_report() const;
 
   BootCalibration calibration_;
   CalibrationResult bias_;
