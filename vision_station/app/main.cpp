@@ -45,7 +45,7 @@ const char* kUsage =
     "                     [--out PATH]"
     " [--baud 57600] [--show [--show-screenshot FILE.png]] [--settings FILE]\n"
     "                     [--timeout-ms 500] [--status-s 1] [--stats FILE.json]\n"
-    "  vision_station calibrate-room --images DIR [--board 8x6] [--square 0.06] --out room.yaml\n"
+    "  vision_station calibrate-room --images DIR [--board 8x6] [--square 0.10] --out room.yaml\n"
     "  vision_station track --room room.yaml --vehicles vehicles.yaml --frames frames.csv [--out FILE.jsonl]\n"
     "                       [--no-epipolar] [--no-roi]\n"
     "  --calib takes the station's calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml\n";

@@ -31,7 +31,7 @@ cv::Mat read_colour(const std::string& path) {
 ChessboardSpec board_from(const std::map<std::string, std::string>& options) {
   ChessboardSpec board;
   board.inner_corners = cv::Size(8, 6);
-  board.square_m = 0.06;
+  board.square_m = 0.10;
   if (options.count("--board")) {
     int w = 0, h = 0;
     char x = 0;

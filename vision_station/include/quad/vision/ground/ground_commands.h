@@ -1,5 +1,5 @@
 // The ground-camera subcommands of vision_station (docs/vision_station.md, "Ground-camera mode"):
-//   calibrate-room --images DIR [--board 8x6] [--square 0.06] --out room.yaml
+//   calibrate-room --images DIR [--board 8x6] [--square 0.10] --out room.yaml
 //   track --room room.yaml --vehicles vehicles.yaml --frames frames.csv [--out FILE.jsonl]
 //         [--no-epipolar] [--no-roi]
 #pragma once
