@@ -181,7 +181,8 @@ std::vector<int> write_calibration_set(const std::string& dir, const std::vector
     for (int v = 0, tries = 0; v < free_views && tries < 2000; ++tries) {
       const double tilt = rng.uniform(0.35, 0.75), axis = rng.uniform(0.0, 2 * kPi), spin = rng.uniform(-0.4, 0.4);
       const cv::Matx33d R = rot_z(axis) * rot_x(tilt) * rot_z(-axis) * rot_z(spin);
-      const cv::Vec3d centre(rng.uniform(-0.5, 0.5), rng.uniform(-0.35, 0.35), rng.uniform(1.4, 2.6));
+      const double depth = rng.uniform(1.4, 2.6);
+      const cv::Vec3d centre(rng.uniform(-0.42, 0.42) * depth, rng.uniform(-0.3, 0.3) * depth, depth);
       const cv::Vec3d mid((board.inner.width - 1) * s / 2, (board.inner.height - 1) * s / 2, 0);
       cv::Vec3d rvec;
       cv::Rodrigues(R, rvec);

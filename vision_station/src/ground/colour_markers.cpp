@@ -18,27 +18,49 @@ const char* colour_name(MarkerColour colour) {
 
 namespace {
 
-// Per pixel: 1 + the colour index whose chromaticity reference is within the radius, else 0.
+// 1 + the colour index whose chromaticity reference is within the radius, else 0.
+uint8_t classify_rgb(double red, double green, double blue, const ColourThresholds& t) {
+  const double sum = red + green + blue;
+  if (sum < t.min_sum) return 0;
+  const double r = red / sum, g = green / sum;
+  const double gr = r - 1.0 / 3.0, gg = g - 1.0 / 3.0;
+  if (gr * gr + gg * gg < t.min_grey_distance * t.min_grey_distance) return 0;
+  for (int k = 0; k < kMarkerColours; ++k) {
+    const double dr = r - t.reference[k][0], dg = g - t.reference[k][1];
+    if (dr * dr + dg * dg < t.radius * t.radius) return static_cast<uint8_t>(k + 1);
+  }
+  return 0;
+}
+
+bool same(const ColourThresholds& a, const ColourThresholds& b) {
+  return a.reference == b.reference && a.radius == b.radius && a.min_grey_distance == b.min_grey_distance &&
+         a.min_sum == b.min_sum;
+}
+
+// The classification of every colour quantised to 6 bits a channel (the bin's centre: chromaticity off
+// by at most ~0.005), built once per set of thresholds: one lookup a pixel.
+const std::vector<uint8_t>& lookup_table(const ColourThresholds& t) {
+  thread_local ColourThresholds built_for;
+  thread_local std::vector<uint8_t> table;
+  if (table.empty() || !same(built_for, t)) {
+    table.assign(64 * 64 * 64, 0);
+    for (int b = 0; b < 64; ++b) {
+      for (int g = 0; g < 64; ++g) {
+        for (int r = 0; r < 64; ++r) table[(b << 12) | (g << 6) | r] = classify_rgb(r * 4 + 1.5, g * 4 + 1.5, b * 4 + 1.5, t);
+      }
+    }
+    built_for = t;
+  }
+  return table;
+}
+
 cv::Mat classify(const cv::Mat& bgr, const ColourThresholds& t) {
-  cv::Mat labels(bgr.size(), CV_8U, cv::Scalar(0));
-  const double r2 = t.radius * t.radius, grey2 = t.min_grey_distance * t.min_grey_distance;
+  const std::vector<uint8_t>& table = lookup_table(t);
+  cv::Mat labels(bgr.size(), CV_8U);
   for (int y = 0; y < bgr.rows; ++y) {
     const cv::Vec3b* row = bgr.ptr<cv::Vec3b>(y);
     uint8_t* out = labels.ptr<uint8_t>(y);
-    for (int x = 0; x < bgr.cols; ++x) {
-      const int sum = row[x][0] + row[x][1] + row[x][2];
-      if (sum < t.min_sum) continue;
-      const double r = row[x][2] / static_cast<double>(sum), g = row[x][1] / static_cast<double>(sum);
-      const double gr = r - 1.0 / 3.0, gg = g - 1.0 / 3.0;
-      if (gr * gr + gg * gg < grey2) continue;
-      for (int k = 0; k < kMarkerColours; ++k) {
-        const double dr = r - t.reference[k][0], dg = g - t.reference[k][1];
-        if (dr * dr + dg * dg < r2) {
-          out[x] = static_cast<uint8_t>(k + 1);
-          break;
-        }
-      }
-    }
+    for (int x = 0; x < bgr.cols; ++x) out[x] = table[((row[x][0] >> 2) << 12) | ((row[x][1] >> 2) << 6) | (row[x][2] >> 2)];
   }
   return labels;
 }

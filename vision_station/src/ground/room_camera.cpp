@@ -85,8 +85,11 @@ RoomRig load_room_rig(const std::string& path) {
   for (int i = 0; i < n; ++i) {
     const std::string p = "camera_" + std::to_string(i) + "_";
     RoomCamera c;
-    const cv::Mat size = read_matrix(fs, path, p + "image_size", 1, 2);
-    c.image_size = cv::Size(static_cast<int>(size.at<double>(0)), static_cast<int>(size.at<double>(1)));
+    const cv::FileNode size = fs[p + "image_size"];
+    if (!size.isSeq() || size.size() != 2 || !size[0].isInt() || !size[1].isInt()) {
+      throw std::runtime_error(path + ": missing or malformed key '" + p + "image_size' ([width, height])");
+    }
+    c.image_size = cv::Size(static_cast<int>(size[0]), static_cast<int>(size[1]));
     if (c.image_size.width <= 0 || c.image_size.height <= 0) {
       throw std::runtime_error(path + ": key '" + p + "image_size' must be positive");
     }
