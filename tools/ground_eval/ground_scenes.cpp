@@ -224,6 +224,7 @@ const char* scenario_name(Scenario s) {
     case Scenario::kSingle: return "single";
     case Scenario::kPair: return "pair";
     case Scenario::kCrossing: return "crossing";
+    case Scenario::kRetreat: return "retreat";
     case Scenario::kFour: return "four";
   }
   return "?";
@@ -236,11 +237,13 @@ cv::Matx33d attitude(double yaw, double pitch, double roll) { return rot_z(yaw) 
 // Two vehicles passing each other with one on the line of sight of `camera` to the other at time tc:
 // the far one at `far`, moving along `along` at `speed`; the near one 0.7 m closer on that line and
 // 4 cm higher, moving the other way. Their same-colour markers pass close in that camera's image.
+// With `retreat`, both come to the line of sight at tc and turn back (a smooth reversal within ~0.1 s), so
+// that each one's constant-velocity prediction runs into the other's markers.
 void crossing_pair(std::vector<VehicleState>& out, int first_id, const SceneCamera& camera, const cv::Vec3d& far,
-                   const cv::Vec3d& along, double speed, double t, double tc) {
+                   const cv::Vec3d& along, double speed, double t, double tc, bool retreat = false) {
   const cv::Vec3d ray = cv::normalize(far - camera.centre_ned);
   const cv::Vec3d near = far - 0.7 * ray + cv::Vec3d(0, 0, -0.04);
-  const double d = speed * (t - tc);
+  const double d = retreat ? 0.02 - std::hypot(speed * (t - tc), 0.02) : speed * (t - tc);
   const double wobble = 0.05 * std::sin(3.0 * t + first_id);
   out.push_back({first_id, far + d * along, attitude(0.1 * first_id, wobble, -wobble)});
   out.push_back({first_id + 1, near - d * along, attitude(-0.1 * first_id, -wobble, wobble)});
@@ -267,6 +270,9 @@ std::vector<VehicleState> scenario_states(Scenario scenario, double t, const std
     }
     case Scenario::kCrossing:
       crossing_pair(out, 1, cameras[0], cv::Vec3d(0.35, 0.0, -0.70), cv::Vec3d(0, 1, 0), 0.25, t, 1.0);
+      break;
+    case Scenario::kRetreat:
+      crossing_pair(out, 1, cameras[0], cv::Vec3d(0.35, 0.0, -0.70), cv::Vec3d(0, 1, 0), 0.3, t, 1.0, true);
       break;
     case Scenario::kFour:
       crossing_pair(out, 1, cameras[0], cv::Vec3d(0.35, 0.0, -0.70), cv::Vec3d(0, 1, 0), 0.25, t, 0.8);

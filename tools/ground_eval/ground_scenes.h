@@ -76,7 +76,7 @@ struct FrameTruth {
   std::vector<std::vector<std::array<MarkerTruth, 4>>> markers;
 };
 
-enum class Scenario { kSingle, kPair, kCrossing, kFour };
+enum class Scenario { kSingle, kPair, kCrossing, kRetreat, kFour };
 const char* scenario_name(Scenario s);
 
 struct SceneOptions {

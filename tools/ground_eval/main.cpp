@@ -1,7 +1,7 @@
 // ground_scene_gen: independent frame sets and calibration boards for the vision station's ground-camera
 // mode (docs/vision_station.md, "Ground-camera mode").
 //   ground_scene_gen boards DIR [--seed N]
-//   ground_scene_gen scene DIR --scenario single|pair|crossing|four [--frames N] [--seed N]
+//   ground_scene_gen scene DIR --scenario single|pair|crossing|retreat|four [--frames N] [--seed N]
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
   using namespace ground_eval;
   if (argc < 3) {
     std::fprintf(stderr, "usage: ground_scene_gen boards DIR [--seed N]\n"
-                         "       ground_scene_gen scene DIR --scenario single|pair|crossing|four [--frames N] [--seed N]\n");
+                         "       ground_scene_gen scene DIR --scenario single|pair|crossing|retreat|four [--frames N] [--seed N]\n");
     return 2;
   }
   const std::string command = argv[1], dir = argv[2];
@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
       options.frames = std::atoi(value.c_str());
     } else if (key == "--scenario") {
       bool known = false;
-      for (Scenario s : {Scenario::kSingle, Scenario::kPair, Scenario::kCrossing, Scenario::kFour}) {
+      for (Scenario s : {Scenario::kSingle, Scenario::kPair, Scenario::kCrossing, Scenario::kRetreat, Scenario::kFour}) {
         if (value == scenario_name(s)) {
           options.scenario = s;
           known = true;

@@ -8,6 +8,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include <time.h>
+
 #include <opencv2/calib3d.hpp>
 
 namespace quad::vision::ground {
@@ -23,6 +25,12 @@ void AssociationStats::add(const AssociationStats& o) {
 }
 
 namespace {
+
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 cv::Matx33d yaw_rotation(double yaw) {
   const double c = std::cos(yaw), s = std::sin(yaw);
@@ -182,6 +190,7 @@ std::vector<MarkerBlob> GroundTracker::search(int camera, const cv::Mat& image, 
 
 FrameSetResult GroundTracker::process(const std::vector<cv::Mat>& images, int64_t time_us) {
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = thread_cpu_ms();
   if (images.size() != rig_.cameras.size()) {
     throw std::invalid_argument("GroundTracker: " + std::to_string(images.size()) + " images for " +
                                 std::to_string(rig_.cameras.size()) + " cameras");
@@ -209,6 +218,7 @@ FrameSetResult GroundTracker::process(const std::vector<cv::Mat>& images, int64_
   estimate_poses(result);
   totals_.add(result.stats);
   result.processing_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.cpu_ms = thread_cpu_ms() - cpu_start;
   return result;
 }
 

@@ -75,7 +75,8 @@ struct VehicleFix {
 struct FrameSetResult {
   std::vector<VehicleFix> vehicles;
   AssociationStats stats;
-  double processing_ms = 0.0;
+  double processing_ms = 0.0;  // wall clock of process()
+  double cpu_ms = 0.0;         // CPU time of the calling thread in process() (machine load excluded)
 };
 
 class GroundTracker {
