@@ -14,8 +14,10 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -335,6 +337,60 @@ TEST_F(GroundTrack, FourVehiclesTwoCrossings) {
   expect_accuracy(s, 0.9, 5.0, 15.0, 1.0, 3.0);
   EXPECT_EQ(s.association_errors, 0);
   EXPECT_GT(s.epipolar_resolutions, 0);
+}
+
+}  // namespace
+
+namespace {
+
+// A valid room file (the generator's true cameras), written with OpenCV's FileStorage.
+std::string room_for_input_test(const fs::path& dir) {
+  const std::string path = (dir / "valid_room.yaml").string();
+  cv::FileStorage file(path, cv::FileStorage::WRITE);
+  const auto cameras = make_room_cameras(RoomSpec());
+  file << "cameras" << static_cast<int>(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const std::string p = "camera_" + std::to_string(c) + "_";
+    cv::Matx33d R;
+    cv::Rodrigues(cameras[c].rvec, R);
+    file << p + "image_size" << cameras[c].size << p + "K" << cv::Mat(cameras[c].K) << p + "D"
+         << cv::Mat(cameras[c].distortion) << p + "R_CI" << cv::Mat(R) << p + "t_CI" << cv::Mat(cameras[c].tvec);
+  }
+  return path;
+}
+
+// Exit code and output of a command expected to fail.
+std::pair<int, std::string> run_failing(const std::string& command) {
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
+  std::string out;
+  char buffer[1024];
+  size_t n;
+  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0) out.append(buffer, n);
+  const int status = pclose(pipe.release());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+TEST(GroundTrackInput, BadFilesAreErrorsNamingTheFileAndKey) {
+  const fs::path dir = fs::temp_directory_path() / ("ground_track_bad_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string exe = VISION_STATION_EXE;
+  {
+    std::ofstream(dir / "room.yaml") << "%YAML:1.0\n---\ncameras: 2\ncamera_0_image_size: [ 1024, 768 ]\n";
+    std::ofstream(dir / "vehicles.yaml") << "%YAML:1.0\n---\nmarker_red: [ 0.2, 0.0 ]\n";
+    std::ofstream(dir / "frames.csv") << "time_us,camera_0,camera_1\n1000,a.png\n";
+  }
+  auto [code, out] = run_failing(exe + " track --room " + (dir / "room.yaml").string() + " --vehicles " +
+                                 (dir / "vehicles.yaml").string() + " --frames " + (dir / "frames.csv").string());
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("room.yaml: missing key 'camera_0_K'"), std::string::npos) << out;
+  std::tie(code, out) = run_failing(exe + " track --room " + room_for_input_test(dir) + " --vehicles " +
+                                    (dir / "vehicles.yaml").string() + " --frames " + (dir / "frames.csv").string());
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("vehicles.yaml: key 'marker_red' must be a list of 3 numbers"), std::string::npos) << out;
+  std::tie(code, out) = run_failing(exe + " track --room " + room_for_input_test(dir));
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(out.find("missing --vehicles"), std::string::npos) << out;
+  fs::remove_all(dir);
 }
 
 }  // namespace
