@@ -36,8 +36,9 @@ void make_dir(const std::string& dir) {
   if (::mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) throw std::runtime_error(dir + ": cannot create");
 }
 
+// Uncompressed: the noisy images compress poorly and deflate cost most of the generation time.
 void write_png(const std::string& path, const cv::Mat& image) {
-  if (!cv::imwrite(path, image, {cv::IMWRITE_PNG_COMPRESSION, 1})) throw std::runtime_error(path + ": cannot write");
+  if (!cv::imwrite(path, image, {cv::IMWRITE_PNG_COMPRESSION, 0})) throw std::runtime_error(path + ": cannot write");
 }
 
 // A neutral grey room: smooth texture and a few darker and lighter furniture blocks, per camera.
@@ -61,16 +62,16 @@ cv::Mat room_background(cv::Size size, uint64_t seed) {
 // Illumination: a global gain, a ramp across the image (a lamp on one side), a white-balance cast per
 // camera, sensor noise.
 cv::Mat light(const cv::Mat& drawn, double gain, int camera, double noise, cv::RNG& rng) {
-  cv::Mat f;
-  drawn.convertTo(f, CV_32FC3);
   const cv::Vec3f balance = camera % 2 == 0 ? cv::Vec3f(1.08f, 1.0f, 0.92f) : cv::Vec3f(0.93f, 1.0f, 1.06f);
-  for (int y = 0; y < f.rows; ++y) {
-    cv::Vec3f* row = f.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < f.cols; ++x) {
-      const float ramp = static_cast<float>(gain * (0.75 + 0.25 * (camera % 2 == 0 ? x : f.cols - x) / f.cols));
-      for (int c = 0; c < 3; ++c) row[x][c] *= ramp * balance[c];
-    }
+  cv::Mat row(1, drawn.cols, CV_32FC3);
+  for (int x = 0; x < drawn.cols; ++x) {
+    const float ramp = static_cast<float>(gain * (0.75 + 0.25 * (camera % 2 == 0 ? x : drawn.cols - x) / drawn.cols));
+    row.at<cv::Vec3f>(0, x) = ramp * balance;
   }
+  cv::Mat f, map;
+  drawn.convertTo(f, CV_32FC3);
+  cv::repeat(row, drawn.rows, 1, map);
+  f = f.mul(map);
   cv::Mat n(f.size(), CV_32FC3);
   rng.fill(n, cv::RNG::NORMAL, 0.0, noise);
   f += n;
@@ -292,7 +293,12 @@ std::vector<cv::Mat> render_frame_set(const std::vector<SceneCamera>& cameras, c
     const SceneCamera& cam = cameras[c];
     cv::Matx33d R_CI;
     cv::Rodrigues(cam.rvec, R_CI);
-    cv::Mat image = room_background(cam.size, 1000 + c);
+    thread_local std::vector<cv::Mat> backgrounds;  // the room does not change between frames
+    if (backgrounds.size() <= c || backgrounds[c].size() != cam.size) {
+      backgrounds.resize(std::max(backgrounds.size(), c + 1));
+      backgrounds[c] = room_background(cam.size, 1000 + c);
+    }
+    cv::Mat image = backgrounds[c].clone();
     cv::Mat ids(cam.size, CV_16S, cv::Scalar(-1));  // which marker (4·vehicle + colour) or -2 (body) a pixel shows
     struct Item {
       double depth;
@@ -346,7 +352,10 @@ std::vector<cv::Mat> render_frame_set(const std::vector<SceneCamera>& cameras, c
       for (int k = 0; k < 4; ++k) {
         MarkerTruth& t = truth[v][c][k];
         if (!t.in_image) continue;
-        const cv::Mat own = ids == static_cast<short>(4 * v + k);
+        const int reach = static_cast<int>(std::sqrt(disc_area[v][k] / kPi)) + 3;
+        const cv::Rect around = cv::Rect(static_cast<int>(t.pixel.x) - reach, static_cast<int>(t.pixel.y) - reach,
+                                         2 * reach + 1, 2 * reach + 1) & cv::Rect(0, 0, cam.size.width, cam.size.height);
+        const cv::Mat own = ids(around) == static_cast<short>(4 * v + k);
         t.visible = std::min(1.0, cv::countNonZero(own) / static_cast<double>(disc_area[v][k]));
       }
     }
