@@ -68,17 +68,26 @@ void add_span(float* row, int x0, int width, double xa, double xb, double weight
 // and sub-pixel phase, where a fill of a supersampled canvas (cv::fillPoly draws the outline into it)
 // grows every shape by half a sub-pixel, by an amount that depends on the edge's direction.
 void polygon_coverage(const std::vector<Eigen::Vector2d>& polygon, const cv::Rect& box, std::vector<double>& crossings,
-                      cv::Mat& coverage) {
+                      std::vector<std::vector<int>>& rows, cv::Mat& coverage) {
   coverage.create(box.size(), CV_32F);
   coverage.setTo(cv::Scalar(0.0));
-  const size_t n = polygon.size();
+  const int n = static_cast<int>(polygon.size());
+  // Each edge listed under the pixel rows it spans, so that a line tests only its row's edges.
+  rows.resize(static_cast<size_t>(box.height));
+  for (std::vector<int>& r : rows) r.clear();
+  for (int i = 0; i < n; ++i) {
+    const double y0 = std::min(polygon[i].y(), polygon[(i + 1) % n].y()) - box.y + 0.5;
+    const double y1 = std::max(polygon[i].y(), polygon[(i + 1) % n].y()) - box.y + 0.5;
+    const int first = std::max(static_cast<int>(std::floor(y0)), 0), last = std::min(static_cast<int>(std::floor(y1)), box.height - 1);
+    for (int v = first; v <= last; ++v) rows[static_cast<size_t>(v)].push_back(i);
+  }
   constexpr double kWeight = 1.0 / kCoverageRows;
   for (int v = 0; v < box.height; ++v) {
     float* row = coverage.ptr<float>(v);
     for (int k = 0; k < kCoverageRows; ++k) {
       const double y = box.y + v - 0.5 + (k + 0.5) * kWeight;
       crossings.clear();
-      for (size_t i = 0; i < n; ++i) {
+      for (int i : rows[static_cast<size_t>(v)]) {
         const Eigen::Vector2d& a = polygon[i];
         const Eigen::Vector2d& b = polygon[(i + 1) % n];
         if ((a.y() <= y) != (b.y() <= y)) crossings.push_back(a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
@@ -134,6 +143,7 @@ void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose&
   const cv::Size size = albedo.size();
   const cv::Rect image_rect(0, 0, size.width, size.height);
   std::vector<Eigen::Vector2d> projected;
+  std::vector<std::vector<int>> rows;
   for (size_t s = first; s < shapes.size(); ++s) {
     const FloorShape& shape = shapes[s];
     projected.clear();
@@ -162,7 +172,7 @@ void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose&
                                             static_cast<int>(std::ceil(std::min(y1, size.height + 1.0))) + 2)) &
                          image_rect;
     if (box.empty()) continue;
-    polygon_coverage(projected, box, crossings, coverage);
+    polygon_coverage(projected, box, crossings, rows, coverage);
     for (int v = 0; v < box.height; ++v) {
       float* a = albedo.ptr<float>(box.y + v) + box.x;
       const float* c = coverage.ptr<float>(v);
