@@ -6,6 +6,8 @@
 // for milliseconds, and the driver must never send the chip a command it may not take while busy (the
 // part counts those). What survives the ring is checked against RingModel, the test's own account of the
 // documented rule, and the bytes against the test's copy of what it wrote.
+#include <unistd.h>
+
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_io.h>
@@ -14,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
@@ -288,7 +291,9 @@ struct RingModel {
 // tools/avr_pil/dataflash_logs.py, the layout read in Python apart from the driver, on the part's memory:
 // its list has `logs.size()` lines and log i+1 extracts to logs[i].
 void expect_reader_gets(const parts::At45db321d& flash, const std::vector<std::vector<uint8_t>>& logs) {
-  const std::string image = ::testing::TempDir() + "/dataflash_reader.img", out = image + ".log";
+  // One file per test process: ctest runs the cases of this binary in parallel.
+  const std::string image = ::testing::TempDir() + "/dataflash_reader_" + std::to_string(getpid()) + ".img";
+  const std::string out = image + ".log";
   ASSERT_TRUE(flash.save(image));
   const std::string list = std::string(DATAFLASH_LOGS_PY) + " " + image + " list > " + out;
   ASSERT_EQ(std::system(list.c_str()), 0) << list;
@@ -303,6 +308,8 @@ void expect_reader_gets(const parts::At45db321d& flash, const std::vector<std::v
     const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     EXPECT_EQ(bytes, logs[i]) << extract;
   }
+  std::remove(image.c_str());
+  std::remove(out.c_str());
 }
 
 class Apm25DataFlash : public ::testing::Test {
@@ -748,7 +755,7 @@ TEST(Apm25DataFlashPowerCut, AtAnyPointKeepsWholeLogs) {
 }
 
 TEST(At45db321dFile, PersistsTheMemory) {
-  const std::string path = ::testing::TempDir() + "/at45db321d.bin";
+  const std::string path = ::testing::TempDir() + "/at45db321d_" + std::to_string(getpid()) + ".bin";
   parts::At45db321d a;
   a.page(8191)[527] = 0x5A;
   a.page(0)[0] = 0x11;
