@@ -114,6 +114,9 @@ class FlightApp {
   uint32_t fixes_rejected() const { return fixes_rejected_; }
   const LoopTimer& loop_timer() const { return loop_timer_; }
   LoopTimer& loop_timer() { return loop_timer_; }
+  // The iteration's time so far, on the firmware's own clock, and what its background work may take.
+  uint32_t iteration_elapsed_us() const { return loop_timer_.elapsed_us(micros_()); }
+  const BackgroundBudget& background() const { return background_; }
   const StateEstimator& estimator() const { return estimator_; }
   const FlightControl& control() const { return control_; }
   const FlightLogger& logger() const { return logger_; }
@@ -184,6 +187,7 @@ class FlightApp {
   StoreStatus store_status_ = StoreStatus::kEmpty;
   LoopTimer loop_timer_;
   FrameSchedule schedule_;
+  BackgroundBudget background_;
   StateEstimator estimator_;
   FlightControl control_;
   GroundLink link_;

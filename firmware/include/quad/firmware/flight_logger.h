@@ -4,8 +4,8 @@
 // LOG_MODE 1 opens a log when the vehicle arms and closes it when it disarms; 2 opens one at the first
 // iteration after boot and keeps it to the end; 0 logs nothing. The definitions (formats, information,
 // every parameter, the subscriptions) are written over the first iterations of a log, at most
-// kHeaderBytesPerIteration each while armed, so that no flight iteration carries all of them (on the
-// ground, all at once); the data starts when they are complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
+// kHeaderBytesPerIteration each and in the time the iteration has left while armed (BackgroundBudget),
+// so that no flight iteration carries all of them (on the ground, all at once); the data starts when they are complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
 //
 // What an iteration writes, and where (frame_schedule.h):
 //   every LOG_IMU_DIV-th iteration   sensor_combined, vehicle_attitude
@@ -15,7 +15,8 @@
 //                                    loop_timing (once a second, and after an overrun)
 // Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
 // STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
-// since the last one go to the store in one append at its end.
+// since the last one go to the store in one append at its end, as many bytes as the iteration has time
+// for (BackgroundBudget); the rest waits in the writer's buffer for the next iterations.
 #pragma once
 
 #include <stdint.h>
@@ -67,14 +68,9 @@ enum class LogMode : uint8_t { kOff = 0, kArmed = 1, kBoot = 2 };
 
 class FlightLogger {
  public:
-  // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes).
-  // The ATmega2560 at 200 Hz has the room of about 128 bytes of definitions beside a flown iteration's
-  // records (docs/logging.md, "Cost on the ATmega2560"); the other targets take 512.
-#if defined(__AVR__)
-  static constexpr uint16_t kHeaderBytesPerIteration = 128;
-#else
+  // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes),
+  // and on the ATmega2560 only while the iteration has time for another (BackgroundBudget).
   static constexpr uint16_t kHeaderBytesPerIteration = 512;
-#endif
 
   // store: the target's log storage, or null (nothing is logged).
   void init(const LogStore* store) { writer_.attach(store); }
@@ -123,6 +119,10 @@ class FlightLogger {
                         bool on_ground);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
+  // Counts the wraps of the 32-bit clock (every iteration, logging or not).
+  void count_clock(uint32_t now_us);
+  // Records were dropped since the last dropout message: writes one when there is room.
+  void note_dropout(uint32_t now_us);
 
   UlogWriter writer_;
   LogMode mode_ = LogMode::kArmed;
@@ -135,6 +135,9 @@ class FlightLogger {
   bool timing_due_ = false;
   RateDivider timing_rate_;
   uint32_t overruns_seen_ = 0;
+  uint32_t dropped_seen_ = 0;     // writer_.dropped() at the last dropout message
+  uint32_t dropout_start_us_ = 0;  // the first iteration that saw the records lost
+  bool in_dropout_ = false;
   uint32_t max_us_ = 0;        // the longest iteration of this log
   uint32_t clock_high_ = 0;    // stamp(): the wraps of the 32-bit clock
   uint32_t clock_last_ = 0;
