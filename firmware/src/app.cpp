@@ -153,8 +153,8 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
       room && telemetry_.due() && background_.fits(iteration_elapsed_us(), BackgroundBudget::kTelemetryUs);
   if (sent) telemetry_.send_next(*this, link_);
   mark(hal::TracePoint::kTelemetryDone);
-  if (room && !sent && link_.streaming() && background_.fits(iteration_elapsed_us(), BackgroundBudget::kStreamUs) &&
-      !link_.stream_params()) {
+  if (room && !sent && link_.streaming() && logger_.backlog() <= BackgroundBudget::kStreamLogBacklog &&
+      background_.fits(iteration_elapsed_us(), BackgroundBudget::kStreamUs) && !link_.stream_params()) {
     link_.stream_logs();
   }
   mark(hal::TracePoint::kStreamed);

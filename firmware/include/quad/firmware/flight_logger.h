@@ -101,6 +101,8 @@ class FlightLogger {
   bool header_done() const { return writer_.is_open() && phase_ == kPhaseData; }
   uint16_t logs_opened() const { return logs_opened_; }
   uint32_t dropped() const { return writer_.dropped(); }
+  // Bytes waiting for the store.
+  uint16_t backlog() const { return writer_.pending(); }
   LogMode mode() const { return mode_; }
 
  private:

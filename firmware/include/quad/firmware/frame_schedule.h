@@ -78,7 +78,10 @@ class BackgroundBudget {
 #endif
   static constexpr uint16_t kTelemetryUs = 950;  // one stream's frame to both ports (14 800 cycles)
   static constexpr uint16_t kStreamUs = 720;     // a LOG_DATA (10 970 cycles) or a PARAM_VALUE
-  static constexpr uint16_t kDefinitionUs = 400;  // one of the flight log's definitions (a format: 6 000 cycles)
+  static constexpr uint16_t kDefinitionUs = 250;  // one of the flight log's definitions (most 1 500 cycles)
+  // The streams (a log download, a parameter list) wait while the flight log has more than this many
+  // bytes waiting for its store: the flight's own log goes first.
+  static constexpr uint16_t kStreamLogBacklog = 128;
   static constexpr uint8_t kSlowRecordsUs = 200;  // loop_timing and a queued fix's result, composed
   static constexpr uint8_t kLogAppendUs = 80;    // a store append's command, and a page programmed
   static constexpr uint8_t kLogByteUs = 2;       // a byte to the store (27 cycles)

@@ -97,6 +97,7 @@ class UlogWriter {
   // A dropout message (duration_ms: how long records were lost), queued like a record.
   bool dropout(uint16_t duration_ms);
   bool idle() const { return head_ == tail_ && flash_left_ == 0; }
+  uint16_t pending() const { return static_cast<uint16_t>(tail_ - head_ + flash_left_); }
   uint32_t dropped() const { return dropped_; }
 
  private:

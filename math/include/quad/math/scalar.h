@@ -14,7 +14,7 @@
 // the software float library with its operands moved into registers, about 40 bytes of code each, so an
 // inlined three-component expression costs more flash than a call does; the call itself costs under 20
 // cycles against 140-500 for each float operation inside (docs/targets.md, "Memory").
-#if defined(QUAD_TARGET_AVR) && !defined(QUAD_MATH_INLINE)
+#if defined(QUAD_TARGET_AVR)
 #define QUAD_MATH_FN inline __attribute__((noinline))
 #else
 #define QUAD_MATH_FN inline
