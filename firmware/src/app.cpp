@@ -69,7 +69,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   link_.configure(p);
   loop_timer_.set_rate_hz(loop_hz);
   schedule_.configure(loop_hz);
-  background_.configure(loop_timer_.period_us());
+  background_.configure(loop_timer_.period_us(), schedule_.fuses_on_arrival());
   telemetry_.configure(p, loop_hz);
   logger_.configure(p, loop_hz);
   return true;

@@ -65,7 +65,8 @@ struct IterationPlan {
 // The application's background work: telemetry, the parameter and log streams, the flight log's
 // definitions and its writes to the log store. It goes in what the flight stages leave of the period:
 // each piece starts only when its worst case ends before the deadline (the period less a margin for the
-// flight log's records, the iteration's end and the interrupts after it), and what does not fit waits
+// flight log's records, the iteration's end and the interrupts after it, and at the thesis' rate less a
+// vision fix fused on arrival after the iteration), and what does not fit waits
 // for a later iteration. The flight stages never wait. The costs are the ATmega2560's (docs/performance.md,
 // "Background work"); the other targets run an iteration in a few percent of its period and give the
 // background no deadline, so that a host preempted by its operating system sends and logs as usual.
@@ -86,9 +87,14 @@ class BackgroundBudget {
   static constexpr uint8_t kLogAppendUs = 80;    // a store append's command, and a page programmed
   static constexpr uint8_t kLogByteUs = 2;       // a byte to the store (27 cycles)
   static constexpr uint8_t kMarginEighths = 1;   // the margin, in eighths of the period
+  // A vision fix fused on arrival (at the thesis' rate) shares the period with the iteration before it.
+  static constexpr uint16_t kFixOnArrivalUs = 2100;  // 33 000 cycles
 
-  // period_us: the loop's period.
-  void configure(uint32_t period_us) { deadline_us_ = period_us - period_us / 8u * kMarginEighths; }
+  // period_us: the loop's period; fuses_on_arrival: FrameSchedule::fuses_on_arrival().
+  void configure(uint32_t period_us, bool fuses_on_arrival) {
+    deadline_us_ = period_us - period_us / 8u * kMarginEighths;
+    if (fuses_on_arrival && deadline_us_ > kFixOnArrivalUs) deadline_us_ -= kFixOnArrivalUs;
+  }
   // Whether work of cost_us started elapsed_us into the iteration ends before the deadline.
   bool fits(uint32_t elapsed_us, uint32_t cost_us) const {
     return !kBudgeted || elapsed_us + cost_us <= deadline_us_;
