@@ -214,6 +214,9 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     if (phase_ != kPhaseData) return;
   }
   if (writer_.dropped() != dropped_seen_) note_dropout(t);
+  // A full buffer makes room in the store only as far as the iteration has time (else the record is
+  // dropped and counted): the records are composed after the iteration's flight stages.
+  writer_.set_room_flush_limit(app.background().log_bytes(app.iteration_elapsed_us()));
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
     write_imu_topics(app, now, imu, dt, hovering, on_ground);
@@ -237,6 +240,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   // The iteration's records, and those of the events since the last one, in one append, as far as the
   // iteration has time for them (the rest waits in the writer's buffer for the next iterations).
   writer_.flush(app.background().log_bytes(app.iteration_elapsed_us()));
+  writer_.set_room_flush_limit(0xFFFFu);
 }
 
 void FlightLogger::note_dropout(uint32_t now_us) {

@@ -118,8 +118,18 @@ uint8_t* UlogWriter::reserve(uint8_t type, uint16_t payload, uint8_t in_buffer) 
   // The queued records wait for the next flush() (one append for several records, about 600 cycles a
   // call on the ATmega2560's DataFlash, in an iteration with time for it), or go when the next one needs
   // their room. A format's text goes first.
-  if (flash_left_ != 0 || kStagingBytes - tail_ < need) flush();
-  if (flash_left_ == 0 && kStagingBytes - tail_ < need && head_ > 0) compact();
+  if (flash_left_ != 0) flush();
+  if (flash_left_ == 0 && kStagingBytes - tail_ < need) {
+    if (kStagingBytes - pending() < need) {
+      // Full: the store takes what the iteration has time for, once (the limit counts down), and the
+      // pending bytes move to the front once.
+      const uint16_t before = pending();
+      flush(room_flush_limit_);
+      const uint16_t sent = static_cast<uint16_t>(before - pending());
+      if (room_flush_limit_ != 0xFFFFu) room_flush_limit_ = static_cast<uint16_t>(room_flush_limit_ - sent);
+    }
+    if (head_ > 0) compact();
+  }
   if (flash_left_ != 0 || kStagingBytes - tail_ < need) {
     ++dropped_;
     return nullptr;

@@ -96,6 +96,9 @@ class UlogWriter {
   bool flush(uint16_t max_bytes = 0xFFFFu);
   // A dropout message (duration_ms: how long records were lost), queued like a record.
   bool dropout(uint16_t duration_ms);
+  // How many bytes a record that finds the buffer full may hand to the store to make its room (a control
+  // iteration without time left: few or none, and the record is dropped); 0xFFFF by default.
+  void set_room_flush_limit(uint16_t max_bytes) { room_flush_limit_ = max_bytes; }
   bool idle() const { return head_ == tail_ && flash_left_ == 0; }
   uint16_t pending() const { return static_cast<uint16_t>(tail_ - head_ + flash_left_); }
   uint32_t dropped() const { return dropped_; }
@@ -118,6 +121,7 @@ class UlogWriter {
   const char* flash_rest_ = nullptr;  // what remains of a format's text in flash, after the buffer
   uint16_t flash_left_ = 0;
   uint32_t dropped_ = 0;
+  uint16_t room_flush_limit_ = 0xFFFFu;
   bool open_ = false;
 };
 
