@@ -35,6 +35,8 @@ void DelayedEkfCore::reset(const Quat& q, const Vec3& gyro_bias, const Vec3& acc
   started_ = true;
   position_initialized_ = false;
   converged_ = false;
+  still_ = false;
+  fix_fused_ = false;
   rejections_in_a_row_ = 0;
   filter_us_ = t_us;
   last_push_us_ = t_us;
@@ -104,6 +106,7 @@ const ImuIncrement& DelayedEkfCore::entry(uint16_t age_from_oldest) const {
 void DelayedEkfCore::advance(const ImuIncrement& e) {
   filter_.predict(e.delta_angle, e.delta_velocity, e.dt);
   filter_us_ = e.t_us;
+  still_ = e.still;
   if (e.still) filter_.fuse_zero_velocity();
   if (e.hovering && use_hover_force_ && filter_.fuse_hover_force(e.delta_velocity * (1.0f / e.dt)) == EkfFuse::kFused)
     ++health_.hover_forces_fused;
@@ -144,12 +147,16 @@ void DelayedEkfCore::fuse_fix(StarFix fix, const ImuIncrement& e) {
     position_initialized_ = true;
     rejections_in_a_row_ = 0;
     ++health_.resets;
+    fix_fused_ = true;
+    fix_fused_us_ = e.t_us;
     return;
   }
   EkfFuse pr = EkfFuse::kRejectedInvalid, ar = EkfFuse::kRejectedInvalid;
   filter_.fuse_star(fix, &pr, &ar);
   if (pr == EkfFuse::kFused) {
     ++health_.positions_fused;
+    fix_fused_ = true;
+    fix_fused_us_ = e.t_us;
     rejections_in_a_row_ = 0;
   } else if (pr == EkfFuse::kRejectedGate) {
     ++health_.positions_rejected;
@@ -218,7 +225,7 @@ bool DelayedEkfCore::attach_covariance(uint32_t capture_us, const float pos_cov[
 }
 
 bool DelayedEkfCore::settled() const {
-  return started_ && filter_.finite() && filter_.tilt_sigma() <= 0.0175f && filter_.velocity_sigma() <= 0.1f;
+  return started_ && filter_.finite() && filter_.tilt_sigma() <= kGoodTiltSigma && filter_.velocity_sigma() <= 0.1f;
 }
 
 bool DelayedEkfCore::finite() const {
@@ -228,12 +235,11 @@ bool DelayedEkfCore::finite() const {
 uint16_t DelayedEkfCore::flags() const {
   if (!started_ || !finite()) return kEstAccelError;
   uint16_t f = 0;
-  if (filter_.tilt_sigma() <= 0.0175f) f |= kEstAttitude;
-  const float v2 = filter_.covariance(kEkfVel, kEkfVel) + filter_.covariance(kEkfVel + 1, kEkfVel + 1);
-  if (v2 <= 0.25f) f |= kEstVelocityHoriz;
-  if (filter_.covariance(kEkfVel + 2, kEkfVel + 2) <= 0.25f) f |= kEstVelocityVert;
-  if (position_initialized_ && filter_.horizontal_pos_sigma() <= 0.5f) f |= kEstPosHorizRel | kEstPredPosHorizRel;
-  if (position_initialized_ && filter_.vertical_pos_sigma() <= 0.5f) f |= kEstPosVertAbs;
+  if (filter_.tilt_sigma() <= kGoodTiltSigma) f |= kEstAttitude;
+  const bool aided = fix_fused_ && micros_between(filter_us_, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
+  if (aided) f |= kEstPosHorizRel | kEstPredPosHorizRel;
+  if (aided || still_) f |= kEstVelocityHoriz | kEstVelocityVert | kEstPosVertAbs;
+  if (still_ && !aided) f |= kEstConstPosMode;
   return f;
 }
 

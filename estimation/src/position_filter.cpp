@@ -499,18 +499,16 @@ QUAD_STEP void PositionFilterCore::capture_gain_terms(float tau, float h1, float
 }
 
 // Mahalanobis gate per axis: nu^2 / S <= gate^2, with nu = y - p_s the innovations (also rejects a
-// non-finite innovation). Keeps the normalised innovation squared for last_nis().
+// non-finite innovation). Keeps each axis' normalised innovation squared for last_nis() and the test ratios.
 QUAD_STEP bool PositionFilterCore::within_gate(const Vec3& y, const float p_s[3], float nu[3]) {
-  float nis = 0.0f;
   const float gate2 = sqf(params_.gate_sigma);
   bool pass = true;
   for (int i = 0; i < 3; ++i) {
     nu[i] = y[i] - p_s[i];
     const float d2 = nu[i] * nu[i] * fix_inv_s_[covariance_class(i)];
     if (!(d2 <= gate2)) pass = false;
-    nis += d2;
+    last_d2_[i] = d2;
   }
-  last_nis_ = nis;
   return pass;
 }
 
@@ -671,10 +669,54 @@ bool PositionFilterCore::fuse_still(const Vec3& p_hold, float sigma_p, float sig
   return true;
 }
 
+bool PositionFilterCore::fuse_zero_velocity(float sigma_v) {
+  if (!initialized_ || fix_stage_ != kFixIdle || have_offered_) return false;
+  // A reset of the velocity, not an update: its error at a touchdown comes from the jolt (the
+  // accelerometer's samples of it, averaged over a prediction step), not from the dead reckoning before,
+  // so the position (correlated with the velocity by that dead reckoning) is not to be corrected by it.
+  const float stop[3] = {0.0f, 1.0f, 0.0f};
+  bool fold = false;
+  for (int i = 0; i < 3; ++i) {
+    if (correct_axis(i, stop, -x_[i].v)) fold = true;
+  }
+  if (fold) fold_correction();
+  for (int c = 0; c < class_count(); ++c) {
+    AxisCovariance& p = p_[c];
+    p.pv = 0.0f;
+    p.vv = sqf(sigma_v);
+    p.vb = 0.0f;
+  }
+  still_us_ = t_us_;
+  have_still_ = true;
+  return true;
+}
+
+bool PositionFilterCore::constrain_above_floor(float z_floor) {
+  AxisState& z = x_[2];
+  if (!initialized_ || fix_stage_ != kFixIdle || have_offered_ || !(z.p > z_floor)) return false;
+  // The position alone, with unit gain: the velocity stays, for the touchdown's deceleration, which the
+  // accelerometer measures, takes it to zero (zeroed here, it would come back as a climb).
+  const float to_floor[3] = {1.0f, 0.0f, 0.0f};
+  if (correct_axis(2, to_floor, z_floor - z.p)) fold_correction();
+  return true;
+}
+
 void PositionFilterCore::initialize_at(const Vec3& p) {
   const uint32_t now = t_us_;
   reset(p, Vec3{}, now);
 }
+
+}  // namespace est
+}  // namespace quad
+
+namespace quad {
+namespace est {
+
+float PositionFilterCore::test_ratio_horizontal() const {
+  return maxf(last_d2_[0], last_d2_[1]) / sqf(params_.gate_sigma);
+}
+
+float PositionFilterCore::test_ratio_vertical() const { return last_d2_[2] / sqf(params_.gate_sigma); }
 
 }  // namespace est
 }  // namespace quad

@@ -218,6 +218,12 @@ ModeInputs FlightApp::mode_inputs(bool with_throttle) const {
   return in;
 }
 
+Transition FlightApp::mode_command(Command c) {
+  ModeInputs in = mode_inputs();
+  if (c == Command::kArm) in.estimator_converged = in.estimator_converged && estimator_.preflight() == Preflight::kReady;
+  return control_.command(c, in);
+}
+
 void FlightApp::report_transition(const Transition& t) {
   if (t.reason == Reason::kNone) return;
   if (t.changed) {
@@ -229,7 +235,9 @@ void FlightApp::report_transition(const Transition& t) {
       is_failsafe(t.reason) ? mav::kSeverityCritical : (t.accepted ? mav::kSeverityInfo : mav::kSeverityWarning);
   StatusLine line(severity);
   if (t.changed) line << mode_name(t.to) << QUAD_TEXT(": ");
-  link_.send_statustext((line << reason_text(t.reason)).message());
+  line << reason_text(t.reason);
+  if (t.reason == Reason::kRejectEstimatorNotConverged) line << QUAD_TEXT(": ") << preflight_text(estimator_.preflight());
+  link_.send_statustext(line.message());
   logger_.transition(*this, t);
 }
 
@@ -269,20 +277,27 @@ void FlightApp::position_target(const Vec3& target, const float* yaw) {
   if (yaw != nullptr && is_finite(*yaw)) control_.set_yaw_target(*yaw);
 }
 
-void FlightApp::star_fix(const mav::LandingTarget& msg) {
+void FlightApp::star_fix(const mav::LandingTarget& received) {
   ++fixes_received_;
-  const uint32_t capture_us = static_cast<uint32_t>(msg.time_usec);
-  if (msg.frame != mav::kFrameBodyFrd || msg.position_valid != 1) {
+  const uint32_t capture_us = static_cast<uint32_t>(received.time_usec);
+  if (received.frame != mav::kFrameBodyFrd || received.position_valid != 1) {
     ++fixes_invalid_;
-    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kInvalid);
+    logger_.vision_fix(now_us_, nullptr, capture_us, received.q, LogFixResult::kInvalid);
     return;
   }
+  // Into the IMU's body frame through the calibrated camera mount (EST_CAM_*), for both estimators.
+  mav::LandingTarget msg = received;
+  Vec3 star_body{msg.x, msg.y, msg.z};
+  estimator_.camera_mount().apply(&star_body, msg.q);
+  msg.x = star_body.x;
+  msg.y = star_body.y;
+  msg.z = star_body.z;
   if (estimator_.ekf_selected()) {
     star_fix_ekf(msg, capture_us);
     return;
   }
   Vec3 p_ned;
-  if (!estimator_.position_from_star(Vec3{msg.x, msg.y, msg.z}, capture_us, &p_ned)) {
+  if (!estimator_.position_from_star(star_body, capture_us, &p_ned)) {
     ++fixes_rejected_;
     logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kRejectedOld);
     return;

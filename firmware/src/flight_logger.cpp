@@ -21,7 +21,9 @@ constexpr char kFormats[] QUAD_FLASH =
     "actuator_motors:uint64_t timestamp;float[4] control;\0"
     "vehicle_status:uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;uint8_t failsafe;\0"
     "loop_timing:uint64_t timestamp;uint32_t iterations;uint32_t overruns;uint32_t last_us;uint32_t max_us;"
-    "float load;";
+    "float load;\0"
+    "estimator_status:uint64_t timestamp;float vel_test_ratio;float pos_test_ratio;float hgt_test_ratio;"
+    "float mag_test_ratio;float pos_horiz_accuracy;float pos_vert_accuracy;uint16_t solution_status_flags;";
 
 // Field bytes of each topic's data (the formats above).
 constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4 + 1 + 1;
@@ -33,6 +35,7 @@ constexpr uint8_t kSetpointBytes = 8 + 16;
 constexpr uint8_t kMotorsBytes = 8 + 16;
 constexpr uint8_t kStatusBytes = 8 + 3;
 constexpr uint8_t kLoopTimingBytes = 8 + 16 + 4;
+constexpr uint8_t kEstimatorStatusBytes = 8 + 24 + 2;
 // A frame-rate iteration's records, queued together and stored in one append (FlightLogger::iteration).
 static_assert(ulog::data_record_bytes(kSensorCombinedBytes) + ulog::data_record_bytes(kAttitudeBytes) +
                       ulog::data_record_bytes(kSensorMagBytes) + ulog::data_record_bytes(kLocalPositionBytes) +
@@ -89,8 +92,8 @@ constexpr FormatSpan format_span(uint8_t topic) {
 
 constexpr FormatSpan kFormatSpans[kLogTopicCount] QUAD_FLASH = {
     format_span(0), format_span(1), format_span(2), format_span(3), format_span(4),
-    format_span(5), format_span(6), format_span(7), format_span(8)};
-static_assert(kLogTopicCount == 9, "one span per topic");
+    format_span(5), format_span(6), format_span(7), format_span(8), format_span(9)};
+static_assert(kLogTopicCount == 10, "one span per topic");
 
 FormatSpan log_topic_span(uint8_t topic) {
   FormatSpan span;
@@ -106,6 +109,7 @@ void FlightLogger::configure(const Params& p, float loop_hz) {
   mode_ = static_cast<LogMode>(static_cast<uint8_t>(p.get(kLogMode) + 0.5f));
   imu_div_ = static_cast<uint8_t>(p.get(kLogImuDiv) + 0.5f);
   timing_rate_.configure(1.0f, loop_hz);
+  estimator_rate_.configure(kEstimatorStatusHz, loop_hz);
 }
 
 void FlightLogger::count_clock(uint32_t now_us) {
@@ -201,6 +205,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   const uint32_t t = app.now_us();
   count_clock(t);
   if (timing_rate_.tick()) timing_due_ = true;
+  if (estimator_rate_.tick()) estimator_due_ = true;
   if (!writer_.is_open()) return;
   const uint64_t now = stamp(t);
   const LoopTimer& loop = app.loop_timer();
@@ -228,11 +233,15 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     }
   }
   if (plan.frame_work) write_frame_topics(app, now);
-  // The slow records wait for an iteration with time left for them.
-  if (spare && (timing_due_ || queued_result_ != kNoResult)) {
+  // The slow records (at most one an iteration) wait for an iteration with time left for them.
+  if (spare && (timing_due_ || estimator_due_ || queued_result_ != kNoResult)) {
     spare = app.background().fits(app.iteration_elapsed_us(), BackgroundBudget::kSlowRecordsUs);
   }
-  if (spare && timing_due_) write_loop_timing(app);
+  if (spare && timing_due_) {
+    write_loop_timing(app);
+  } else if (spare && estimator_due_) {
+    write_estimator_status(app);
+  }
   if (spare && queued_result_ != kNoResult) {
     vision_fix(t, &queued_fix_, queued_capture_us_, nullptr, static_cast<LogFixResult>(queued_result_));
     queued_result_ = kNoResult;
@@ -300,6 +309,15 @@ void FlightLogger::write_loop_timing(const FlightApp& app) {
       .u32(loop.last_exec_us())
       .u32(max_us_)
       .f32(static_cast<float>(loop.load_permille()) * 1e-3f);
+}
+
+void FlightLogger::write_estimator_status(const FlightApp& app) {
+  uint8_t* p = writer_.begin_data(kLogEstimatorStatus, kEstimatorStatusBytes);
+  if (p == nullptr) return;
+  estimator_due_ = false;
+  const EstimatorReport r = app.estimator().report();
+  // The report's six floats are consecutive: vel, pos_horiz, pos_vert, mag ratios, the two accuracies.
+  UlogFields(p).u64(stamp(app.now_us())).f32(&r.vel_ratio, 6).bytes(&r.flags, sizeof r.flags);
 }
 
 void FlightLogger::write_status(const FlightApp& app) {

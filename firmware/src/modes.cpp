@@ -51,7 +51,7 @@ FlashText reason_text(Reason reason) {
     case Reason::kFailsafeVisionLost: return QUAD_TEXT("FAILSAFE vision lost: level, land");
     case Reason::kFailsafeRcLost: return QUAD_TEXT("FAILSAFE RC lost: land");
     case Reason::kFailsafeEstimator: return QUAD_TEXT("FAILSAFE estimator unhealthy: land");
-    case Reason::kRejectEstimatorNotConverged: return QUAD_TEXT("arm refused: estimator not converged");
+    case Reason::kRejectEstimatorNotConverged: return QUAD_TEXT("PREFLIGHT: estimator not converged");
     case Reason::kRejectSensors: return QUAD_TEXT("arm refused: sensors unhealthy");
     case Reason::kRejectNoRc: return QUAD_TEXT("refused: no RC");
     case Reason::kRejectThrottleHigh: return QUAD_TEXT("arm refused: throttle not low");

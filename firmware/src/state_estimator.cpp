@@ -59,6 +59,9 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   filter_.set_params(fp);
 
   load_fields(p, star_ned_, kStarFields);
+  Euler mount;
+  load_fields(p, mount, kCameraMountFields);
+  mount_.configure(mount);
 
   CalibrationConfig cc;
   load_fields(p, cc, kCalibrationFields);
@@ -76,6 +79,7 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,
                                     const IterationPlan& plan, bool hovering, bool on_ground) {
   sensors_ok_ = is_finite(imu.gyro) && is_finite(imu.accel) && plausible_force(imu.accel);
+  on_ground_ = on_ground;
   // Hard and soft iron (thesis eq. 7.5) out before anything reads the field (the default, identity
   // calibration is the field itself).
   hal::MagSample mag_calibrated;
@@ -194,13 +198,20 @@ void StateEstimator::predict_position(uint32_t t_us, const Vec3& gyro, bool on_g
 }
 
 void StateEstimator::hold_ground(const Vec3& gyro, const Vec3& accel, bool on_ground) {
+  // The vehicle's centre standing on the star's floor: without fixes (the last part of a landing, on the
+  // ground) the estimate is kept above it, so a dead-reckoned descent ends where the vehicle touches down.
+  const float ground_z = star_ned_.z - ground_height_;
+  filter_.constrain_above_floor(ground_z);
   // (The predictions run at the frame rate whatever the loop rate.) While fixes arrive they hold the
   // estimate: the still time starts when they stop.
-  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) return;
+  if (!ground_.update(on_ground && !filter_.fixes_arriving(), gyro, accel, 1.0f / FrameSchedule::kRateHz)) {
+    // Touched down and still, the still time not yet passed: the velocity is zero already.
+    if (ground_.at_rest()) filter_.fuse_zero_velocity(kStillVelocitySigma);
+    return;
+  }
   if (ground_.started()) {
     // Before any fix the vehicle stands where it took off from: at the star, on its floor (the cameras,
     // close to the floor, see only a patch of it: docs/estimation.md).
-    const float ground_z = star_ned_.z - ground_height_;
     if (!filter_.initialized()) filter_.initialize_at(Vec3{star_ned_.x, star_ned_.y, ground_z});
     // The last known position; come down below LAND_VIS_HGT the vehicle stands on the star's floor, at
     // the ground's height, which the landing's last metre of dead reckoning knows less well.
@@ -223,6 +234,46 @@ bool StateEstimator::healthy() const {
   // An IMU clipping for longer than IMU_CLIP_HOLD leaves the attitude on guessed rates: unhealthy.
   return converged() && imu_clip_.healthy() && is_finite(attitude()) && is_finite(position()) &&
          healthy_speed(velocity());
+}
+
+FlashText preflight_text(Preflight p) {
+  switch (p) {
+    case Preflight::kReady: return QUAD_TEXT("ready");
+    case Preflight::kCalibrating: return QUAD_TEXT("calibrating");
+    case Preflight::kAttitude: return QUAD_TEXT("attitude var");
+    case Preflight::kVelocity: return QUAD_TEXT("velocity var");
+    case Preflight::kPosition: return QUAD_TEXT("position var");
+  }
+  return QUAD_TEXT("?");
+}
+
+Preflight StateEstimator::thesis_preflight() const {
+  if (!calibration_.done() || !observer_.initialized()) return Preflight::kCalibrating;
+  if (!filter_.initialized()) return Preflight::kPosition;
+  if (!(maxf(filter_.covariance(0).pp, filter_.covariance(2).pp) <= sqf(kPreflightPositionSigma)))
+    return Preflight::kPosition;
+  return Preflight::kReady;
+}
+
+EstimatorReport StateEstimator::thesis_report() const {
+  // The flags as PX4's EKF2 sets them for its aiding sources (DelayedEkfCore::flags()): the observer's
+  // attitude once initialised (it has no covariance); position, velocity and predicted position while
+  // fixes arrive; velocity, height and constant-position mode while the ground hold holds. No magnetometer
+  // or velocity test ratio: the observer's correction and the ground hold are not gated.
+  EstimatorReport r;
+  if (calibration_.done() && observer_.initialized()) r.flags |= est::kEstAttitude;
+  if (!sensors_ok_ || imu_clip_.accel_clipped()) r.flags |= est::kEstAccelError;
+  if (!filter_.initialized()) return r;
+  const bool aided = filter_.fixes_arriving() && (filter_.health().fused > 0 || filter_.health().resets > 0);
+  if (aided) r.flags |= est::kEstPosHorizRel | est::kEstPredPosHorizRel;
+  if (aided || ground_.holding()) r.flags |= est::kEstVelocityHoriz | est::kEstVelocityVert | est::kEstPosVertAbs;
+  if (ground_.holding()) r.flags |= est::kEstConstPosMode;
+  const est::AxisCovariance& h = filter_.covariance(0);
+  r.pos_horiz_ratio = filter_.test_ratio_horizontal();
+  r.pos_vert_ratio = filter_.test_ratio_vertical();
+  r.pos_horiz_accuracy = safe_sqrtf(2.0f * h.pp);
+  r.pos_vert_accuracy = safe_sqrtf(filter_.covariance(2).pp);
+  return r;
 }
 
 Vec3 StateEstimator::position_variance() const {

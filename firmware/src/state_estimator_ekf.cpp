@@ -17,6 +17,8 @@ void StateEstimator::step_ekf(uint32_t, const Vec3&, const Vec3&, const hal::Mag
 est::FixResult StateEstimator::queue_star(const est::StarFix&) { return est::FixResult::kRejectedInvalid; }
 void StateEstimator::attach_covariance(uint32_t, const float*, const float*, bool) {}
 bool StateEstimator::converged() const { return calibration_.done() && observer_.initialized(); }
+Preflight StateEstimator::preflight() const { return thesis_preflight(); }
+EstimatorReport StateEstimator::report() const { return thesis_report(); }
 Quat StateEstimator::attitude() const { return observer_.attitude(); }
 Vec3 StateEstimator::rate() const { return observer_.rate(); }
 Vec3 StateEstimator::position() const { return filter_.position(); }
@@ -65,7 +67,8 @@ void StateEstimator::step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel
   if (mag != nullptr) ekf_.mag(mag->field);
   if (!plan.predict) return;
   const float force_error = absf(norm(accel) - kGravity);
-  const bool still = !armed_ && norm(gyro) < kStillRate && force_error < kStillForce;
+  // Disarmed, or landed or touching down by the land detector (the ground hold's condition).
+  const bool still = (!armed_ || on_ground_) && norm(gyro) < kStillRate && force_error < kStillForce;
   ekf_.predict(t_us, still, hovering);
 }
 
@@ -87,6 +90,30 @@ void StateEstimator::attach_covariance(uint32_t capture_us, const float pos_cov[
 bool StateEstimator::converged() const {
   if (!calibration_.done() || !observer_.initialized()) return false;
   return !ekf_selected() || ekf_.converged();
+}
+
+Preflight StateEstimator::preflight() const {
+  if (!ekf_selected()) return thesis_preflight();
+  if (!calibration_.done() || !observer_.initialized() || !ekf_.started()) return Preflight::kCalibrating;
+  // (The star is out of view on the ground: the EKF's position waits for the first fix in flight.)
+  if (ekf_.converged()) return Preflight::kReady;
+  return ekf_.filter().tilt_sigma() <= est::kGoodTiltSigma ? Preflight::kVelocity : Preflight::kAttitude;
+}
+
+EstimatorReport StateEstimator::report() const {
+  if (!ekf_selected() || !ekf_.started()) return thesis_report();
+  const est::ErrorStateEkf& f = ekf_.filter();
+  const est::EkfTestRatios& k = f.ratios();
+  EstimatorReport r;
+  r.flags = ekf_.flags();
+  if (!sensors_ok_ || imu_clip_.accel_clipped()) r.flags |= est::kEstAccelError;
+  r.vel_ratio = k.velocity;
+  r.pos_horiz_ratio = k.pos_horiz;
+  r.pos_vert_ratio = k.pos_vert;
+  r.mag_ratio = maxf(k.heading, k.attitude);
+  r.pos_horiz_accuracy = f.horizontal_pos_sigma();
+  r.pos_vert_accuracy = f.vertical_pos_sigma();
+  return r;
 }
 
 Quat StateEstimator::attitude() const { return ekf_selected() && ekf_.started() ? ekf_.attitude() : observer_.attitude(); }

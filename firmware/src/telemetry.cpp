@@ -49,6 +49,7 @@ void Telemetry::configure(const Params& p, float loop_hz) {
   position_rate_.configure(p.get(kTelPosHz), loop_hz, 5);
   status_rate_.configure(p.get(kTelSysHz), loop_hz, 3);
   extended_state_rate_.configure(p.get(kTelHbHz), loop_hz, 7);
+  estimator_rate_.configure(p.get(kTelEstHz), loop_hz, 9);
 }
 
 void Telemetry::count() {
@@ -57,6 +58,7 @@ void Telemetry::count() {
   if (position_rate_.tick()) due_ |= kPosition;
   if (status_rate_.tick()) due_ |= kStatus;
   if (extended_state_rate_.tick()) due_ |= kExtendedState;
+  if (estimator_rate_.tick()) due_ |= kEstimatorStatus;
 }
 
 void Telemetry::send_next(const FlightApp& app, GroundLink& link) {
@@ -105,12 +107,35 @@ void Telemetry::send(Stream stream, const FlightApp& app, GroundLink& link) {
     link.broadcast(pos);
   } else if (stream == kStatus) {
     send_status(app, link);
+  } else if (stream == kEstimatorStatus) {
+    send_estimator_status(app, link);
   } else {
     mav::ExtendedSysState ext;
     ext.vtol_state = mav::kVtolStateUndefined;
     ext.landed_state = landed_state(app.armed(), app.control().landed(), app.mode());
     link.broadcast(ext);
   }
+}
+
+// The estimation layer's flags are MAVLink's ESTIMATOR_STATUS_FLAGS.
+static_assert(est::kEstAttitude == mav::kEstimatorAttitude && est::kEstVelocityHoriz == mav::kEstimatorVelocityHoriz &&
+                  est::kEstVelocityVert == mav::kEstimatorVelocityVert && est::kEstPosHorizRel == mav::kEstimatorPosHorizRel &&
+                  est::kEstPosVertAbs == mav::kEstimatorPosVertAbs && est::kEstConstPosMode == mav::kEstimatorConstPosMode &&
+                  est::kEstPredPosHorizRel == mav::kEstimatorPredPosHorizRel && est::kEstAccelError == mav::kEstimatorAccelError,
+              "ESTIMATOR_STATUS_FLAGS");
+
+void Telemetry::send_estimator_status(const FlightApp& app, GroundLink& link) {
+  const EstimatorReport r = app.estimator().report();
+  mav::EstimatorStatus st;
+  st.time_usec = app.timesync_us();
+  st.flags = r.flags;
+  st.vel_ratio = r.vel_ratio;
+  st.pos_horiz_ratio = r.pos_horiz_ratio;
+  st.pos_vert_ratio = r.pos_vert_ratio;
+  st.mag_ratio = r.mag_ratio;
+  st.pos_horiz_accuracy = r.pos_horiz_accuracy;
+  st.pos_vert_accuracy = r.pos_vert_accuracy;
+  link.broadcast(st);
 }
 
 void Telemetry::send_status(const FlightApp& app, GroundLink& link) {

@@ -75,5 +75,21 @@ bool AttitudeHistory::lookup(uint32_t t_us, Quat& q) const {
   return false;
 }
 
+void CameraMount::configure(const Euler& e) {
+  identity_ = e.roll == 0.0f && e.pitch == 0.0f && e.yaw == 0.0f;
+  q_bv_ = from_euler(e);
+}
+
+void CameraMount::apply(Vec3* star_body, float q[4]) const {
+  if (identity_) return;
+  *star_body = rotate(q_bv_, *star_body);
+  if (q[0] == 1.0f && q[1] == 0.0f && q[2] == 0.0f && q[3] == 0.0f) return;
+  const Quat q_bs = q_bv_ * Quat{q[0], q[1], q[2], q[3]};
+  q[0] = q_bs.w;
+  q[1] = q_bs.x;
+  q[2] = q_bs.y;
+  q[3] = q_bs.z;
+}
+
 }  // namespace fw
 }  // namespace quad

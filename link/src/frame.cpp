@@ -46,6 +46,7 @@ bool find_message_info(uint32_t message_id, MessageInfo* info) {
     case LogErase::kId: return found<LogErase>(info);
     case LogRequestEnd::kId: return found<LogRequestEnd>(info);
     case LandingTarget::kId: return found<LandingTarget>(info);
+    case EstimatorStatus::kId: return found<EstimatorStatus>(info);
     case ExtendedSysState::kId: return found<ExtendedSysState>(info);
     case Statustext::kId: return found<Statustext>(info);
     default: return false;

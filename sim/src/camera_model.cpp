@@ -88,6 +88,18 @@ SimStereoRig stereo_rig_from_model(const mjModel* m, const CameraParams& params,
   return rig;
 }
 
+SimStereoRig misaligned(const SimStereoRig& rig, const Eigen::Vector3d& e) {
+  const Eigen::Matrix3d E = (Eigen::AngleAxisd(e.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(e.y(), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(e.x(), Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  SimStereoRig out = rig;
+  for (CameraMountModel* m : {&out.left_mount, &out.right_mount}) {
+    m->R_BC = E * m->R_BC;
+    m->t_BC = E * m->t_BC;
+  }
+  return out;
+}
+
 CameraPose camera_pose_over_floor(const CameraMountModel& mount, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib) {
   // p_B = R_IBᵀ (p_I − p), p_C = R_BCᵀ (p_B − t_BC).
   const Eigen::Matrix3d R_CB = mount.R_BC.transpose();

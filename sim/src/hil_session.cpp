@@ -191,6 +191,7 @@ class Session {
   std::FILE* events_ = nullptr;
   FlightMetrics metrics_;
   ErrorStats est_horizontal_, est_vertical_;
+  GroundMoves ground_moves_;  // the estimate after each touchdown (summary.json "landings")
   ErrorStats est_hold_horizontal_, est_hold_tilt_;  // the same within the hold; the attitude's tilt error
   std::deque<std::pair<long long, Eigen::Vector3d>> truth_history_;  // (ms, position) of the last rows
   std::optional<double> altitude_reached_s_;
@@ -245,7 +246,8 @@ Session::Session(const Scenario& s, const SessionOptions& o)
       radio_up_(s.radio_baud, Rng(s.seed, "radio_up")),
       radio_down_(s.radio_baud, Rng(s.seed, "radio_down")),
       fault_active_(s.faults.size(), false),
-      metrics_(metrics_config(s, vehicle_.rest_down_m())) {
+      metrics_(metrics_config(s, vehicle_.rest_down_m())),
+      ground_moves_(vehicle_.rest_down_m()) {
   vehicle_.reset(s.initial_north_east_m, s.initial_height_m, s.initial_yaw_rad);
   if (s.initial_height_m == 0.0) vehicle_.settle_on_ground(0.5);
   radio_up_.set_radio(s.radio);
@@ -450,6 +452,7 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
       tele_.position_ned = {m.x, m.y, m.z};
       tele_.velocity_ned = {m.vx, m.vy, m.vz};
       score_estimate(m.time_boot_ms, tele_.position_ned);
+      ground_moves_.add_estimate(1e-3 * static_cast<double>(m.time_boot_ms), tele_.position_ned);
       break;
     }
     case mav::AttitudeQuaternion::kId: {
@@ -620,7 +623,7 @@ void Session::sample_sensors(double t) {
   const VehicleTruth truth = vehicle_.truth();
   imu_reading_ = apply_imu_fault(imu_.sample(truth.specific_force_frd, truth.rate_frd, vehicle_.mean_speed_fraction()),
                                  faults_now_.imu, imu_.params());
-  if (mag_.update(t, truth.q_ib.conjugate() * field_ned_)) mag_fresh_ = true;
+  if (s_.mag.present && mag_.update(t, truth.q_ib.conjugate() * field_ned_)) mag_fresh_ = true;
 }
 
 void Session::deliver_radio(double until) {
@@ -688,6 +691,7 @@ void Session::log_row(double t) {
              static_cast<double>(ru.bytes_sent), static_cast<double>(ru.bits_flipped)});
   const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
   metrics_.add(t, tr.position_ned, tr.velocity_ned, tilt, setpoint_, setpoint_time_);
+  ground_moves_.add_truth(t, tr.position_ned);
   if (t >= s_.hold_start_s && t <= s_.hold_end_s && !std::isnan(tele_.q_ib.w())) {
     // The angle between the true and the estimated body z (the latest attitude telemetry).
     const Eigen::Vector3d z_true = tr.q_ib * Eigen::Vector3d::UnitZ(), z_est = tele_.q_ib * Eigen::Vector3d::UnitZ();
@@ -788,6 +792,15 @@ void Session::write_summary(bool complete, const std::string& reason) {
     w.add("horizontal", wh);
     holds.add(std::to_string(i + 1), w);
   }
+  // After each touchdown: {"1": ..., "2": ...} in the order of the landings.
+  Json landings;
+  for (size_t i = 0; i < ground_moves_.landings().size(); ++i) {
+    const LandingMove& m = ground_moves_.landings()[i];
+    Json l;
+    l.add("touchdown_s", m.touchdown_s).add("window_s", m.window_s).add("move_m", m.move_m)
+        .add("horizontal_m", m.horizontal_m).add("vertical_m", m.vertical_m);
+    landings.add(std::to_string(i + 1), l);
+  }
   Json est;
   est.add("horizontal_rms_m", est_horizontal_.rms()).add("vertical_rms_m", est_vertical_.rms())
       .add("samples", est_horizontal_.count());
@@ -833,6 +846,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
   j.add("real_time_factor", wall > 0 ? sim / wall : 0.0).add("lockstep_exchanges", static_cast<long>(exchanges_));
   j.add("hold", hold);
   if (!metrics_.extra_holds().empty()) j.add("holds", holds);
+  if (!ground_moves_.landings().empty()) j.add("landings", landings);
   if (auto st = metrics_.settling_time_s()) j.add("settling_time_s", *st);
   else j.add_null("settling_time_s");
   if (altitude_reached_s_) j.add("altitude_reached_s", *altitude_reached_s_);

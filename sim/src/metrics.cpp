@@ -58,6 +58,40 @@ void FlightMetrics::add(double t, const Eigen::Vector3d& p, const Eigen::Vector3
   hold_horizontal_.add(e.head<2>().norm());
 }
 
+void GroundMoves::add_truth(double t, const Eigen::Vector3d& p) {
+  const double height = ground_down_m_ - p.z();
+  if (window_open_ && height > 0.02) window_end_s_ = std::min(window_end_s_, t);  // lifted off
+  if (height > 0.05) {
+    high_ = true;
+  } else if (high_ && height < 0.005) {
+    high_ = false;
+    LandingMove m;
+    m.touchdown_s = t;
+    landings_.push_back(m);
+    window_open_ = true;
+    window_end_s_ = t + kWindowS;
+  }
+}
+
+void GroundMoves::add_estimate(double t, const Eigen::Vector3d& e) {
+  if (!window_open_ || !e.allFinite()) return;
+  LandingMove& m = landings_.back();
+  if (t < m.touchdown_s) return;
+  if (t > window_end_s_) {
+    window_open_ = false;
+    return;
+  }
+  if (!m.has_reference) {
+    m.has_reference = true;
+    m.reference = e;
+  }
+  const Eigen::Vector3d d = e - m.reference;
+  m.window_s = t - m.touchdown_s;
+  m.move_m = std::max(m.move_m, d.norm());
+  m.horizontal_m = std::max(m.horizontal_m, d.head<2>().norm());
+  m.vertical_m = std::max(m.vertical_m, std::abs(d.z()));
+}
+
 double FlightMetrics::horizontal_stddev() const {
   return std::sqrt(hold_[0].stddev() * hold_[0].stddev() + hold_[1].stddev() * hold_[1].stddev());
 }

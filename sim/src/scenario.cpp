@@ -177,7 +177,7 @@ void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) 
   f.expect_map({"enabled", "image_size", "left", "right", "star_tip_to_tip_m", "star_inner_ratio", "distractors",
                 "floor_grey", "floor_texture", "floor_texture_m", "floor_texture_contrast", "star_grey", "noise_grey",
                 "exposure_variation", "vignetting", "exposure_s", "interlaced", "jpeg_quality", "frame_loss",
-                "calibration_focal_error"});
+                "calibration_focal_error", "mount_error_deg"});
   f["enabled"].get(c.enabled);
   if (const Field size = f["image_size"]; size.defined()) {
     if (size.size() != 2) size.fail("must be [width, height] in pixels");
@@ -202,6 +202,11 @@ void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) 
   if (f["jpeg_quality"].defined()) c.jpeg_quality = f["jpeg_quality"].integer(0, 100);
   f["frame_loss"].get(c.frame_loss, 0.0, 1.0);
   f["calibration_focal_error"].get(c.calibration_focal_error, -0.5, 0.5);
+  if (const Field e = f["mount_error_deg"]; e.defined()) {
+    if (e.size() != 3) e.fail("must be [roll, pitch, yaw] in degrees");
+    for (size_t i = 0; i < 3; ++i) c.mount_error_rad(static_cast<Eigen::Index>(i)) = e.at(i).number(-10.0, 10.0) * M_PI / 180.0;
+    if (!c.enabled) e.fail("needs the rendered cameras (camera.enabled: true): the simulated fix has no rig");
+  }
 }
 
 void parse_radio(const Field& f, RadioConditions& r) {
@@ -343,7 +348,8 @@ void parse_vehicle(const Field& top, const std::string& base_dir, Scenario& s) {
     if (f["accel"].defined()) parse_axis(f["accel"], s.imu.accel);
   }
   if (const Field f = top["magnetometer"]; f.defined()) {
-    f.expect_map({"noise_gauss", "scale", "misalignment_rad", "hard_iron_gauss"});
+    f.expect_map({"present", "noise_gauss", "scale", "misalignment_rad", "hard_iron_gauss"});
+    f["present"].get(s.mag.present);
     f["noise_gauss"].get(s.mag.noise_gauss, 0.0, 1.0);
     f["scale"].get(s.mag.scale);
     f["misalignment_rad"].get(s.mag.misalignment_rad);
@@ -398,8 +404,10 @@ void parse_links(const Field& top, Scenario& s) {
 // The vision fix: simulated, or the rendered cameras with the station, and the station's settings.
 void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
   if (const Field f = top["vision"]; f.defined()) {
-    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m"});
+    f.expect_map({"enabled", "rate_hz", "latency_s", "noise_m", "min_height_m", "attitude_sigma_deg"});
+    f["attitude_sigma_deg"].get(s.vision.attitude_sigma_deg, 0.0, 90.0);
     f["enabled"].get(s.vision.enabled);
+    f["min_height_m"].get(s.vision.min_height_m, 0.0, 100.0);
     f["rate_hz"].get(s.vision.rate_hz, 0.1, 1000.0);
     f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
     f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);

@@ -23,7 +23,7 @@ namespace {
 constexpr int kViews = 24;
 constexpr double kCardGrey = 215.0, kInkGrey = 30.0, kWallGrey = 120.0;
 // Bumped whenever the chessboard images change for the same camera keys (poses, card, drawing).
-constexpr const char* kChessboardVersion = "chessboard-1";
+constexpr const char* kChessboardVersion = "chessboard-2";
 
 Eigen::Matrix3d rotation(const Eigen::Vector3d& axis, double angle) {
   return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();

@@ -60,7 +60,8 @@ std::string default_calibration_cache(const std::vector<std::string>& station_ar
 StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, const std::string& out_dir,
                          const std::vector<std::string>& station_argv, const StationLoopOptions& options)
     : s_(scenario),
-      renderer_(scenario.camera, rig, make_floor_scene(scenario.camera, Rng(scenario.seed, "floor_scene")),
+      // The rendered rig carries the scenario's mount error; the station learns the model's mount.
+      renderer_(scenario.camera, misaligned(rig, scenario.camera.mount_error_rad), make_floor_scene(scenario.camera, Rng(scenario.seed, "floor_scene")),
                 Rng(scenario.seed, "camera")),
       loss_rng_(scenario.seed, "camera_frame_loss"),
       port_(scenario.radio_baud),

@@ -11,7 +11,7 @@ namespace quad::sim {
 
 namespace {
 
-constexpr int kSupersample = 4;       // sub-pixels per pixel side for the edge coverage
+constexpr int kCoverageRows = 16;     // sample lines per pixel row for the edge coverage
 constexpr int kSegmentsPerEdge = 24;  // straight floor edges are curves in the distorted image
 constexpr size_t kNoiseTable = size_t{1} << 21;
 constexpr double kFieldPeriod = 1.0 / 60.0;  // analog video: two fields per 1/30 s frame
@@ -46,6 +46,56 @@ cv::Mat lighting_map(const LensParams& lens, cv::Size size, double vignetting) {
 
 VehiclePose interpolate(const VehiclePose& a, const VehiclePose& b, double f) {
   return VehiclePose{a.p_ned + f * (b.p_ned - a.p_ned), a.q_ib.slerp(f, b.q_ib)};
+}
+
+// Adds weight × the length of [xa, xb] that falls in each pixel of a coverage row (pixel u of the image
+// covers [u − ½, u + ½]; the row starts at pixel x0 and is `width` long).
+void add_span(float* row, int x0, int width, double xa, double xb, double weight) {
+  const double a = std::max(xa - x0 + 0.5, 0.0), b = std::min(xb - x0 + 0.5, static_cast<double>(width));
+  if (!(b > a)) return;
+  const int ia = static_cast<int>(a), ib = static_cast<int>(b);
+  if (ia == ib) {
+    row[ia] += static_cast<float>((b - a) * weight);
+    return;
+  }
+  row[ia] += static_cast<float>((ia + 1 - a) * weight);
+  for (int i = ia + 1; i < ib; ++i) row[i] += static_cast<float>(weight);
+  if (ib < width) row[ib] += static_cast<float>((b - ib) * weight);
+}
+
+// Each pixel's covered fraction (CV_32F) of `box` by the polygon (even-odd rule): exact along x, sampled
+// on kCoverageRows lines per pixel row at the centres of equal slices. Unbiased for every edge direction
+// and sub-pixel phase, where a fill of a supersampled canvas (cv::fillPoly draws the outline into it)
+// grows every shape by half a sub-pixel, by an amount that depends on the edge's direction.
+void polygon_coverage(const std::vector<Eigen::Vector2d>& polygon, const cv::Rect& box, std::vector<double>& crossings,
+                      std::vector<std::vector<int>>& rows, cv::Mat& coverage) {
+  coverage.create(box.size(), CV_32F);
+  coverage.setTo(cv::Scalar(0.0));
+  const int n = static_cast<int>(polygon.size());
+  // Each edge listed under the pixel rows it spans, so that a line tests only its row's edges.
+  rows.resize(static_cast<size_t>(box.height));
+  for (std::vector<int>& r : rows) r.clear();
+  for (int i = 0; i < n; ++i) {
+    const double y0 = std::min(polygon[i].y(), polygon[(i + 1) % n].y()) - box.y + 0.5;
+    const double y1 = std::max(polygon[i].y(), polygon[(i + 1) % n].y()) - box.y + 0.5;
+    const int first = std::max(static_cast<int>(std::floor(y0)), 0), last = std::min(static_cast<int>(std::floor(y1)), box.height - 1);
+    for (int v = first; v <= last; ++v) rows[static_cast<size_t>(v)].push_back(i);
+  }
+  constexpr double kWeight = 1.0 / kCoverageRows;
+  for (int v = 0; v < box.height; ++v) {
+    float* row = coverage.ptr<float>(v);
+    for (int k = 0; k < kCoverageRows; ++k) {
+      const double y = box.y + v - 0.5 + (k + 0.5) * kWeight;
+      crossings.clear();
+      for (int i : rows[static_cast<size_t>(v)]) {
+        const Eigen::Vector2d& a = polygon[i];
+        const Eigen::Vector2d& b = polygon[(i + 1) % n];
+        if ((a.y() <= y) != (b.y() <= y)) crossings.push_back(a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
+      }
+      std::sort(crossings.begin(), crossings.end());
+      for (size_t s = 0; s + 1 < crossings.size(); s += 2) add_span(row, box.x, box.width, crossings[s], crossings[s + 1], kWeight);
+    }
+  }
 }
 
 }  // namespace
@@ -89,11 +139,11 @@ std::vector<FloorShape> make_floor_scene(const CameraParams& params, Rng rng) {
 }
 
 void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose& pose, const std::vector<FloorShape>& shapes,
-                  size_t first, cv::Mat& albedo, cv::Mat& canvas, cv::Mat& coverage) {
+                  size_t first, cv::Mat& albedo, std::vector<double>& crossings, cv::Mat& coverage) {
   const cv::Size size = albedo.size();
   const cv::Rect image_rect(0, 0, size.width, size.height);
   std::vector<Eigen::Vector2d> projected;
-  std::vector<cv::Point> canvas_points;
+  std::vector<std::vector<int>> rows;
   for (size_t s = first; s < shapes.size(); ++s) {
     const FloorShape& shape = shapes[s];
     projected.clear();
@@ -122,24 +172,11 @@ void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose&
                                             static_cast<int>(std::ceil(std::min(y1, size.height + 1.0))) + 2)) &
                          image_rect;
     if (box.empty()) continue;
-    // Pixel i covers [i − ½, i + ½]; sub-pixel k of the canvas has its centre at (k + ½)/ss − ½.
-    constexpr int kShift = 8;
-    canvas_points.clear();
-    for (const Eigen::Vector2d& uv : projected) {
-      const double cx = ((uv.x() - box.x) + 0.5) * kSupersample - 0.5;
-      const double cy = ((uv.y() - box.y) + 0.5) * kSupersample - 0.5;
-      canvas_points.emplace_back(cvRound(cx * (1 << kShift)), cvRound(cy * (1 << kShift)));
-    }
-    canvas.create(box.height * kSupersample, box.width * kSupersample, CV_8UC1);
-    canvas.setTo(cv::Scalar(0));
-    const cv::Point* pts = canvas_points.data();
-    const int n = static_cast<int>(canvas_points.size());
-    cv::fillPoly(canvas, &pts, &n, 1, cv::Scalar(255), cv::LINE_8, kShift);
-    cv::resize(canvas, coverage, box.size(), 0, 0, cv::INTER_AREA);
+    polygon_coverage(projected, box, crossings, rows, coverage);
     for (int v = 0; v < box.height; ++v) {
       float* a = albedo.ptr<float>(box.y + v) + box.x;
-      const uint8_t* c = coverage.ptr<uint8_t>(v);
-      for (int u = 0; u < box.width; ++u) a[u] += static_cast<float>((shape.grey - a[u]) * (c[u] * (1.0 / 255.0)));
+      const float* c = coverage.ptr<float>(v);
+      for (int u = 0; u < box.width; ++u) a[u] += static_cast<float>((shape.grey - a[u]) * c[u]);
     }
   }
 }
@@ -205,7 +242,7 @@ void StereoCameraRenderer::floor_albedo(const View& view, const VehiclePose& pos
   } else {
     albedo.setTo(cv::Scalar(p_.floor_grey));
   }
-  paint_shapes(view.lens, view.valid_radius, camera, scene_, hide_star ? 1 : 0, albedo, canvas_, coverage_);
+  paint_shapes(view.lens, view.valid_radius, camera, scene_, hide_star ? 1 : 0, albedo, crossings_, coverage_);
 }
 
 int StereoCameraRenderer::blur_samples(const View& view, const VehiclePose& start, const VehiclePose& end) const {
@@ -282,7 +319,7 @@ void StereoCameraRenderer::render_target(const CameraPose& target_in_left, const
     const View& view = i == 0 ? left_ : right_;
     albedo_.create(rig_.height, rig_.width, CV_32F);
     albedo_.setTo(cv::Scalar(background));
-    paint_shapes(view.lens, view.valid_radius, i == 0 ? target_in_left : in_right, shapes, 0, albedo_, canvas_, coverage_);
+    paint_shapes(view.lens, view.valid_radius, i == 0 ? target_in_left : in_right, shapes, 0, albedo_, crossings_, coverage_);
     expose(view, albedo_, 1.0, i == 0 ? left : right);
   }
 }

@@ -12,7 +12,7 @@ void SimulatedVisionFix::update(double t, const Eigen::Vector3d& p_ned, const Ei
                                 const FixErrors& errors) {
   if (t + 1e-9 < next_capture_t_) return;
   next_capture_t_ += 1.0 / p_.rate_hz;
-  if (!p_.enabled || dropout) return;
+  if (!p_.enabled || dropout || -p_ned.z() < p_.min_height_m) return;
   Eigen::Vector3d measured = p_ned;
   for (int i = 0; i < 3; ++i) measured[i] += rng_.normal(p_.noise_m);
   // A decoy at d is seen where the star would be from p - d.
@@ -26,6 +26,20 @@ void SimulatedVisionFix::update(double t, const Eigen::Vector3d& p_ned, const Ei
   lt.z = static_cast<float>(star_b.z());
   lt.distance = static_cast<float>(star_b.norm());
   lt.q[0] = 1.0f;
+  if (p_.attitude_sigma_deg >= 0.0) {
+    // The star lies with its tips along north and east: its frame is NED, so q_BS = q_IB*, turned by
+    // the station's error (a rotation vector of independent normal components).
+    Eigen::Vector3d e;
+    for (int i = 0; i < 3; ++i) e[i] = rng_.normal(p_.attitude_sigma_deg * M_PI / 180.0);
+    Eigen::Quaterniond q_bs = q_ib.conjugate();
+    if (e.norm() > 0.0) q_bs = Eigen::Quaterniond(Eigen::AngleAxisd(e.norm(), e.normalized())) * q_bs;
+    q_bs.normalize();
+    if (q_bs.w() < 0.0) q_bs.coeffs() *= -1.0;
+    lt.q[0] = static_cast<float>(q_bs.w());
+    lt.q[1] = static_cast<float>(q_bs.x());
+    lt.q[2] = static_cast<float>(q_bs.y());
+    lt.q[3] = static_cast<float>(q_bs.z());
+  }
   lt.position_valid = 1;
   uint8_t buf[mavlink::max_frame_length<mavlink::LandingTarget>()];
   const size_t n = sender_.encode(lt, buf, sizeof buf);

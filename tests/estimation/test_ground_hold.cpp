@@ -228,3 +228,88 @@ TEST(GroundHold, FixesThatStartDuringAHoldTakeOver) {
 }
 
 }  // namespace
+
+namespace {
+
+// A filter descending at 0.5 m/s with fixes down to 0.4 m, then dead-reckoning with the given vertical
+// input error, until the fixes have left the history window (250 ms).
+void descend(Filter& kf, float u_error_z, uint32_t* t) {
+  *t = 1000000;
+  kf.predict(Vec3{}, *t);
+  float z = -1.0f;
+  for (int i = 0; i < 156; ++i) {  // 0.36 s after the last fix at 0.4 m: down to 0.22 m
+    *t += kStepUs;
+    z += 0.5f * kDt;
+    kf.predict(Vec3{0.0f, 0.0f, u_error_z}, *t);
+    if (i % 3 == 0 && z < -0.4f) kf.fuse_position(Vec3{0.0f, 0.0f, z}, *t - 40000);
+  }
+}
+
+}  // namespace
+
+TEST(GroundHold, TheFloorStopsTheDescentsPositionNotItsVelocity) {
+  uint32_t t = 0;
+  Filter kf(firmware_params());
+  descend(kf, 0.3f, &t);
+  ASSERT_FALSE(kf.fixes_arriving());
+  const float floor_z = -0.13f;
+  EXPECT_FALSE(kf.constrain_above_floor(floor_z));  // still above it
+  // Dead-reckoned below the floor: the position goes back onto it, the velocity stays (the touchdown's
+  // deceleration, measured by the accelerometer, takes it to zero).
+  for (int i = 0; i < 100 && kf.position().z <= floor_z; ++i) kf.predict(Vec3{0.0f, 0.0f, 0.3f}, t += kStepUs);
+  ASSERT_GT(kf.position().z, floor_z);
+  const Vec3 v = kf.velocity();
+  const float pp = kf.covariance(2).pp;
+  EXPECT_TRUE(kf.constrain_above_floor(floor_z));
+  EXPECT_EQ(kf.position().z, floor_z);
+  EXPECT_EQ(kf.velocity().z, v.z);
+  EXPECT_GT(v.z, 0.4f);
+  EXPECT_EQ(kf.covariance(2).pp, pp);
+  // Touchdown: -0.5 m/s in a step; then standing, the position stays on the floor.
+  kf.predict(Vec3{0.0f, 0.0f, -v.z / kDt}, t += kStepUs);
+  kf.constrain_above_floor(floor_z);
+  EXPECT_NEAR(kf.position().z, floor_z, 0.005f);
+  // While fixes arrive they hold the estimate: no projection.
+  Filter flying(firmware_params());
+  descend(flying, 0.0f, &t);
+  flying.fuse_position(Vec3{0.0f, 0.0f, -0.05f}, t - 40000);
+  EXPECT_TRUE(flying.fixes_arriving());
+  EXPECT_FALSE(flying.constrain_above_floor(-0.5f));
+}
+
+TEST(GroundHold, AtRestFromTheFirstStillSampleOnTheGroundUntilTheHold) {
+  GroundHold g;
+  g.configure(GroundHoldParams{0.1f, 0.5f, 0.5f});
+  const Vec3 rest{0.0f, 0.0f, -kG};
+  EXPECT_FALSE(g.update(false, Vec3{}, rest, kDt));
+  EXPECT_FALSE(g.at_rest());  // in the air
+  EXPECT_FALSE(g.update(true, Vec3{}, Vec3{0.0f, 0.0f, -2.5f * kG}, kDt));
+  EXPECT_FALSE(g.at_rest());  // the touchdown's jolt
+  EXPECT_FALSE(g.update(true, Vec3{}, rest, kDt));
+  EXPECT_TRUE(g.at_rest());
+  int steps = 1;
+  while (!g.update(true, Vec3{}, rest, kDt) && steps < 100) {
+    EXPECT_TRUE(g.at_rest());
+    ++steps;
+  }
+  EXPECT_TRUE(g.holding());
+  EXPECT_FALSE(g.at_rest());  // the hold fuses both
+}
+
+TEST(GroundHold, ZeroVelocityAtTouchdownStopsTheDeadReckoning) {
+  uint32_t t = 0;
+  Filter kf(firmware_params());
+  descend(kf, 0.0f, &t);
+  // Touched down with 0.14 m/s of vertical velocity error and 0.1 m/s^2 of input error.
+  kf.predict(Vec3{0.0f, 0.0f, (0.14f - kf.velocity().z) / kDt}, t += kStepUs);
+  const Vec3 at_touchdown = kf.position();
+  float moved = 0.0f;
+  for (int i = 0; i < 50; ++i) {
+    kf.predict(Vec3{0.0f, 0.0f, 0.1f}, t += kStepUs);
+    EXPECT_TRUE(kf.fuse_zero_velocity(0.01f));
+    moved = quad::maxf(moved, quad::norm(kf.position() - at_touchdown));
+  }
+  std::printf("[figure] 0.5 s at rest after a touchdown with 0.14 m/s of error: estimate moved %.4f m\n", moved);
+  EXPECT_LT(moved, 0.005f);
+  EXPECT_LT(quad::absf(kf.velocity().z), 0.01f);
+}

@@ -627,6 +627,70 @@ TEST(ReplayTool, PositionFilterOptions) {
   EXPECT_GT(unchanged(def, zb, {kPz, kVz}), 1e-6);
 }
 
+// The truth of a LogSpec as the simulator's log.csv has it (the columns --truth reads).
+std::string write_truth(const LogSpec& s, const std::string& stem) {
+  std::ostringstream csv;
+  csv.precision(9);
+  csv << "t,true_n,true_e,true_d,true_roll,true_pitch,true_yaw\n";
+  for (int k = 0; k < s.rows(); ++k) {
+    const Eigen::Vector3d p = s.p(k);
+    csv << s.t(k) << "," << p.x() << "," << p.y() << "," << p.z() << ",0,0," << wrap(s.yaw(k)) << "\n";
+  }
+  const std::string path = temp_path(stem);
+  std::ofstream(path) << csv.str();
+  temp_files().paths.push_back(path);
+  return path;
+}
+
+TEST(ReplayTool, EkfFilterBesideTheThesisPairAndTheBaselinesAgainstTheTruth) {
+  // Yawing slowly, moving at constant velocity, sensor noise and a gyro bias; fixes at 25 Hz, 60 ms late,
+  // 5 mm noise. --filter ekf replays seed 004's EKF; --truth prints the error figures, --compare every
+  // filter's on the same log.
+  LogSpec s;
+  s.yaw_rate = 0.05;
+  s.velocity = Eigen::Vector3d(0.3, -0.2, 0.05);
+  s.gyro_bias = Eigen::Vector3d(0.004, -0.003, 0.002);
+  s.gyro_noise = 0.002;
+  s.accel_noise = 0.03;
+  s.mag_noise = 0.002;
+  s.fix_every = 4;
+  s.fix_noise = 0.005;
+  const std::string log = write_log(s, "ekf.csv");
+  const std::string truth = write_truth(s, "ekf_truth.csv");
+  ToolRun run;
+  const auto ekf = estimates(log, {"--filter", "ekf", "--truth", truth, "--from", "5"}, &run);
+  ASSERT_EQ(static_cast<int>(ekf.size()), s.rows());
+  const Eigen::Vector3d rms = position_rms(ekf, s, 500);
+  std::cout << "[figure] replay --filter ekf, 0.36 m/s, fixes 25 Hz 60 ms late 5 mm noise, position RMS (mm) "
+            << 1e3 * rms.transpose() << "\n" << run.err;
+  EXPECT_LT(rms.norm(), 0.015);
+  EXPECT_NE(run.err.find("; EKF: "), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("this filter"), std::string::npos) << run.err;
+  // The figures the tool prints are the test's own: horizontal RMS over t >= 5 s.
+  double h2 = 0.0;
+  int n = 0;
+  for (int k = 500; k < s.rows(); ++k) {
+    const Eigen::Vector3d e = Eigen::Vector3d(ekf[k][kPx], ekf[k][kPy], ekf[k][kPz]) - s.p(k);
+    h2 += e.x() * e.x() + e.y() * e.y();
+    ++n;
+  }
+  char expected[64];
+  std::snprintf(expected, sizeof expected, "horizontal RMS %.1f mm", 1e3 * std::sqrt(h2 / n));
+  EXPECT_NE(run.err.find(expected), std::string::npos) << expected << " in\n" << run.err;
+
+  ToolRun all;
+  estimates(log, {"--compare", "--truth", truth, "--from", "5"}, &all);
+  std::cout << all.err;
+  for (const char* name : {"thesis pair", "unconditioned", "mahony", "linear", "ekf"}) {
+    EXPECT_NE(all.err.find(std::string("\n") + name), std::string::npos) << name << " in\n" << all.err;
+  }
+  // Usage errors: --compare without --truth, a truth file without its columns.
+  EXPECT_EQ(run_tool({"--compare", log}).status, 2);
+  const ToolRun bad_truth = run_tool({"--truth", log, log});
+  EXPECT_EQ(bad_truth.status, 1);
+  EXPECT_NE(bad_truth.err.find("column 'true_n' missing"), std::string::npos) << bad_truth.err;
+}
+
 TEST(ReplayTool, GateRejectsAnOutlierUnlessOpened) {
   LogSpec s;
   s.fix_every = 4;
@@ -702,6 +766,7 @@ TEST(ReplayTool, EveryOptionIsAcceptedAndChangesItsPartOfTheOutput) {
       {{}, {"--gate", "0.5"}, false},
       {{}, {"--z-bias"}, false},
       {{}, {"--fuse-on-arrival"}, false},
+      {{"--filter", "ekf"}, {"--star", "0.1,0,0"}, true},
   };
   for (const Case& c : cases) {
     auto args = c.base;

@@ -188,6 +188,7 @@ class Bench {
   std::vector<std::pair<uint8_t, mav::LogData>> log_data;
   const quad::fw::LogStore* log_store = nullptr;  // set before boot()
   std::vector<mav::ExtendedSysState> extended_states;  // UART0's
+  std::vector<mav::EstimatorStatus> estimator_statuses;  // UART0's
   // Frames the vehicle sent, by port and message id.
   std::map<uint32_t, int> messages_on[quad::hal::kPortCount];
   int count_on(uint8_t port, uint32_t message_id) const {
@@ -255,6 +256,8 @@ class Bench {
     if (mav::decode(f, data)) log_data.emplace_back(port, data);
     mav::ExtendedSysState ext;
     if (mav::decode(f, ext) && port == quad::hal::kUart0) extended_states.push_back(ext);
+    mav::EstimatorStatus est;
+    if (mav::decode(f, est) && port == quad::hal::kUart0) estimator_statuses.push_back(est);
     mav::Timesync ts;
     if (mav::decode(f, ts)) {
       timesync = ts;
@@ -262,6 +265,13 @@ class Bench {
     }
   }
 };
+
+// Still steps until the estimator's pre-arm check passes (the thesis pair's ground hold starts 0.5 s
+// after the calibration; StateEstimator::preflight()).
+inline void ready_to_arm(Bench& b) {
+  for (int i = 0; i < 2000 && b.app->estimator().preflight() != Preflight::kReady; ++i) b.still_step();
+  ASSERT_EQ(b.app->estimator().preflight(), Preflight::kReady);
+}
 
 // A VerticalVehicle flown by the bench's firmware in HIL, level and heading north, at the bench's step
 // period: a vision fix of its true height every 30 ms (captured at the step) and neutral sticks every

@@ -161,8 +161,9 @@ TEST(FirmwareApp, ArmingChecksOverMavlink) {
   b.boot();
   b.sticks(0);
   EXPECT_EQ(b.arm(), mav::kResultDenied) << "not calibrated yet";
-  EXPECT_TRUE(b.said("arm refused: estimator not converged"));
+  EXPECT_TRUE(b.said("PREFLIGHT: estimator not converged: calibrating"));
   calibrate(b);
+  quad::fw::test::ready_to_arm(b);
   b.sticks(600);
   EXPECT_EQ(b.arm(), mav::kResultDenied);
   EXPECT_TRUE(b.said("arm refused: throttle not low"));
@@ -419,7 +420,7 @@ TEST(FirmwareApp, ParametersReconfigureTheTelemetryRates) {
   const int base = b.frames_on[quad::hal::kUart2];
   mav::ParamSet set;
   set.target_system = 1;
-  for (const char* name : {"TEL_ATT_HZ", "TEL_POS_HZ", "TEL_SYS_HZ", "TEL_HB_HZ"}) {
+  for (const char* name : {"TEL_ATT_HZ", "TEL_POS_HZ", "TEL_SYS_HZ", "TEL_HB_HZ", "TEL_EST_HZ"}) {
     std::strncpy(set.param_id, name, 16);
     set.param_value = 0.0f;
     b.send(quad::hal::kUart0, set, b.gcs);
@@ -433,6 +434,7 @@ TEST(FirmwareApp, ParametersReconfigureTheTelemetryRates) {
 // Brings a calibrated, armed vehicle into AUTO with fresh fixes (hovering still at p).
 void into_auto(Bench& b, const Eigen::Vector3f& p) {
   calibrate(b);
+  quad::fw::test::ready_to_arm(b);
   b.sticks(0);
   ASSERT_EQ(b.arm(), mav::kResultAccepted);
   for (int i = 0; i < 30; ++i) {
@@ -494,6 +496,7 @@ TEST(FirmwareApp, AutoRefusedWithoutVision) {
   Bench b;
   b.boot();
   calibrate(b);
+  quad::fw::test::ready_to_arm(b);
   b.sticks(0);
   ASSERT_EQ(b.arm(), mav::kResultAccepted);
   EXPECT_EQ(b.set_mode(FlightMode::kAuto), mav::kResultDenied);
@@ -519,6 +522,7 @@ TEST(FirmwareApp, FailsafeRcLostLands) {
   Bench b;
   b.boot();
   calibrate(b);
+  quad::fw::test::ready_to_arm(b);
   b.sticks(0);
   ASSERT_EQ(b.arm(), mav::kResultAccepted);
   for (int i = 0; i < 95; ++i) b.still_step();
@@ -540,6 +544,7 @@ TEST(FirmwareApp, NoRcFailsafeWhenRcIsNotRequired) {
   set.param_value = 0.0f;
   b.send(quad::hal::kUart0, set, b.gcs);
   calibrate(b);
+  quad::fw::test::ready_to_arm(b);
   ASSERT_EQ(b.arm(), mav::kResultAccepted) << "arming without any RC";
   for (int i = 0; i < 300; ++i) b.still_step();
   EXPECT_EQ(b.app->mode(), FlightMode::kManual);

@@ -221,8 +221,8 @@ TEST(FirmwarePty, AnswersEverySensorMessageAndArms) {
   ASSERT_TRUE(radio.wait_for([&] { return contains(radio.texts, "calibrating"); }, 1000));
 
   constexpr int kSteps = 210;  // the 1 Hz heartbeat at iteration 200 reports the armed mode
-  constexpr int kArmAt = 110;       // 1.1 s: after the 1 s calibration
-  constexpr int kThrottleAt = 140;  // half throttle from here
+  constexpr int kArmAt = 160;       // 1.6 s: after the 1 s calibration and the ground hold's 0.5 s (pre-arm)
+  constexpr int kThrottleAt = 180;  // half throttle from here
   const auto start = Clock::now();
   std::vector<double> latency_ms;
   for (int k = 0; k < kSteps; ++k) {

@@ -248,7 +248,8 @@ TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master);
-    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    // Calibrated (1 s) and the ground hold on (0.5 s still): the pre-arm check passes.
+    while (world.steps() < 180) std::this_thread::sleep_for(std::chrono::milliseconds(10));
 
     Result r = gs(ground.path, "arm");
     EXPECT_EQ(r.status, 0) << r.out;
@@ -338,7 +339,8 @@ TEST(GroundStation, AutoSetpointAndLand) {
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master);
-    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    // Calibrated (1 s) and the ground hold on (0.5 s still): the pre-arm check passes.
+    while (world.steps() < 180) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     world.vision = true;  // the vision station sees the vehicle at the origin from now on
     wait_steps(world, 20);
 
@@ -393,7 +395,8 @@ TEST(GroundStation, SignedRadioSession) {
   ASSERT_GT(pid, 0);
   {
     World world(uart0.master, uart2.master, ground.master, usb.master);
-    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    // Calibrated (1 s) and the ground hold on (0.5 s still): the pre-arm check passes.
+    while (world.steps() < 180) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     const std::string key = "--key 'correct horse battery staple' ";
 
     Result r = gs(ground.path, key + "signing-setup");
@@ -439,7 +442,8 @@ TEST(GroundStation, RecordsTheSessionAsATlog) {
   const std::string tlog = ::testing::TempDir() + "gs_tlog_test.tlog";
   {
     World world(uart0.master, uart2.master, ground.master);
-    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    // Calibrated (1 s) and the ground hold on (0.5 s still): the pre-arm check passes.
+    while (world.steps() < 180) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     const Result r = gs(ground.path, "--tlog " + tlog + " params");
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("frames recorded in " + tlog), std::string::npos) << r.out;
@@ -470,7 +474,8 @@ TEST(GroundStation, DownloadsResumesAndErasesTheFlightLogs) {
   std::remove(got.c_str());
   {
     World world(uart0.master, uart2.master, ground.master);
-    while (world.steps() < 120) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // calibrated
+    // Calibrated (1 s) and the ground hold on (0.5 s still): the pre-arm check passes.
+    while (world.steps() < 180) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     Result r = gs(ground.path, "logs list");
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("no logs"), std::string::npos) << r.out;

@@ -146,6 +146,7 @@ TEST(ImuClipGuard, NonFiniteValuesAreNotClipping) {
 void into_auto(Bench& b) {
   for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step();
   ASSERT_TRUE(b.app->calibrated());
+  quad::fw::test::ready_to_arm(b);
   b.sticks(0);
   ASSERT_EQ(b.arm(), mav::kResultAccepted);
   for (int i = 0; i < 30; ++i) {

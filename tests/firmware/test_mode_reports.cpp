@@ -27,6 +27,12 @@ using Texts = std::vector<std::string>;
 void calibrate(Bench& b) {
   for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step();
   ASSERT_TRUE(b.app->calibrated());
+  // The pre-arm check: fixes of the vehicle at (0, 0, -1.5) m (hold()'s) initialise the position filter.
+  for (int i = 0; i < 30 && b.app->estimator().preflight() != quad::fw::Preflight::kReady; ++i) {
+    b.still_step();
+    if (i % 3 == 0) b.landing_target(Eigen::Vector3f(0, 0, -1.5f), Eigen::Quaternionf::Identity(), b.t_us - 30000);
+  }
+  ASSERT_EQ(b.app->estimator().preflight(), quad::fw::Preflight::kReady);
 }
 
 // The STATUSTEXT lines sent since `mark` (an index into b.statustexts).

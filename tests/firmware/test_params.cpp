@@ -533,6 +533,12 @@ TEST_F(ParamFields, ObserverFilterStarAndCalibration) {
   EXPECT_EQ(star.y, get(quad::fw::kVisStarE));
   EXPECT_EQ(star.z, get(quad::fw::kVisStarD));
 
+  quad::Euler mount{-1.0f, -2.0f, -3.0f};
+  quad::fw::load_fields(p_, mount, quad::fw::kCameraMountFields);
+  EXPECT_EQ(mount.roll, get(quad::fw::kEstCamRoll));
+  EXPECT_EQ(mount.pitch, get(quad::fw::kEstCamPitch));
+  EXPECT_EQ(mount.yaw, get(quad::fw::kEstCamYaw));
+
   quad::fw::CalibrationConfig cc;
   const quad::fw::CalibrationConfig cd;
   quad::fw::load_fields(p_, cc, quad::fw::kCalibrationFields);

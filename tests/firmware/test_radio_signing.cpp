@@ -36,6 +36,8 @@ struct Signing {
 void calibrate(Bench& b) {
   for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step();
   ASSERT_TRUE(b.app->calibrated());
+  // The pre-arm check: the ground hold brings the position filter's variances under its thresholds.
+  quad::fw::test::ready_to_arm(b);
 }
 
 SetupSigning setup_message(const Signing& s) {

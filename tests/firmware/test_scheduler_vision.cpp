@@ -290,6 +290,40 @@ TEST(VisionFix, AgreesWithEigenForRandomAttitudes) {
   }
 }
 
+// The mount turns the station's body frame V into the IMU's B: p_B = R_BV p_V, R_BS = R_BV R_VS, with
+// R_BV = Rz(yaw) Ry(pitch) Rx(roll) built by Eigen; the identity attitude (no pose fitted) stays.
+TEST(CameraMount, TurnsPositionAndAttitudeIntoTheImuBodyFrame) {
+  using namespace quad_test;
+  const quad::Euler e{0.03f, -0.02f, 0.05f};
+  quad::fw::CameraMount mount;
+  mount.configure(e);
+  const Eigen::Matrix3d R_BV = (Eigen::AngleAxisd(e.yaw, Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(e.pitch, Eigen::Vector3d::UnitY()) *
+                                Eigen::AngleAxisd(e.roll, Eigen::Vector3d::UnitX()))
+                                   .toRotationMatrix();
+  std::mt19937 rng(3);
+  for (int i = 0; i < 50; ++i) {
+    const Eigen::Quaterniond q_vs = random_rotation(rng);
+    const Eigen::Vector3d p_v = random_vector(rng, 2.0);
+    quad::Vec3 p = from_eigen(p_v);
+    float q[4] = {static_cast<float>(q_vs.w()), static_cast<float>(q_vs.x()), static_cast<float>(q_vs.y()),
+                  static_cast<float>(q_vs.z())};
+    mount.apply(&p, q);
+    EXPECT_LT((to_eigen(p) - R_BV * p_v).norm(), 1e-5);
+    const Eigen::Quaterniond q_bs(q[0], q[1], q[2], q[3]);
+    EXPECT_LT(rotation_distance(q_bs, Eigen::Quaterniond(R_BV * q_vs.toRotationMatrix())), 1e-5);
+  }
+  quad::Vec3 p{0.0f, 0.0f, 1.5f};
+  float none[4] = {1.0f, 0.0f, 0.0f, 0.0f};
+  mount.apply(&p, none);
+  EXPECT_EQ(none[0], 1.0f);
+  EXPECT_EQ(none[1], 0.0f);
+  EXPECT_NEAR(p.x, 1.5 * R_BV(0, 2), 1e-6);
+  quad::fw::CameraMount zero;
+  zero.configure(quad::Euler{});
+  EXPECT_TRUE(zero.identity());
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------

@@ -59,6 +59,9 @@ struct Feed {
 void calibrate(Feed& f) {
   for (int i = 0; i < 250 && !f.b.app->calibrated(); ++i) f.step();
   ASSERT_TRUE(f.b.app->calibrated());
+  // The pre-arm check: the ground hold brings the position filter's variances under its thresholds.
+  for (int i = 0; i < 100 && f.b.app->estimator().preflight() != quad::fw::Preflight::kReady; ++i) f.step();
+  ASSERT_EQ(f.b.app->estimator().preflight(), quad::fw::Preflight::kReady);
 }
 
 TEST(Telemetry, SysStatusCarriesTheLoopLoadAndTheOverruns) {

@@ -21,6 +21,8 @@ namespace mav = quad::mavlink;
 void calibrate(Bench& b) {
   for (int i = 0; i < 250 && !b.app->calibrated(); ++i) b.still_step();
   ASSERT_TRUE(b.app->calibrated());
+  // The pre-arm check: the ground hold brings the position filter's variances under its thresholds.
+  quad::fw::test::ready_to_arm(b);
   b.sticks(0);
 }
 

@@ -24,7 +24,8 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 CHECKER = os.path.join(ROOT, "tools", "node", "ulog_check.js")
 SCENARIO = os.path.join(HERE, "ulog_flight.yaml")
 TOPICS = ["sensor_combined", "sensor_mag", "vehicle_attitude", "vehicle_local_position", "vision_fix",
-          "vehicle_local_position_setpoint", "actuator_motors", "vehicle_status", "loop_timing"]
+          "vehicle_local_position_setpoint", "actuator_motors", "vehicle_status", "loop_timing",
+          "estimator_status"]
 HOLD = (10.0, 14.9)        # s: the scenario's hold at 1 m (the landing is commanded at 15 s)
 PERIOD_US = 10000          # the scenario's HIL period
 POSITION_TOLERANCE = 0.05  # m: the estimate against the truth during the hold
@@ -125,6 +126,10 @@ def check_contract(log):
     seconds = (fixes["last_timestamp"] - fixes["first_timestamp"]) * 1e-6
     check(fixes["count"] > 25 * seconds, f"vision_fix: {fixes['count']} records in {seconds:.1f} s (fixes at 30 Hz)")
     check(log["topics"]["loop_timing"]["count"] >= int(seconds) - 1, "loop_timing: about once a second")
+    health = log["topics"]["estimator_status"]
+    check(health["count"] >= 4 * int(seconds), f"estimator_status: {health['count']} records in {seconds:.1f} s (5 Hz)")
+    # The last record is on the ground after the landing (the log closes at disarming): no fix, held.
+    check((health["last"]["solution_status_flags"] & 1) == 1, "estimator_status: ATTITUDE at the end")
 
 
 def check_refused(node, out, good):

@@ -22,7 +22,8 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 CHECKER = os.path.join(ROOT, "tools", "node", "ulog_check.js")
 READER = os.path.join(ROOT, "tools", "avr_pil", "dataflash_logs.py")
 TOPICS = ["sensor_combined", "sensor_mag", "vehicle_attitude", "vehicle_local_position", "vision_fix",
-          "vehicle_local_position_setpoint", "actuator_motors", "vehicle_status", "loop_timing"]
+          "vehicle_local_position_setpoint", "actuator_motors", "vehicle_status", "loop_timing",
+          "estimator_status"]
 
 failures = []
 

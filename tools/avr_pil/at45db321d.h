@@ -23,6 +23,13 @@
 //
 // The memory can persist in a file (load()/save()): 8192 x 528 bytes, page after page, as the chip holds
 // them; a fresh chip (or a missing file) reads 0xFF.
+//
+// Size: the part can be made with fewer pages (a power of two), answering as the AT45DB321D otherwise;
+// the page address wraps at its size. tests/pil/test_apm25_dataflash.cpp fills and wraps a 64-page part
+// with a driver built for 64 pages, in seconds rather than the full part's minutes.
+// Power: power_cut() is the supply lost: the SRAM buffers lose their contents and a page program in
+// progress leaves its page torn: programmed up to the fraction of tEP elapsed, erased (0xFF) after it
+// (the built-in erase comes first). The processor's reset is the test's (avr_reset).
 #pragma once
 
 #include <simavr/avr_ioport.h>
@@ -45,7 +52,7 @@ class At45db321d {
   static constexpr uint32_t kPages = 8192, kPageSize = 528;
   static constexpr uint8_t kStatusReady = 0xB4;
 
-  At45db321d() : memory_(kPages * kPageSize, 0xFF) {
+  explicit At45db321d(uint32_t pages = kPages) : pages_(pages), memory_(pages * kPageSize, 0xFF) {
     for (auto& b : buffer_) b.assign(kPageSize, 0);
   }
   At45db321d(const At45db321d&) = delete;  // the simavr hooks hold `this`
@@ -76,7 +83,7 @@ class At45db321d {
   // No chip on the bus: the USART still clocks every byte (as MSPIM does), MISO reads 0xFF (pulled up).
   void set_absent(bool on) { absent_ = on; }
 
-  // The memory from a file of kPages x kPageSize bytes; false (memory left erased) when there is none or
+  // The memory from a file of pages() x kPageSize bytes; false (memory left erased) when there is none or
   // it has another size.
   bool load(const std::string& path) {
     FILE* f = std::fopen(path.c_str(), "rb");
@@ -96,6 +103,7 @@ class At45db321d {
     return std::fclose(f) == 0 && ok;
   }
 
+  uint32_t pages() const { return pages_; }
   const uint8_t* page(uint32_t p) const { return &memory_[p * kPageSize]; }
   uint8_t* page(uint32_t p) { return &memory_[p * kPageSize]; }
   const std::vector<uint8_t>& buffer(int i) const { return buffer_[i]; }
@@ -104,6 +112,24 @@ class At45db321d {
   uint64_t programs() const { return programs_; }
   uint64_t transfers() const { return transfers_; }
   uint64_t reads_while_busy() const { return reads_while_busy_; }
+  // The page the latest program went to (-1: none yet) and whether it is still in progress.
+  int64_t last_program_page() const { return last_program_page_; }
+  bool programming() const { return busy() && programming_buffer_ >= 0; }
+
+  void power_cut() {
+    if (programming()) {
+      const double done = static_cast<double>(avr_->cycle - program_start_) / static_cast<double>(busy_until_ - program_start_);
+      uint8_t* p = page(static_cast<uint32_t>(last_program_page_));
+      std::fill(p + static_cast<size_t>(done * kPageSize), p + kPageSize, 0xFF);
+      ++torn_pages_;
+    }
+    busy_until_ = 0;
+    programming_buffer_ = -1;
+    selected_ = false;
+    command_.clear();
+    for (auto& b : buffer_) std::fill(b.begin(), b.end(), 0xA5);
+  }
+  uint64_t torn_pages() const { return torn_pages_; }
 
  private:
   static void on_cs(avr_irq_t*, uint32_t value, void* param) {
@@ -126,7 +152,7 @@ class At45db321d {
   uint32_t address() const {
     return (static_cast<uint32_t>(command_[1]) << 16) | (static_cast<uint32_t>(command_[2]) << 8) | command_[3];
   }
-  uint32_t page_of(uint32_t a) const { return (a >> 10) & (kPages - 1); }
+  uint32_t page_of(uint32_t a) const { return (a >> 10) & (pages_ - 1); }
   uint32_t byte_of(uint32_t a) const { return a & 0x3FF; }
   bool buffer_busy(int b) const { return busy() && programming_buffer_ == b; }
 
@@ -196,6 +222,8 @@ class At45db321d {
       std::copy(buffer_[b].begin(), buffer_[b].end(), p);
       ++programs_;
       programming_buffer_ = b;
+      last_program_page_ = page_of(address());
+      program_start_ = avr_->cycle;
       busy_until_ = avr_->cycle + avr_usec_to_cycles(avr_, program_us_);
     } else {
       std::copy(p, p + kPageSize, buffer_[b].begin());
@@ -210,6 +238,7 @@ class At45db321d {
     return 0;
   }
 
+  uint32_t pages_;
   avr_t* avr_ = nullptr;
   avr_uart_t* uart_ = nullptr;
   avr_irq_t* miso_ = nullptr;
@@ -219,7 +248,9 @@ class At45db321d {
   uint32_t cursor_ = 0;
   std::vector<uint8_t> memory_;
   std::vector<uint8_t> buffer_[2];
-  avr_cycle_count_t busy_until_ = 0;
+  avr_cycle_count_t busy_until_ = 0, program_start_ = 0;
+  int64_t last_program_page_ = -1;
+  uint64_t torn_pages_ = 0;
   int programming_buffer_ = -1;
   uint32_t program_us_ = 17000;
   uint64_t errors_ = 0, programs_ = 0, transfers_ = 0, reads_while_busy_ = 0;

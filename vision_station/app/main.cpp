@@ -22,6 +22,7 @@
 #include "quad/vision/chessboard_calibration.h"
 #include "quad/vision/fix_output.h"
 #include "quad/vision/frame_source.h"
+#include "quad/vision/ground/ground_commands.h"
 #include "quad/vision/pair_list.h"
 #include "quad/vision/settings_file.h"
 #include "quad/vision/station.h"
@@ -44,6 +45,9 @@ const char* kUsage =
     "                     [--out PATH]"
     " [--baud 57600] [--show [--show-screenshot FILE.png]] [--settings FILE]\n"
     "                     [--timeout-ms 500] [--status-s 1] [--stats FILE.json]\n"
+    "  vision_station calibrate-room --images DIR [--board 8x6] [--square 0.10] --out room.yaml\n"
+    "  vision_station track --room room.yaml --vehicles vehicles.yaml --frames frames.csv [--out FILE.jsonl]\n"
+    "                       [--no-epipolar] [--no-roi]\n"
     "  --calib takes the station's calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml\n";
 
 // --key value options; flags listed in `flags` take no value.
@@ -352,11 +356,16 @@ int main(int argc, char** argv) {
     if (command == "detect") return detect(parse_options(argc, argv, {}));
     if (command == "calibrate") return calibrate(parse_options(argc, argv, {}));
     if (command == "run") return run(parse_options(argc, argv, {"--show"}));
+    if (command == "calibrate-room") return ground::calibrate_room_command(parse_options(argc, argv, {}));
+    if (command == "track") return ground::track_command(parse_options(argc, argv, {"--no-epipolar", "--no-roi"}));
     if (command == "--help" || command == "-h") {
       std::cout << kUsage;
       return 0;
     }
     throw UsageError("unknown command '" + command + "'");
+  } catch (const ground::CommandUsageError& e) {
+    std::cerr << "vision_station: " << e.what() << "\n" << kUsage;
+    return 2;
   } catch (const UsageError& e) {
     std::cerr << "vision_station: " << e.what() << "\n" << kUsage;
     return 2;

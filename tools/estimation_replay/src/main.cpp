@@ -10,6 +10,7 @@
 
 #include "firmware_replay.h"
 #include "replay.h"
+#include "truth.h"
 #include "ulog_input.h"
 
 namespace {
@@ -25,7 +26,18 @@ Output: CSV t,qw,qx,qy,qz,roll,pitch,yaw,bgx,bgy,bgz,px,py,pz,vx,vy,vz.
 
   -o FILE                 write the estimates to FILE (default: standard output)
   --filter NAME           conditioned (default, thesis eq. 4.9), unconditioned (eq. 4.4), mahony, linear;
-                          firmware (ULog only): the firmware's StateEstimator with the logged parameters
+                          ekf: seed 004's error-state EKF (attitude and position, fixes as the star seen
+                          from the body); firmware (ULog only): the firmware's StateEstimator with the
+                          logged parameters
+  --star N,E,D            the star's NED position for --filter ekf (default: a ULog's VIS_STAR_N/E/D, else 0)
+  --truth FILE            print the error figures against a simulated flight's truth (the run folder's
+                          log.csv: t, true_n, true_e, true_d, true_roll, true_pitch, true_yaw)
+  --from S --to S         the time window of the error figures (default: the whole log)
+  --calibrate S           the boot calibration (thesis eq. 7.2, 7.4) over the log's first S seconds (the
+                          vehicle still and level): its gyro and accelerometer biases off every sample,
+                          as the firmware takes them off (a ULog's samples are the raw ones)
+  --compare               (with --truth) every filter over the same log, one line of figures each:
+                          conditioned + Kalman (the thesis pair), unconditioned, mahony, linear, ekf
   --check-attitude TOL    (with --filter firmware) exit 1 unless every replayed attitude is within TOL of
                           the logged vehicle_attitude.q (per component)
   --propagator NAME       second-order (default) or exact (thesis eq. 4.14)
@@ -101,6 +113,44 @@ int replay_firmware(const quad::ulog::File& log, double tolerance, std::ostream&
   return 0;
 }
 
+// The stationary calibration over the rows of the first `seconds`, taken off every row; false (said) when
+// the window is refused.
+bool calibrate(std::vector<quad::replay::LogRow>& rows, double seconds) {
+  quad::est::StationaryCalibrator cal;
+  for (const auto& r : rows) {
+    if (r.t > rows.front().t + seconds) break;
+    cal.add(quad::Vec3{static_cast<float>(r.gyro[0]), static_cast<float>(r.gyro[1]), static_cast<float>(r.gyro[2])},
+            quad::Vec3{static_cast<float>(r.accel[0]), static_cast<float>(r.accel[1]), static_cast<float>(r.accel[2])});
+  }
+  quad::est::ImuBias bias;
+  const quad::est::CalibrationStatus status = cal.result(bias);
+  if (status != quad::est::CalibrationStatus::kOk) {
+    std::cerr << "estimation_replay: --calibrate: the first " << seconds << " s are refused as a calibration window ("
+              << static_cast<int>(status) << ": too few samples, moved, turning or not level; calibration.h)\n";
+    return false;
+  }
+  for (auto& r : rows) {
+    for (int i = 0; i < 3; ++i) {
+      r.gyro[i] -= bias.gyro[i];
+      r.accel[i] -= bias.accel[i];
+    }
+  }
+  std::cerr << "estimation_replay: calibrated over " << seconds << " s: gyro bias " << bias.gyro.x << " "
+            << bias.gyro.y << " " << bias.gyro.z << " rad/s, accelerometer bias " << bias.accel.x << " "
+            << bias.accel.y << " " << bias.accel.z << " m/s^2\n";
+  return true;
+}
+
+void print_figures(const std::string& name, const quad::replay::ErrorFigures& f) {
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "%-13s tilt RMS %.3f deg, yaw RMS %.3f deg (%d rows); horizontal RMS %.1f mm, vertical RMS %.1f mm "
+                "(%d rows)\n",
+                name.c_str(), f.tilt_rms_deg, f.yaw_rms_deg, f.attitude_rows, 1e3 * f.horizontal_rms_m,
+                1e3 * f.vertical_rms_m, f.position_rows);
+  std::cerr << line;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -110,6 +160,10 @@ int main(int argc, char** argv) {
   quad::Vec3 mag_ref;
   bool firmware = false;
   double check_tolerance = -1.0;
+  bool star_given = false, compare = false;
+  std::string truth_path;
+  double from = -1e300, to = 1e300;
+  double calibrate_s = 0.0;
 
   using Setter = std::function<void(const std::string&, const std::string&)>;
   const std::map<std::string, Setter> with_value = {
@@ -122,7 +176,8 @@ int main(int argc, char** argv) {
          static const std::map<std::string, AttitudeFilter> names = {{"conditioned", AttitudeFilter::kConditioned},
                                                                      {"unconditioned", AttitudeFilter::kUnconditioned},
                                                                      {"mahony", AttitudeFilter::kMahony},
-                                                                     {"linear", AttitudeFilter::kLinear}};
+                                                                     {"linear", AttitudeFilter::kLinear},
+                                                                     {"ekf", AttitudeFilter::kEkf}};
          const auto it = names.find(v);
          if (it == names.end()) usage_error(k + ": unknown filter '" + v + "'");
          o.filter = it->second;
@@ -165,6 +220,15 @@ int main(int argc, char** argv) {
       {"--fix-sigma-xy", [&](auto& k, auto& v) { o.position.fix_sigma_xy = number(k, v); }},
       {"--fix-sigma-z", [&](auto& k, auto& v) { o.position.fix_sigma_z = number(k, v); }},
       {"--gate", [&](auto& k, auto& v) { o.position.gate_sigma = number(k, v); }},
+      {"--star",
+       [&](auto& k, auto& v) {
+         o.star_ned = triple(k, v);
+         star_given = true;
+       }},
+      {"--truth", [&](auto&, auto& v) { truth_path = v; }},
+      {"--from", [&](auto& k, auto& v) { from = number(k, v); }},
+      {"--to", [&](auto& k, auto& v) { to = number(k, v); }},
+      {"--calibrate", [&](auto& k, auto& v) { calibrate_s = number(k, v); }},
   };
 
   for (int i = 1; i < argc; ++i) {
@@ -179,6 +243,10 @@ int main(int argc, char** argv) {
     }
     if (arg == "--fuse-on-arrival") {
       o.fuse_on_arrival = true;
+      continue;
+    }
+    if (arg == "--compare") {
+      compare = true;
       continue;
     }
     const auto eq = arg.find('=');
@@ -213,6 +281,8 @@ int main(int argc, char** argv) {
   const bool ulog_input = input != "-" && quad::replay::is_ulog(input);
   if (firmware && !ulog_input) usage_error("--filter firmware needs a ULog flight log");
   if (check_tolerance >= 0.0 && !firmware) usage_error("--check-attitude needs --filter firmware");
+  if (compare && truth_path.empty()) usage_error("--compare needs --truth");
+  if (firmware && !truth_path.empty()) usage_error("--truth works with the estimation layer's filters, not firmware");
   std::ofstream file;
   if (!output.empty()) {
     file.open(output);
@@ -229,6 +299,14 @@ int main(int argc, char** argv) {
       const quad::ulog::File log(input);
       if (firmware) return replay_firmware(log, check_tolerance, out);
       rows = quad::replay::rows_from_ulog(log);
+      if (!star_given) {
+        const auto params = log.initial_params();
+        const char* star[3] = {"VIS_STAR_N", "VIS_STAR_E", "VIS_STAR_D"};
+        for (int i = 0; i < 3; ++i) {
+          const auto it = params.find(star[i]);
+          if (it != params.end()) o.star_ned[i] = static_cast<float>(it->second);
+        }
+      }
     } else if (input == "-") {
       rows = quad::replay::read_log(std::cin, "<stdin>");
     } else {
@@ -247,19 +325,56 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  const auto s = quad::replay::replay(rows, o, out);
+  if (calibrate_s > 0.0 && !calibrate(rows, calibrate_s)) return 1;
+  std::vector<quad::replay::TruthRow> truth;
+  if (!truth_path.empty()) {
+    try {
+      truth = quad::replay::read_truth(truth_path);
+    } catch (const quad::replay::LogError& e) {
+      std::cerr << "estimation_replay: " << e.what() << "\n";
+      return 1;
+    }
+  }
+  std::vector<quad::replay::Estimate> track;
+  const auto s = quad::replay::replay(rows, o, out, truth.empty() ? nullptr : &track);
   out.flush();
   if (!out) {
     std::cerr << "estimation_replay: write error\n";
     return 1;
   }
-  std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
-            << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
-            << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
+  if (o.filter == AttitudeFilter::kEkf) {
+    std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes; EKF: " << s.ekf.positions_fused
+              << " fused, " << s.ekf.positions_rejected << " outliers, " << s.ekf.fixes_too_old << " too old, "
+              << s.ekf.fixes_refused << " refused, " << s.ekf.resets << " position resets, " << s.ekf.headings_fused
+              << " magnetometer headings fused";
+  } else {
+    std::cerr << "estimation_replay: " << s.rows << " rows, " << s.fixes << " vision fixes: " << s.position.fused
+              << " fused, " << s.position.rejected_gate << " outliers, " << s.position.rejected_too_old << " too old, "
+              << s.position.rejected_out_of_order << " out of order, " << s.position.resets << " resets";
+  }
   if (o.filter == AttitudeFilter::kConditioned || o.filter == AttitudeFilter::kUnconditioned) {
     std::cerr << "; observer: " << s.observer.skipped << " samples skipped, " << s.observer.accel_rejected
               << " accelerometer and " << s.observer.mag_rejected << " magnetometer samples not used";
   }
   std::cerr << "\n";
+  if (truth.empty()) return 0;
+  std::cerr << "errors against " << truth_path << ":\n";
+  if (!compare) {
+    print_figures("this filter", quad::replay::error_figures(track, truth, from, to));
+    return 0;
+  }
+  const std::pair<const char*, AttitudeFilter> filters[] = {{"thesis pair", AttitudeFilter::kConditioned},
+                                                           {"unconditioned", AttitudeFilter::kUnconditioned},
+                                                           {"mahony", AttitudeFilter::kMahony},
+                                                           {"linear", AttitudeFilter::kLinear},
+                                                           {"ekf", AttitudeFilter::kEkf}};
+  for (const auto& [name, filter] : filters) {
+    ReplayOptions each = o;
+    each.filter = filter;
+    std::vector<quad::replay::Estimate> t;
+    std::ostringstream discard;
+    quad::replay::replay(rows, each, discard, &t);
+    print_figures(name, quad::replay::error_figures(t, truth, from, to));
+  }
   return 0;
 }

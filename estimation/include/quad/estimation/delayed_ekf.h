@@ -58,16 +58,23 @@ struct DelayedEkfHealth {
   uint32_t resets = 0;             // position set from a fix (first, lost, or after rejections)
 };
 
-// ESTIMATOR_STATUS flags (MAVLink ESTIMATOR_STATUS_FLAGS).
+// ESTIMATOR_STATUS flags (MAVLink ESTIMATOR_STATUS_FLAGS, the bits PX4 sets for a local-position
+// estimator; docs/estimation.md, "Health report").
 enum EstimatorFlag : uint16_t {
   kEstAttitude = 1,
   kEstVelocityHoriz = 2,
   kEstVelocityVert = 4,
   kEstPosHorizRel = 8,
   kEstPosVertAbs = 32,
+  kEstConstPosMode = 128,
   kEstPredPosHorizRel = 256,
   kEstAccelError = 2048,
 };
+
+// The attitude counts as good (ESTIMATOR_STATUS, the pre-arm check) with the tilt's sigma within this.
+constexpr float kGoodTiltSigma = 0.0175f;  // rad (1 deg)
+// The position counts as aided while a fix was fused within this of the filter's time.
+constexpr uint32_t kAidedWindowUs = 250000;
 
 class DelayedEkfCore {
  public:
@@ -107,6 +114,11 @@ class DelayedEkfCore {
   bool converged() const { return converged_ && finite(); }
   bool settled() const;
   bool finite() const;
+  // ESTIMATOR_STATUS flags as PX4's EKF2 sets them for its aiding sources: attitude (tilt sigma within
+  // kGoodTiltSigma); horizontal position, both velocities, vertical position and the predicted
+  // position while fixes are fused (one within kAidedWindowUs); the velocities, the vertical position
+  // while standing still (zero velocity fused in the newest step taken), constant-position mode when
+  // standing still without fixes; only kEstAccelError when the filter is not finite.
   uint16_t flags() const;
 
  protected:
@@ -131,6 +143,9 @@ class DelayedEkfCore {
   bool started_ = false;
   bool position_initialized_ = false;
   bool converged_ = false;
+  bool still_ = false;             // the newest increment the filter took fused zero velocity
+  bool fix_fused_ = false;         // a fix's position was fused (or set the position) at fix_fused_us_
+  uint32_t fix_fused_us_ = 0;
   uint16_t rejections_in_a_row_ = 0;
   uint32_t filter_us_ = 0;
   uint32_t last_push_us_ = 0;

@@ -8,6 +8,8 @@
 //     if (ground.update(landed_or_disarmed, gyro, accel, dt)) {
 //       if (ground.started()) ground.set_reference(estimate);   // the last known position
 //       kf.fuse_still(ground.reference(), ...);
+//     } else if (ground.at_rest()) {
+//       kf.fuse_zero_velocity(...);                            // touched down: stop at once
 //     }
 //
 // Why: without vision (the cameras see only a patch of the star once they are close to the floor) the
@@ -48,6 +50,9 @@ class GroundHold {
   bool started() const { return started_; }
   // Still, on the ground, for the still time.
   bool still() const { return still_for_s_ >= still_time_s_; }
+  // On the ground and still in this step, the still time not yet passed: the vehicle has come to rest
+  // (touched down) and its velocity is zero; the position is held once the still time has passed.
+  bool at_rest() const { return still_for_s_ > 0.0f && !holding_; }
 
   void set_reference(const Vec3& p) { reference_ = p; }
   const Vec3& reference() const { return reference_; }

@@ -163,6 +163,16 @@ class PositionFilterCore {
   // within the history window); a fix captured before the last still measurement is refused as out of
   // order (the delayed fusion's P_now - Q(tau) would not hold).
   bool fuse_still(const Vec3& p_hold, float sigma_p, float sigma_v);
+  // The vehicle has come to rest on the ground but the hold's still time has not passed yet
+  // (ground_hold.h): under fuse_still()'s conditions, the velocity is reset to zero with variance
+  // sigma_v^2 and no correlation with the position or the bias; the position stays where it is.
+  bool fuse_zero_velocity(float sigma_v);
+  // The vehicle cannot be below the floor: when the position's down coordinate is beyond z_floor (the
+  // vehicle's centre standing on the floor), the position is projected onto it (down z_floor), the
+  // velocity and the covariance unchanged (the projection method of constrained Kalman filtering).
+  // Only while no fix arrives (fixes hold the estimate; their history stays consistent: the projection
+  // joins the accumulated correction like an update). Returns whether it projected.
+  bool constrain_above_floor(float z_floor);
   // Before any fix: the state set at p (velocity zero, biases zero) at the current time, with the
   // position standard deviation of the fixes; the first fix is then an ordinary, gated update.
   void initialize_at(const Vec3& p);
@@ -180,7 +190,11 @@ class PositionFilterCore {
   float last_gain_p(int axis) const;
   float last_gain_v(int axis) const;
   // Normalised innovation squared of the last fix that reached the gate, summed over the axes.
-  float last_nis() const { return last_nis_; }
+  float last_nis() const { return last_d2_[0] + last_d2_[1] + last_d2_[2]; }
+  // The last gated fix's innovation test ratios (ESTIMATOR_STATUS), nu^2 / (gamma^2 S) per axis: the
+  // larger of x and y, and z (above 1 the fix was refused).
+  float test_ratio_horizontal() const;
+  float test_ratio_vertical() const;
   bool initialized() const { return initialized_; }
   uint32_t time_us() const { return t_us_; }
   const PositionFilterHealth& health() const { return health_; }
@@ -261,7 +275,7 @@ class PositionFilterCore {
   // Last correction gain, carried to now; while a fix is gated (kFixGated) its D h, the gain times S.
   float gain_[2][3] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}};
   float gain_tau_ = 0.0f;                    // age of the last fused fix when it was fused
-  float last_nis_ = 0.0f;
+  float last_d2_[3] = {0.0f, 0.0f, 0.0f};  // the last gated fix's nu^2 / S per axis
   uint32_t t_us_ = 0;
   uint32_t last_fix_us_ = 0;    // capture time of the last fused fix (valid while have_fix_)
   bool clock_started_ = false;

@@ -144,7 +144,8 @@ class FlightApp {
 
   // The ground link's handler (ground_link.h).
   void hil_frame(const mavlink::Frame& frame);
-  Transition mode_command(Command c) { return control_.command(c, mode_inputs()); }
+  // Arming waits for the estimator's pre-arm check (StateEstimator::preflight(): its variances).
+  Transition mode_command(Command c);
   void report_transition(const Transition& t);
   void position_target(const Vec3& target, const float* yaw);
   void star_fix(const mavlink::LandingTarget& msg);

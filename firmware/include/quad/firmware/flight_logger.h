@@ -12,7 +12,8 @@
 //   with a magnetometer sample       sensor_mag
 //   the frame-rate work's iteration  vehicle_local_position, actuator_motors, the setpoint (armed)
 //   an iteration with no fix step and no frame-rate work of a faster loop: the definitions, and
-//                                    loop_timing (once a second, and after an overrun)
+//                                    loop_timing (once a second, and after an overrun) or else
+//                                    estimator_status (at kEstimatorStatusHz)
 // Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
 // STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
 // since the last one go to the store in one append at its end, as many bytes as the iteration has time
@@ -48,6 +49,7 @@ enum LogTopic : uint8_t {
   kLogActuatorMotors,
   kLogVehicleStatus,
   kLogLoopTiming,
+  kLogEstimatorStatus,
   kLogTopicCount,
 };
 
@@ -68,6 +70,8 @@ enum class LogMode : uint8_t { kOff = 0, kArmed = 1, kBoot = 2 };
 
 class FlightLogger {
  public:
+  // estimator_status records a second (the health report's ESTIMATOR_STATUS fields).
+  static constexpr float kEstimatorStatusHz = 5.0f;
   // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes),
   // and on the ATmega2560 only while the iteration has time for another (BackgroundBudget).
   static constexpr uint16_t kHeaderBytesPerIteration = 512;
@@ -115,6 +119,7 @@ class FlightLogger {
   bool next_definition(const FlightApp& app, uint16_t* bytes);
   void write_status(const FlightApp& app);
   void write_loop_timing(const FlightApp& app);
+  void write_estimator_status(const FlightApp& app);
   // now: this iteration's stamp().
   void write_frame_topics(const FlightApp& app, uint64_t now);
   void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering,
@@ -135,7 +140,9 @@ class FlightLogger {
   uint8_t last_reason_ = 0;    // Reason of the last transition
   bool boot_log_started_ = false;
   bool timing_due_ = false;
+  bool estimator_due_ = false;
   RateDivider timing_rate_;
+  RateDivider estimator_rate_;
   uint32_t overruns_seen_ = 0;
   uint32_t dropped_seen_ = 0;     // writer_.dropped() at the last dropout message
   uint32_t dropout_start_us_ = 0;  // the first iteration that saw the records lost

@@ -116,6 +116,12 @@ constexpr ParamField kStarFields[] QUAD_FLASH = {
     QUAD_PARAM_FIELD(Vec3, kVisStarD, z),
 };
 
+constexpr ParamField kCameraMountFields[] QUAD_FLASH = {
+    QUAD_PARAM_FIELD(Euler, kEstCamRoll, roll),
+    QUAD_PARAM_FIELD(Euler, kEstCamPitch, pitch),
+    QUAD_PARAM_FIELD(Euler, kEstCamYaw, yaw),
+};
+
 constexpr ParamField kCalibrationFields[] QUAD_FLASH = {
     QUAD_PARAM_FIELD(CalibrationConfig, kCalTime, duration_s),
     QUAD_PARAM_FIELD(CalibrationConfig, kCalGyroStd, limits.max_gyro_std),

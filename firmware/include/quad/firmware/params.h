@@ -75,6 +75,12 @@ namespace fw {
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                            \
+  /* the camera rig's mount error: the body frame the station reports fixes in, relative to the IMU's */ \
+  /* (ZYX Euler angles, rad; tools/mount_calibration, docs/estimation.md "The camera mount"), */  \
+  /* applied to every fix's position and attitude before either estimator takes it */           \
+  X(kEstCamRoll, "EST_CAM_ROLL", 0.0f, -0.2f, 0.2f)                                              \
+  X(kEstCamPitch, "EST_CAM_PITCH", 0.0f, -0.2f, 0.2f)                                            \
+  X(kEstCamYaw, "EST_CAM_YAW", 0.0f, -0.2f, 0.2f)                                                \
   /* magnetometer calibration, thesis eq. 7.5: m = W (m_raw - b) before the observer; gauss */   \
   X(kMagOfsX, "MAG_OFS_X", 0.0f, -2.0f, 2.0f)                                                    \
   X(kMagOfsY, "MAG_OFS_Y", 0.0f, -2.0f, 2.0f)                                                    \
@@ -146,6 +152,7 @@ namespace fw {
   X(kTelAttHz, "TEL_ATT_HZ", 10.0f, 0.0f, 500.0f)                                                \
   X(kTelPosHz, "TEL_POS_HZ", 10.0f, 0.0f, 500.0f)                                                \
   X(kTelSysHz, "TEL_SYS_HZ", 1.0f, 0.0f, 50.0f)                                                  \
+  X(kTelEstHz, "TEL_EST_HZ", 2.0f, 0.0f, 50.0f)                                                  \
   /* flight log (docs/logging.md): 0 off, 1 from arming to disarming, 2 from boot; the IMU topics */ \
   /* every LOG_IMU_DIV-th iteration */                                                           \
   X(kLogMode, "LOG_MODE", 1.0f, 0.0f, 2.0f)                                                      \

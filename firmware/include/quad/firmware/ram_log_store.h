@@ -1,7 +1,8 @@
 // A LogStore in a region of RAM, for a board with no non-volatile memory to spare for logs (QEMU's
 // mps2-an386: its 4 MiB of RAM, no writable flash). It holds the flights since power-on and serves them to
 // the log download until reset. Logs lie one after another in the region; when it is full the open log
-// ends there and no new one opens, as on the DataFlash (no wrap-around: an old log is never cut).
+// ends there and no new one opens (no wrap-around, unlike the DataFlash's ring: the logs last only until
+// reset, so none needs room made by dropping an older one).
 #pragma once
 
 #include <stdint.h>

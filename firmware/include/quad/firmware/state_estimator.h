@@ -50,6 +50,30 @@ enum class EstimatorEvent : uint8_t {
   kClipBurstStarted,           // the IMU began a run of clipped samples
 };
 
+// The estimator's health (ESTIMATOR_STATUS, the flight log's estimator_status): the last fusions'
+// innovation test ratios (NIS over the gate), the position's 1-sigma accuracies and the flags
+// (est::EstimatorFlag, MAVLink's ESTIMATOR_STATUS_FLAGS). docs/estimation.md, "Health report".
+struct EstimatorReport {
+  uint16_t flags = 0;
+  float vel_ratio = 0.0f;
+  float pos_horiz_ratio = 0.0f;
+  float pos_vert_ratio = 0.0f;
+  float mag_ratio = 0.0f;  // the heading: the magnetometer's or the star's (and the star's attitude)
+  float pos_horiz_accuracy = 0.0f;
+  float pos_vert_accuracy = 0.0f;
+};
+
+// Why arming waits (the pre-arm check): the first unmet condition.
+enum class Preflight : uint8_t { kReady, kCalibrating, kAttitude, kVelocity, kPosition };
+FlashText preflight_text(Preflight p);
+
+// The pre-arm threshold (1 sigma, per axis) of the thesis pair's position: on the ground the hold brings
+// it to about 0.01 m; it is above the thesis Q's steady state with fixes at 30 Hz (0.15 m), so a vehicle
+// that stands in view of the star can arm too. Its velocity variance is not checked: with table 8.1's
+// Q (q_p = 1 m^2/s) the fixes leave the velocity's sigma at about 1 m/s whatever the vehicle does. The
+// EKF's thresholds are its own (DelayedEkfCore::converged).
+constexpr float kPreflightPositionSigma = 0.3f;  // m
+
 class StateEstimator {
  public:
   // The name of the offending parameter when p cannot be applied, else nullptr (nothing changed).
@@ -59,7 +83,8 @@ class StateEstimator {
 
   // Starts the boot calibration over (keep the vehicle still).
   void restart_calibration() { calibration_.restart(); }
-  // Armed or not: EST_TYPE changes only on the ground; the EKF fuses zero velocity while disarmed and still.
+  // Armed or not: EST_TYPE changes only on the ground; the EKF fuses zero velocity while disarmed (or on
+  // the ground by the land detector) and still.
   void set_armed(bool armed) { armed_ = armed; }
   EstimatorType type() const { return type_; }
   bool ekf_selected() const { return kImageHasEkf && type_ == EstimatorType::kEkf; }
@@ -90,6 +115,11 @@ class StateEstimator {
   // The sample was finite and its specific force plausible.
   bool sensors_ok() const { return sensors_ok_; }
   bool converged() const;
+  // The pre-arm check: converged() and the variances under the thresholds (the thesis pair's position
+  // filter initialised, by the ground hold or a fix, with its position variance under
+  // kPreflightPositionSigma; the EKF's tilt and velocity, DelayedEkfCore::converged()).
+  Preflight preflight() const;
+  EstimatorReport report() const;
   // Converged, finite, not diverged, and not flying on held gyro rates longer than IMU_CLIP_HOLD.
   bool healthy() const;
   const ImuClipGuard& imu_clip() const { return imu_clip_; }
@@ -107,6 +137,8 @@ class StateEstimator {
   Vec3 velocity_variance() const;
   // On the ground and still: the filter holds zero velocity and the last known position.
   bool holding_ground() const { return ground_.holding(); }
+  // The camera rig's mount (EST_CAM_*): the application turns every fix into the IMU's body frame with it.
+  const CameraMount& camera_mount() const { return mount_; }
   // The estimate's height above the star (VIS_STAR_D, the floor it lies on), m.
   float height_above_star() const { return star_ned_.z - filter_.position().z; }
 
@@ -127,6 +159,8 @@ class StateEstimator {
                 const IterationPlan& plan, bool hovering);
   void start_ekf(uint32_t t_us);
   void configure_ekf(const Params& p);
+  Preflight thesis_preflight() const;
+  EstimatorReport thesis_report() const;
 
   BootCalibration calibration_;
   CalibrationResult bias_;
@@ -145,6 +179,7 @@ class StateEstimator {
   bool mag_pending_ = false;
   bool sensors_ok_ = false;
   Vec3 star_ned_;                   // VIS_STAR_*
+  CameraMount mount_;               // EST_CAM_*
   est::MagCalibration mag_cal_;     // MAG_OFS_*, MAG_SI_*
   bool mag_cal_is_identity_ = true; // MAG_OFS zero, MAG_SI the identity: eq. 7.5 is the field itself
   float mag_declination_ = 0.0f;    // MAG_DECL
@@ -155,6 +190,7 @@ class StateEstimator {
   bool ekf_mag_use_ = true;
   bool ekf_hover_force_ = true;  // EST_ABIAS_TAU > 0
   bool ekf_hovering_ = false;    // the frame-rate work's hovering flag, held between frames
+  bool on_ground_ = false;       // the step's on_ground: the EKF fuses zero velocity there when still
 #if !defined(__AVR__)
   est::DelayedEkf<kPositionHistory> ekf_;
   est::EkfParams ekf_params_;

@@ -1,6 +1,6 @@
 // The vehicle's telemetry streams, each at its own TEL_*_HZ out of the loop rate: HEARTBEAT (and
-// EXTENDED_SYS_STATE at the heartbeat's rate), ATTITUDE_QUATERNION, LOCAL_POSITION_NED and SYS_STATUS,
-// broadcast on both ports.
+// EXTENDED_SYS_STATE at the heartbeat's rate), ATTITUDE_QUATERNION, LOCAL_POSITION_NED, SYS_STATUS and
+// ESTIMATOR_STATUS, broadcast on both ports.
 #pragma once
 
 #include <stdint.h>
@@ -28,20 +28,24 @@ class Telemetry {
   // Whether a stream is due and not sent yet.
   bool due() const { return due_ != 0; }
   // Sends one stream that is due (the first in the order heartbeat, attitude, position, status, extended
-  // state; the others wait for the next iterations). An iteration without room for it (a vision fix's
-  // step, or no time left: FlightApp::step) sends none.
+  // state, estimator status; the others wait for the next iterations). An iteration without room for it
+  // (a vision fix's step, or no time left: FlightApp::step) sends none.
   void send_next(const FlightApp& app, GroundLink& link);
 
  private:
-  enum Stream : uint8_t { kHeartbeat = 1, kAttitude = 2, kPosition = 4, kStatus = 8, kExtendedState = 16 };
+  enum Stream : uint8_t {
+    kHeartbeat = 1, kAttitude = 2, kPosition = 4, kStatus = 8, kExtendedState = 16, kEstimatorStatus = 32
+  };
   void send(Stream stream, const FlightApp& app, GroundLink& link);
   void send_status(const FlightApp& app, GroundLink& link);
+  void send_estimator_status(const FlightApp& app, GroundLink& link);
 
   RateDivider heartbeat_rate_;
   RateDivider attitude_rate_;
   RateDivider position_rate_;
   RateDivider status_rate_;
   RateDivider extended_state_rate_;
+  RateDivider estimator_rate_;
   uint8_t due_ = 0;             // streams due and not sent yet (Stream bits)
   bool gyro_clipped_ = false;   // since the last SYS_STATUS
   bool accel_clipped_ = false;

@@ -58,6 +58,23 @@ class AttitudeHistory {
   uint32_t newest_push_us_ = 0;
 };
 
+// The camera rig's mount error, R_BV: V is the body frame the station reports a fix in (its nominal
+// camera-to-body rotation applied), B the IMU's. A fix's star position p_V and attitude q_VS become
+// p_B = R_BV p_V and q_BS = q_BV q_VS (seed 002: R_BV = Yᵀ of R = XQY, tools/mount_calibration).
+class CameraMount {
+ public:
+  // ZYX Euler angles of R_BV (EST_CAM_ROLL, EST_CAM_PITCH, EST_CAM_YAW), radians.
+  void configure(const Euler& e);
+  // In place: the star's position in body FRD, and its attitude q (w, x, y, z) unless it is the
+  // identity, which LANDING_TARGET sends when the station fitted none.
+  void apply(Vec3* star_body, float q[4]) const;
+  bool identity() const { return identity_; }
+
+ private:
+  Quat q_bv_;
+  bool identity_ = true;
+};
+
 // thesis eq. 8.5 (errata sign): the vehicle's NED position from the star seen in body FRD.
 inline Vec3 vehicle_position_from_star(const Vec3& star_ned, const Quat& q_ib_at_capture, const Vec3& star_body) {
   return star_ned - rotate(q_ib_at_capture, star_body);

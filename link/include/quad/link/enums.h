@@ -40,6 +40,20 @@ constexpr uint8_t kLandedStateInAir = 2;
 constexpr uint8_t kLandedStateTakeoff = 3;
 constexpr uint8_t kLandedStateLanding = 4;
 
+// ESTIMATOR_STATUS_FLAGS (ESTIMATOR_STATUS.flags)
+constexpr uint16_t kEstimatorAttitude = 1;
+constexpr uint16_t kEstimatorVelocityHoriz = 2;
+constexpr uint16_t kEstimatorVelocityVert = 4;
+constexpr uint16_t kEstimatorPosHorizRel = 8;
+constexpr uint16_t kEstimatorPosHorizAbs = 16;
+constexpr uint16_t kEstimatorPosVertAbs = 32;
+constexpr uint16_t kEstimatorPosVertAgl = 64;
+constexpr uint16_t kEstimatorConstPosMode = 128;
+constexpr uint16_t kEstimatorPredPosHorizRel = 256;
+constexpr uint16_t kEstimatorPredPosHorizAbs = 512;
+constexpr uint16_t kEstimatorGpsGlitch = 1024;
+constexpr uint16_t kEstimatorAccelError = 2048;
+
 // MAV_CMD (COMMAND_LONG.command)
 constexpr uint16_t kCmdNavLand = 21;
 constexpr uint16_t kCmdDoSetMode = 176;

@@ -559,6 +559,31 @@ struct LandingTarget {
   }
 };
 
+// ESTIMATOR_STATUS (230): the estimator's health: innovation test ratios (NIS over the gate: above 1 a
+// measurement is refused), accuracies (1 sigma) and ESTIMATOR_STATUS_FLAGS (enums.h).
+struct EstimatorStatus {
+  static constexpr uint32_t kId = 230;
+  static constexpr uint8_t kCrcExtra = 163;
+  static constexpr uint8_t kBaseLength = 42;
+  static constexpr uint8_t kLength = 42;
+  static constexpr const char* kName = "ESTIMATOR_STATUS";
+  uint64_t time_usec = 0;
+  float vel_ratio = 0.0f;
+  float pos_horiz_ratio = 0.0f;
+  float pos_vert_ratio = 0.0f;
+  float mag_ratio = 0.0f;
+  float hagl_ratio = 0.0f;
+  float tas_ratio = 0.0f;
+  float pos_horiz_accuracy = 0.0f;
+  float pos_vert_accuracy = 0.0f;
+  uint16_t flags = 0;
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.time_usec); io(m.vel_ratio); io(m.pos_horiz_ratio); io(m.pos_vert_ratio); io(m.mag_ratio);
+    io(m.hagl_ratio); io(m.tas_ratio); io(m.pos_horiz_accuracy); io(m.pos_vert_accuracy); io(m.flags);
+  }
+};
+
 // EXTENDED_SYS_STATE (245): VTOL state and landed state (MAV_LANDED_STATE: on ground, in air, landing).
 struct ExtendedSysState {
   static constexpr uint32_t kId = 245;
@@ -602,7 +627,8 @@ void for_each_message_type(F&& f) {
   f(ParamSet{}); f(AttitudeQuaternion{}); f(LocalPositionNed{}); f(ManualControl{}); f(CommandLong{});
   f(CommandAck{}); f(SetPositionTargetLocalNed{}); f(HilActuatorControls{}); f(VisionPositionEstimate{});
   f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LogRequestList{}); f(LogEntry{});
-  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(ExtendedSysState{});
+  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(EstimatorStatus{});
+  f(ExtendedSysState{});
   f(Statustext{});
 }
 
@@ -637,6 +663,7 @@ static_assert(lengths_match_fields<LogData>(), "LOG_DATA layout");
 static_assert(lengths_match_fields<LogErase>(), "LOG_ERASE layout");
 static_assert(lengths_match_fields<LogRequestEnd>(), "LOG_REQUEST_END layout");
 static_assert(lengths_match_fields<LandingTarget>(), "LANDING_TARGET layout");
+static_assert(lengths_match_fields<EstimatorStatus>(), "ESTIMATOR_STATUS layout");
 static_assert(lengths_match_fields<ExtendedSysState>(), "EXTENDED_SYS_STATE layout");
 static_assert(lengths_match_fields<Statustext>(), "STATUSTEXT layout");
 

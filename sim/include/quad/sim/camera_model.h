@@ -57,6 +57,10 @@ struct SimStereoRig {
 // std::runtime_error naming the model when a camera is missing.
 SimStereoRig stereo_rig_from_model(const mjModel* model, const CameraParams& params, const std::string& model_path);
 
+// The rig turned by a mount error about the body origin (CameraParams::mount_error_rad): R_BC = E R_BC,
+// t_BC = E t_BC for both cameras, E = Rz(yaw) Ry(pitch) Rx(roll); the cameras' relative pose is kept.
+SimStereoRig misaligned(const SimStereoRig& rig, const Eigen::Vector3d& mount_error_rad);
+
 // The vehicle-independent half of a view: p_camera = R · p_plane + t for points of a plane (the floor in
 // NED north/east with down = 0, or a chessboard in its own x/y).
 struct CameraPose {

@@ -11,6 +11,7 @@
 namespace quad::sim {
 
 struct MagParams {
+  bool present = true;  // false: the vehicle has no magnetometer (HIL_SENSOR never flags a sample)
   double output_rate_hz = 75.0;
   int averaged_samples = 8;
   double noise_gauss = 2.0e-3;  // standard deviation of one output (data sheet noise floor, 8-sample mean)

@@ -44,6 +44,40 @@ struct FlightMetricsConfig {
   double ground_down_m = 0.0;           // NED z of the centre of mass standing on the gear
 };
 
+// The estimate on the ground after each touchdown: how far it moves from its value at the touchdown in
+// the window that follows (30 s, or up to the next lift-off). Touchdown is the truth's contact: the
+// centre back within 5 mm of its standing height after it had been more than 5 cm above it; lift-off is
+// the centre 2 cm above it. The estimate is taken at its own time stamps (the firmware's HIL clock), so
+// the telemetry's age does not count as motion: the reference is the first estimate stamped at or after
+// the touchdown.
+struct LandingMove {
+  double touchdown_s = 0.0;
+  double window_s = 0.0;           // stamps covered after the touchdown
+  double move_m = 0.0;             // largest 3-D distance from the reference
+  double horizontal_m = 0.0;       // largest north-east distance
+  double vertical_m = 0.0;         // largest |down| difference
+  bool has_reference = false;
+  Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+};
+
+class GroundMoves {
+ public:
+  static constexpr double kWindowS = 30.0;
+  explicit GroundMoves(double ground_down_m) : ground_down_m_(ground_down_m) {}
+  // The truth's position at time t (every log row).
+  void add_truth(double t, const Eigen::Vector3d& position_ned);
+  // An estimate stamped t_stamp (s on the simulator clock).
+  void add_estimate(double t_stamp, const Eigen::Vector3d& estimate_ned);
+  const std::vector<LandingMove>& landings() const { return landings_; }
+
+ private:
+  double ground_down_m_;
+  bool high_ = false;          // the centre has been more than 5 cm above standing since the last touchdown
+  bool window_open_ = false;   // the last landing's window still runs
+  double window_end_s_ = 0.0;
+  std::vector<LandingMove> landings_;
+};
+
 class FlightMetrics {
  public:
   explicit FlightMetrics(const FlightMetricsConfig& config);

@@ -78,6 +78,12 @@ struct VisionParams {
   double latency_s = 0.022;  // capture to the radio (station processing); with the radio: ~40 ms in all
   double noise_m = 0.005;    // per axis, NED
   bool enabled = true;
+  // No fix while the vehicle's centre is lower than this above the star (its floor, NED z = 0): the
+  // rendered cameras close to the floor see only a patch of the star (LAND_VIS_HGT, docs/estimation.md).
+  double min_height_m = 0.0;
+  // When set (>= 0), the fix carries the star's attitude in body FRD (LANDING_TARGET q, as the station's
+  // pose does) with this standard deviation per axis; otherwise q is 1 0 0 0 (no attitude).
+  double attitude_sigma_deg = -1.0;
 };
 
 // One camera's lens in OpenCV's pinhole model: focal lengths and principal point (px), distortion
@@ -111,6 +117,10 @@ struct CameraParams {
   int jpeg_quality = 0;               // JPEG-compress each image at this quality (0: uncompressed)
   double frame_loss = 0.0;            // fraction of captured pairs that never reach the station
   double calibration_focal_error = 0.0;  // the station's focal lengths are (1 + this) x the calibrated ones
+  // The rig's mount error E (ZYX roll, pitch, yaw, rad; scenario key mount_error_deg in degrees): the
+  // rendered rig is turned by E about the body origin (R_BC = E R_BC_model, t_BC = E t_BC_model) while
+  // the station is told the model's mount. The firmware's EST_CAM_* equal to these angles undo it.
+  Eigen::Vector3d mount_error_rad = Eigen::Vector3d::Zero();
 };
 
 struct Scenario {

@@ -4,10 +4,10 @@
 //
 // The cameras see only the floor (they look straight down between the landing gear), so each view is
 // rendered exactly rather than rasterised by OpenGL: every floor shape's outline is projected through
-// the distorting lens and filled with 4 × 4 supersampling (anti-aliased edges at true sub-pixel
-// positions); a floor photograph is sampled through the inverse lens per pixel. Then the analog camera
-// and its capture chain: interlaced fields exposed 1/60 s apart (each at the vehicle's pose of its own
-// time), motion blur over the shutter time, lighting fall-off, the frame's exposure, Gaussian sensor
+// the distorting lens and filled with its exact coverage along each of 16 lines per pixel row
+// (anti-aliased edges at true sub-pixel positions, unbiased in every direction); a floor photograph is
+// sampled through the inverse lens per pixel. Then the analog camera and its capture chain: interlaced
+// fields exposed 1/60 s apart (each at the vehicle's pose of its own time), motion blur over the shutter time, lighting fall-off, the frame's exposure, Gaussian sensor
 // noise and JPEG compression. A plain 728 × 488 pair costs about 1.7 ms of CPU, with the floor
 // photograph and interlacing about 14 ms (bench_sim BM_RenderStereoPair/0, /1).
 #pragma once
@@ -42,9 +42,10 @@ std::vector<Eigen::Vector2d> landing_star_outline(double tip_to_tip, double inne
 std::vector<FloorShape> make_floor_scene(const CameraParams& params, Rng rng);
 
 // Paints `shapes[first..]` seen from `pose` (plane to camera) through `lens` onto `albedo` (CV_32F),
-// each blended by its anti-aliased pixel coverage. `canvas` and `coverage` are work buffers.
+// each blended by its exact pixel coverage along x, sampled on 16 lines per row along y. `crossings` and
+// `coverage` are work buffers.
 void paint_shapes(const LensParams& lens, double valid_radius, const CameraPose& pose, const std::vector<FloorShape>& shapes,
-                  size_t first, cv::Mat& albedo, cv::Mat& canvas, cv::Mat& coverage);
+                  size_t first, cv::Mat& albedo, std::vector<double>& crossings, cv::Mat& coverage);
 
 struct VehiclePose {
   Eigen::Vector3d p_ned;
@@ -105,7 +106,8 @@ class StereoCameraRenderer {
   std::vector<int8_t> noise_;  // a table of Gaussian samples, read from a random offset per view
   double exposure_walk_ = 0.0;
   int last_blur_samples_ = 1;
-  cv::Mat albedo_, sum_, canvas_, coverage_;  // work buffers
+  cv::Mat albedo_, sum_, coverage_;  // work buffers
+  std::vector<double> crossings_;
 };
 
 }  // namespace quad::sim

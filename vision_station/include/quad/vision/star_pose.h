@@ -42,7 +42,8 @@ struct StarPose {
 };
 
 // The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile
-// crosses the middle between its darkest and brightest values within ±3 px (sub-pixel, raw pixels).
+// crosses the middle between its darkest and brightest values within ±3 px, then to where the profile's
+// area within ±2 px of that crossing puts the step (sub-pixel, raw pixels).
 std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour);
 
 // One camera's map between raw and rectified pixels, for points already known to within a pixel or so:

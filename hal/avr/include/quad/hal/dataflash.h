@@ -4,11 +4,13 @@
 //
 // Non-blocking in flight: append() writes into one of the chip's two SRAM buffers while the other is
 // programmed into its page (about 17 ms), and takes fewer bytes when both are in use; read() and entry()
-// answer 0 / false while a page is being programmed (the caller asks again later). When the chip is
-// full the open log ends there (append() takes nothing more) and open() refuses a new one: no
-// wrap-around, the logs are kept until LOG_ERASE. close() and erase_all() (once per log, on the ground)
-// wait for the page being programmed, at most one page program time (tEP, 40 ms), so the log's last
-// page is in the flash when close() returns.
+// answer 0 / false while a page is being programmed (the caller asks again later). The data pages are a
+// ring: open() never refuses for lack of room; a log that reaches the oldest log's first page drops that
+// log (its ids shift down by one), and a 65th log drops the oldest. A log that comes round to its own
+// first page (the chip holds nothing else) ends there: append() takes nothing more, its beginning (the
+// ULog definitions) is kept, and the next log drops it. close() and erase_all() (once per log, on the
+// ground) wait for the page being programmed, at most one page program time (tEP, 40 ms), so the log's
+// last page is in the flash when close() returns; erase_all() forgets every log.
 #pragma once
 
 #include <stdint.h>

@@ -1,0 +1,193 @@
+// Instruction count of the EKF (quad/estimation/delayed_ekf.h, EST_TYPE 1) on the Cortex-M4F, run on
+// QEMU's mps2-an386 with `-icount shift=0` (ctest cortexm_ekf_instruction_count, docs/estimation.md):
+// the same SysTick method and calibration as instruction_count.cpp (one tick per 40 instructions).
+//
+// The EKF's share of the firmware's 400 Hz iteration (state_estimator_ekf.cpp): every iteration takes the
+// IMU sample (and a magnetometer sample on 3 of 16); every fourth runs the 100 Hz predict, which takes the
+// increments that came of age 100 ms behind now (one covariance prediction each), fuses the fixes
+// captured within them and carries the state back to now through the younger increments. A fix (the
+// star's position and heading, as the station sends at 30 Hz) is queued 40 ms after its capture. The
+// figures: the mean iteration without a predict, with a predict, with a predict that fuses a fix, and
+// the largest predict-with-fix iteration seen over 4 simulated seconds. Results go to UART0 as
+// "name instructions" lines, then the image exits through semihosting.
+#include <stdint.h>
+
+#include "quad/estimation/delayed_ekf.h"
+#include "quad/estimation/position_filter.h"
+#include "quad/math/math.h"
+
+namespace {
+
+using quad::Vec3;
+
+// ---- measurement --------------------------------------------------------------------------------
+volatile uint32_t& kSystCsr = *reinterpret_cast<volatile uint32_t*>(0xE000E010u);
+volatile uint32_t& kSystRvr = *reinterpret_cast<volatile uint32_t*>(0xE000E014u);
+volatile uint32_t& kSystCvr = *reinterpret_cast<volatile uint32_t*>(0xE000E018u);
+constexpr uint32_t kInstructionsPerTick = 40;  // 25 MHz SysTick, 1 ns per instruction
+
+void start_counter() {
+  kSystRvr = 0x00FFFFFFu;
+  kSystCvr = 0;
+  kSystCsr = (1u << 2) | 1u;  // core clock, enabled, no interrupt
+}
+// SysTick counts down; sections stay far below one 24-bit period (16.7 M ticks).
+uint32_t ticks_between(uint32_t start, uint32_t end) { return (start - end) & 0x00FFFFFFu; }
+
+template <typename T>
+void keep(const T& value) {
+  __asm volatile("" : : "r"(&value) : "memory");
+}
+
+// ---- output (polled CMSDK UART0; the HAL is not needed here) -------------------------------------
+volatile uint32_t* const kUart0 = reinterpret_cast<volatile uint32_t*>(0x40004000u);
+
+void put(char c) {
+  while (kUart0[1] & 1u) {
+  }
+  kUart0[0] = static_cast<uint8_t>(c);
+}
+void put(const char* s) {
+  while (*s) put(*s++);
+}
+void put_number(uint32_t v) {
+  char digits[10];
+  int n = 0;
+  do {
+    digits[n++] = static_cast<char>('0' + v % 10u);
+    v /= 10u;
+  } while (v != 0);
+  while (n > 0) put(digits[--n]);
+}
+
+// Runs `f` `repeat` times and reports the mean instruction count per run, the loop's own two or three
+// instructions per run included (reported as loop_overhead).
+template <typename F>
+void measure(const char* name, uint32_t repeat, F&& f) {
+  const uint32_t start = kSystCvr;
+  for (uint32_t i = 0; i < repeat; ++i) f();
+  const uint32_t ticks = ticks_between(start, kSystCvr);
+  put(name);
+  put(' ');
+  put_number((ticks * kInstructionsPerTick + repeat / 2u) / repeat);
+  put('\n');
+}
+
+void calibrate(const char* name, uint32_t passes) {
+  const uint32_t start = kSystCvr;
+  uint32_t n = passes;
+  __asm volatile("1: nop\n nop\n subs %0, %0, #1\n bne 1b" : "+r"(n) : : "cc");
+  const uint32_t ticks = ticks_between(start, kSystCvr);
+  put(name);
+  put(' ');
+  put_number(ticks * kInstructionsPerTick);
+  put('\n');
+}
+
+void semihosting_exit() {
+  // SYS_EXIT (0x18) with ADP_Stopped_ApplicationExit.
+  __asm volatile("mov r0, #0x18\n ldr r1, =0x20026\n bkpt 0xAB" ::: "r0", "r1", "memory");
+}
+
+// ---- the EKF in a hover, as the firmware runs it at 400 Hz ----------------------------------------
+constexpr uint32_t kPeriodUs = 2500;  // 400 Hz
+constexpr float kDt = 1e-6f * kPeriodUs;
+constexpr uint32_t kFixDelayUs = 40000;
+
+volatile float g_noise_scale = 1.0f;
+uint32_t g_seed = 12345u;
+float noise(float amplitude) {
+  g_seed = g_seed * 1664525u + 1013904223u;
+  return amplitude * g_noise_scale *
+         (static_cast<float>(static_cast<int32_t>(g_seed >> 8) - 8388608L) * (1.0f / 8388608.0f));
+}
+
+// The firmware's EKF: 250 ms of 100 Hz increments (kPositionHistory), 100 ms behind now.
+quad::est::DelayedEkf<quad::est::history_length(100)> g_ekf;
+uint32_t g_now_us = 1000000;
+uint32_t g_step = 0;
+const Vec3 kStar{0.0f, 0.0f, 0.0f};
+const Vec3 kHover{0.0f, 0.0f, -1.5f};
+
+// One 400 Hz iteration: the IMU (and magnetometer) sample; every fourth the predict; a fix queued when
+// one arrives (its capture kFixDelayUs ago).
+void iteration(bool mag, bool fix) {
+  g_now_us += kPeriodUs;
+  ++g_step;
+  const Vec3 gyro{noise(0.01f), noise(0.01f), noise(0.01f)};
+  const Vec3 accel{noise(0.2f), noise(0.2f), -quad::kGravity + noise(0.2f)};
+  g_ekf.imu(gyro, accel, kDt);
+  if (mag) g_ekf.mag(Vec3{0.42f + noise(0.005f), noise(0.005f), 0.91f + noise(0.005f)});
+  if (fix) {
+    quad::est::StarFix f;
+    f.capture_us = g_now_us - kFixDelayUs;
+    f.star_body = kStar - kHover + Vec3{noise(0.003f), noise(0.003f), noise(0.003f)};
+    f.q_bs = quad::Quat{1.0f, noise(0.002f), noise(0.002f), noise(0.002f)};
+    f.has_attitude = true;
+    const float pos_cov[6] = {4e-6f, 0.0f, 0.0f, 4e-6f, 0.0f, 9e-6f};
+    const float att_cov[6] = {4e-6f, 0.0f, 0.0f, 4e-6f, 0.0f, 1e-6f};
+    for (int i = 0; i < 6; ++i) {
+      f.pos_cov[i] = pos_cov[i];
+      f.att_cov[i] = att_cov[i];
+    }
+    f.has_covariance = true;
+    g_ekf.queue_fix(f);
+  }
+  if (g_step % 4u == 0u) g_ekf.predict(g_now_us, false, true);
+}
+
+// 400 Hz iterations from step k: magnetometer on 3 of 16, a fix every 12th (33 Hz).
+bool mag_at(uint32_t k) { return k % 16u < 3u; }
+bool fix_at(uint32_t k) { return k % 12u == 1u; }
+
+}  // namespace
+
+int main() {
+  kUart0[4] = 16u;  // BAUDDIV: the smallest legal divider
+  kUart0[2] = 1u;   // CTRL: transmitter on
+  start_counter();
+  calibrate("calibration_4000", 1000);
+  calibrate("calibration_40000", 10000);
+
+  quad::est::EkfParams p;
+  p.star_ned = kStar;
+  g_ekf.set_params(p, 0.1f, true, true);
+  g_ekf.reset(quad::Quat::identity(), Vec3{}, Vec3{}, g_now_us);
+  // Warm-up: two seconds of hover with fixes (the first sets the position).
+  for (uint32_t k = 0; k < 800; ++k) iteration(mag_at(g_step + 1), fix_at(g_step + 1));
+
+  // Each kind of iteration measured alone, over four simulated seconds; the predict's iterations sorted
+  // by whether a fix was fused in them.
+  uint32_t sum[3] = {0, 0, 0}, count[3] = {0, 0, 0}, worst_fix = 0;
+  for (uint32_t k = 0; k < 1600; ++k) {
+    const uint32_t step = g_step + 1;
+    const uint32_t fused_before = g_ekf.health().positions_fused;
+    const uint32_t start = kSystCvr;
+    iteration(mag_at(step), fix_at(step));
+    const uint32_t n = ticks_between(start, kSystCvr) * kInstructionsPerTick;
+    const bool predicted = step % 4u == 0u;
+    const bool fused = g_ekf.health().positions_fused != fused_before;
+    const int kind = !predicted ? 0 : fused ? 2 : 1;
+    sum[kind] += n;
+    ++count[kind];
+    if (kind == 2 && n > worst_fix) worst_fix = n;
+  }
+  const char* names[3] = {"ekf_iteration_imu", "ekf_iteration_predict", "ekf_iteration_predict_with_fix"};
+  for (int kind = 0; kind < 3; ++kind) {
+    put(names[kind]);
+    put(' ');
+    put_number(count[kind] == 0 ? 0 : (sum[kind] + count[kind] / 2u) / count[kind]);
+    put('\n');
+  }
+  put("ekf_iteration_predict_with_fix_max ");
+  put_number(worst_fix);
+  put('\n');
+  put("ekf_fixes_fused_in_measurement ");
+  put_number(count[2]);
+  put('\n');
+  put(g_ekf.position_initialized() && g_ekf.finite() ? "ekf_state_ok 1\n" : "ekf_state_ok 0\n");
+  put("done\n");
+  semihosting_exit();
+  for (;;) {
+  }
+}
