@@ -132,8 +132,6 @@ void FlightLogger::start(const FlightApp& app) {
   phase_ = kPhaseFormats;
   item_ = 0;
   imu_count_ = 0;
-  imu_waiting_ = false;
-  frame_waiting_ = false;
   max_us_ = 0;
   overruns_seen_ = app.loop_timer().overruns();
   dropped_seen_ = writer_.dropped();
@@ -221,24 +219,12 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     if (phase_ != kPhaseData) return;
   }
   if (writer_.dropped() != dropped_seen_) note_dropout(t);
-  // The records of a frame-rate work's or fix step's iteration of a faster loop without time for them
-  // wait for the next iteration, of the other kind (the IMU's as a copy of their data).
-  const uint32_t elapsed_us = app.iteration_elapsed_us();
-  const bool late = plan.multi_rate && (plan.frame_work || plan.fix_step) &&
-                    !app.background().fits(elapsed_us, BackgroundBudget::kRecordsUs);
-  // A full buffer makes room in the store only as far as the iteration has time beside the records that
-  // waited (else the record is dropped and counted): the records come after the flight stages.
-  const uint32_t waited_us = imu_waiting_ && !late ? BackgroundBudget::kRecordsUs : 0u;
-  writer_.set_room_flush_limit(app.background().log_bytes(elapsed_us + waited_us));
-  if (imu_waiting_ && !late) write_imu_topics(imu_);
-  imu_waiting_ = imu_waiting_ && late;
+  // A full buffer makes room in the store only as far as the iteration has time (else the record is
+  // dropped and counted): the records are composed after the iteration's flight stages.
+  writer_.set_room_flush_limit(app.background().log_bytes(app.iteration_elapsed_us()));
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
-    if (imu_waiting_) write_imu_topics(imu_);  // two late iterations in a row: the older goes now
-    imu_ = ImuRecordData{now, imu.gyro, imu.accel, dt, static_cast<uint8_t>(hovering ? 1 : 0),
-                         static_cast<uint8_t>(on_ground ? 1 : 0), app.attitude(), app.estimator().gyro_bias()};
-    imu_waiting_ = late;
-    if (!late) write_imu_topics(imu_);
+    write_imu_topics(app, now, imu, dt, hovering, on_ground);
   }
   if (mag != nullptr) {
     uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
@@ -246,11 +232,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
       UlogFields(p).u64(now).f32(&mag->field.x, 3);
     }
   }
-  frame_waiting_ = frame_waiting_ || plan.frame_work;
-  if (frame_waiting_ && !late) {
-    write_frame_topics(app, now);
-    frame_waiting_ = false;
-  }
+  if (plan.frame_work) write_frame_topics(app, now);
   // The slow records (at most one an iteration) wait for an iteration with time left for them.
   if (spare && (timing_due_ || estimator_due_ || queued_result_ != kNoResult)) {
     spare = app.background().fits(app.iteration_elapsed_us(), BackgroundBudget::kSlowRecordsUs);
@@ -283,14 +265,17 @@ void FlightLogger::note_dropout(uint32_t now_us) {
   in_dropout_ = false;
 }
 
-void FlightLogger::write_imu_topics(const ImuRecordData& r) {
+void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt,
+                                    bool hovering, bool on_ground) {
   uint8_t* p = writer_.begin_data(kLogSensorCombined, kSensorCombinedBytes);
   if (p != nullptr) {
-    UlogFields(p).u64(r.now).f32(&r.gyro.x, 3).f32(&r.accel.x, 3).f32(r.dt).u8(r.hovering).u8(r.on_ground);
+    UlogFields(p).u64(now).f32(&imu.gyro.x, 3).f32(&imu.accel.x, 3).f32(dt).u8(hovering ? 1 : 0).u8(on_ground ? 1 : 0);
   }
   p = writer_.begin_data(kLogVehicleAttitude, kAttitudeBytes);
   if (p != nullptr) {
-    UlogFields(p).u64(r.now).f32(&r.q.w, 4).f32(&r.gyro_bias.x, 3);
+    const Quat q = app.attitude();
+    const Vec3 bias = app.estimator().gyro_bias();
+    UlogFields(p).u64(now).f32(&q.w, 4).f32(&bias.x, 3);
   }
 }
 

@@ -14,10 +14,6 @@
 //   an iteration with no fix step and no frame-rate work of a faster loop: the definitions, and
 //                                    loop_timing (once a second, and after an overrun) or else
 //                                    estimator_status (at kEstimatorStatusHz)
-// A faster loop's frame-rate work or fix step iteration whose flight stages left no time for its records
-// (BackgroundBudget::kRecordsUs: a vision fix's step, a position loop run at a mode's entry) keeps a copy
-// of its IMU records' data, composed first in the next iteration, and leaves the frame-rate topics to the
-// next iteration (its values and stamp).
 // Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
 // STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
 // since the last one go to the store in one append at its end, as many bytes as the iteration has time
@@ -71,17 +67,6 @@ enum class LogFixResult : uint8_t {
 LogFixResult log_fix_result(est::FixResult r, bool reset);
 
 enum class LogMode : uint8_t { kOff = 0, kArmed = 1, kBoot = 2 };
-
-// The data of an iteration's sensor_combined and vehicle_attitude records.
-struct ImuRecordData {
-  uint64_t now = 0;
-  Vec3 gyro, accel;
-  float dt = 0.0f;
-  uint8_t hovering = 0;
-  uint8_t on_ground = 0;
-  Quat q;
-  Vec3 gyro_bias;
-};
 
 class FlightLogger {
  public:
@@ -137,7 +122,8 @@ class FlightLogger {
   void write_estimator_status(const FlightApp& app);
   // now: this iteration's stamp().
   void write_frame_topics(const FlightApp& app, uint64_t now);
-  void write_imu_topics(const ImuRecordData& r);
+  void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering,
+                        bool on_ground);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
   // Counts the wraps of the 32-bit clock (every iteration, logging or not).
@@ -168,9 +154,6 @@ class FlightLogger {
   Vec3 queued_fix_;            // the fix queued for the filter (kQueued), for its result's record
   uint32_t queued_capture_us_ = 0;
   uint8_t queued_result_ = kNoResult;  // the queued fix's result, waiting for an iteration with room
-  ImuRecordData imu_;          // the last IMU records' data
-  bool imu_waiting_ = false;   // imu_ not composed yet (its iteration had no time)
-  bool frame_waiting_ = false;  // the frame-rate topics wait for an iteration with time
   static constexpr uint8_t kNoResult = 0xFF;
 };
 

@@ -83,8 +83,6 @@ class BackgroundBudget {
   // The streams (a log download, a parameter list) wait while the flight log has more than this many
   // bytes waiting for its store: the flight's own log goes first.
   static constexpr uint16_t kStreamLogBacklog = 128;
-  // An iteration's IMU records (sensor_combined and vehicle_attitude, 4 300 cycles).
-  static constexpr uint16_t kRecordsUs = 300;
   static constexpr uint8_t kSlowRecordsUs = 200;  // loop_timing or estimator_status and a queued fix's result, composed
   static constexpr uint8_t kLogAppendUs = 80;    // a store append's command, and a page programmed
   static constexpr uint8_t kLogByteUs = 2;       // a byte to the store (27 cycles)

@@ -62,11 +62,11 @@ class UlogFields {
 
 class UlogWriter {
  public:
-  // The records of an iteration and a half: the flight log's largest (sensor_combined, vehicle_attitude,
-  // sensor_mag, vehicle_local_position, the setpoint and actuator_motors) take 239 bytes, and an
-  // iteration without time for the store leaves its records to the next (BackgroundBudget). No more
-  // fits the ATmega2560's 8 KiB beside the stack (docs/targets.md, "Memory").
-  static constexpr uint16_t kStagingBytes = 384;
+  // The records of nearly two control iterations: the flight log's largest (sensor_combined,
+  // vehicle_attitude, sensor_mag, vehicle_local_position, the setpoint and actuator_motors) take 239
+  // bytes, and an iteration without time for the store leaves its records to the next
+  // (BackgroundBudget). No more fits the ATmega2560's 8 KiB beside the stack (docs/targets.md, "Memory").
+  static constexpr uint16_t kStagingBytes = 448;
 
   // store: where the log goes; null, or a store without open(), means nowhere (every open() fails).
   void attach(const LogStore* store) { store_ = store; }
