@@ -6,10 +6,13 @@
 #   tools/vision_eval/evaluate.sh [--split heldout|tune] [--stars N] [--data DIR] [--bin DIR]
 #                                 [--runs "default thesis ..."] [--markdown OUT.md]
 #                                 [--check MIN_RATE,MAX_FALSE,MAX_MEDIAN] [--doc docs/vision_station.md]
+#                                 [--prepare]
 # Runs (station settings): default (deinterlace: field), robust_none, robust_blend, thesis (all by
 # default); robust_field is the default spelled out.
 # --check fails (exit 1) when the first run, over all conditions, finds fewer than MIN_RATE % of the
 # stars in full view, makes more than MAX_FALSE false fixes or has a median error above MAX_MEDIAN %.
+# --prepare renders the calibration and the sets when they are missing, and stops there (the speed
+# benchmark's input: sim/campaigns/vision_speed.yaml).
 # Defaults: held-out split, 520 stars in full view per condition (+ 1/3 as many pairs without), data in
 # build/host/vision_eval, binaries in build/host/bin. Sets and calibration are reused when present.
 set -eu
@@ -23,6 +26,7 @@ runs="default robust_none robust_blend thesis"
 markdown=""
 check=""
 doc=""
+prepare=""
 args="$*"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -34,6 +38,7 @@ while [ $# -gt 0 ]; do
     --markdown) markdown=$2; shift 2 ;;
     --check) check=$2; shift 2 ;;
     --doc) doc=$2; shift 2 ;;
+    --prepare) prepare=1; shift ;;
     *) echo "evaluate.sh: unknown option $1" >&2; exit 2 ;;
   esac
 done
@@ -50,6 +55,7 @@ if [ ! -f "$sets/.complete" ]; then
   "$bin/vision_eval_gen" sets --out "$sets" --split "$split" --stars "$stars"
   touch "$sets/.complete"
 fi
+[ -z "$prepare" ] || exit 0
 # Configurations: the default, each deinterlace choice, and the thesis pipeline as the baseline.
 cfg="$data/configs"
 mkdir -p "$cfg"

@@ -88,6 +88,11 @@ StarDetector::StarDetector(const DetectorSettings& settings, const PointRectifie
       shape_test_(settings.inner_ratio, settings.shape),
       kernel_(cv::getStructuringElement(cv::MORPH_RECT,
                                         cv::Size(settings.morphology_kernel_px, settings.morphology_kernel_px))) {
+  const StarShapeLimits& a = settings.shape;
+  const StarShapeLimits& b = settings.retry_shape;
+  loosest_shape_ = {std::max(a.max_elongation, b.max_elongation), std::max(a.max_profile_rms, b.max_profile_rms),
+                    std::min(a.min_fourfold, b.min_fourfold), std::max(a.max_other_harmonic, b.max_other_harmonic),
+                    std::min(a.min_solidity, b.min_solidity), std::max(a.max_solidity, b.max_solidity)};
   ideal_hu_log_ = hu_log(cv::moments(ideal_star_contour(settings.inner_ratio)));
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 
 #include <opencv2/imgproc.hpp>
 
@@ -15,6 +16,24 @@ using Clock = std::chrono::steady_clock;
 
 double microseconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::micro>(b - a).count();
+}
+
+// The half-resolution copy: the mean of each pixel pair of a row (rows_too false: a field view, whose
+// rows are already two frame lines apart) or of each 2 × 2 block, rounded. Plain loops that the compiler
+// vectorises; cv::resize takes a general path for the column-only case and costs several times more.
+void half_resolution(const cv::Mat& view, bool rows_too, cv::Mat& out) {
+  const int cols = std::max(1, view.cols / 2), rows = std::max(1, rows_too ? view.rows / 2 : view.rows);
+  out.create(rows, cols, CV_8UC1);
+  for (int r = 0; r < rows; ++r) {
+    uchar* o = out.ptr<uchar>(r);
+    const uchar* a = view.ptr<uchar>(rows_too ? 2 * r : r);
+    if (rows_too) {
+      const uchar* b = view.ptr<uchar>(std::min(2 * r + 1, view.rows - 1));
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + b[2 * x] + b[2 * x + 1] + 2) >> 2);
+    } else {
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + 1) >> 1);
+    }
+  }
 }
 
 }  // namespace
@@ -42,10 +61,7 @@ void StarDetector::robust_floor() {
   // The contrast level ρ comes from the image (Otsu on the image/floor ratio), clamped.
   const DetectorSettings& s = settings_;
   const cv::Point2f scale = coarse_scale();
-  // Halving only the columns (field views): INTER_LINEAR at exactly ×½ averages each pixel pair, like
-  // INTER_AREA, but takes OpenCV's vectorised path (INTER_AREA's fast path needs equal integer scales).
-  cv::resize(view_, coarse_, cv::Size(std::max(1, view_.cols / 2), std::max(1, static_cast<int>(view_.rows / scale.y))), 0,
-             0, scale.y > 1.0f ? cv::INTER_AREA : cv::INTER_LINEAR);
+  half_resolution(view_, scale.y > 1.0f, coarse_);
   if (s.robust_row_median) row_median();
   cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
   const int window = std::max(1, s.robust_window_px / 8) | 1;
@@ -64,9 +80,19 @@ void StarDetector::robust_floor() {
 }
 
 void StarDetector::robust_threshold(double ratio) {
-  // Star-coloured: darker than ratio × the local floor; then an opening against salt, snow and thin texture.
-  coarse_floor_.convertTo(coarse_threshold_, CV_8U, ratio);
-  cv::compare(coarse_, coarse_threshold_, scratch_, cv::CMP_LT);  // inverted: dark becomes 255
+  // Star-coloured: darker than ratio × the local floor, in 16-bit fixed point (ρ to 1/256; one pass the
+  // compiler vectorises; inverted: dark becomes 255); then an opening against salt, snow and thin texture.
+  const uint16_t q = static_cast<uint16_t>(std::clamp(std::lround(ratio * 256.0), 0L, 256L));
+  scratch_.create(coarse_.size(), CV_8UC1);
+  for (int r = 0; r < coarse_.rows; ++r) {
+    const uchar* image = coarse_.ptr<uchar>(r);
+    const uchar* floor = coarse_floor_.ptr<uchar>(r);
+    uchar* out = scratch_.ptr<uchar>(r);
+    for (int x = 0; x < coarse_.cols; ++x) {
+      const uint16_t lhs = static_cast<uint16_t>(image[x] << 8), rhs = static_cast<uint16_t>(floor[x] * q);
+      out[x] = lhs < rhs ? 255 : 0;
+    }
+  }
   cv::erode(scratch_, binary_, kernel_);
   cv::dilate(binary_, scratch_, kernel_);
   std::swap(binary_, scratch_);
@@ -187,7 +213,8 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
   // The shape test on the coarse outline; a near miss gets a second chance at full resolution, where a
   // small or blurred star keeps its thin tips and inner corners (the coarse copy and its opening round
   // them off). A second-chance candidate must pass the full test on its mid-level outline.
-  const StarShapeScore score = shape_test_.score(c.rectified);
+  // The hull is computed only for outlines within the looser of the two limit sets.
+  const StarShapeScore score = shape_test_.score(c.rectified, settings_.refine_midpoint ? loosest_shape_ : settings_.shape);
   const bool retry = !score.is_star && settings_.refine_midpoint &&
                      StarShapeTest::within(score, settings_.retry_shape);
   if (!score.is_star && !retry) {

@@ -187,6 +187,7 @@ class StarDetector {
   PointRectifier rectifier_;
   RectifyTable table_;
   StarShapeTest shape_test_;
+  StarShapeLimits loosest_shape_;  // each limit the looser of `shape` and `retry_shape`
   cv::Mat view_;                   // deinterlaced gray(roi)
   cv::Mat blend_;                  // storage of the blended view
   cv::Point2f view_origin_;        // frame pixel of view pixel (0, 0)

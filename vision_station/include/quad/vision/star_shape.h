@@ -34,6 +34,9 @@ class StarShapeTest {
  public:
   StarShapeTest(double inner_ratio, const StarShapeLimits& limits);
   StarShapeScore score(const std::vector<cv::Point2f>& outline) const;
+  // The same, but an outline whose profile already fails `gate` (looser limits) gets no convex hull:
+  // solidity 0 and not a star. The hull is the test's largest cost on a textured floor's many outlines.
+  StarShapeScore score(const std::vector<cv::Point2f>& outline, const StarShapeLimits& gate) const;
   // The measured score within other limits (score() applies the test's own).
   static bool within(const StarShapeScore& s, const StarShapeLimits& limits);
 
