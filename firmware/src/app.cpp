@@ -69,6 +69,7 @@ bool FlightApp::apply_params(const Params& p, const char** error) {
   link_.configure(p);
   loop_timer_.set_rate_hz(loop_hz);
   schedule_.configure(loop_hz);
+  background_.configure(loop_timer_.period_us(), schedule_.fuses_on_arrival());
   telemetry_.configure(p, loop_hz);
   logger_.configure(p, loop_hz);
   return true;
@@ -144,11 +145,18 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   if (plan.frame_work) control_.detect_landing(plan.frame_dt, estimator_.velocity().z);
 
   // The application's own output, spread: one telemetry stream, streamed parameter or log frame per
-  // iteration, none beside a vision fix's step (frame_schedule.h) or a position loop out of its turn.
+  // iteration, none beside a vision fix's step (frame_schedule.h) or a position loop out of its turn,
+  // and each only when it ends in time (BackgroundBudget); what waits goes in a later iteration.
   const bool room = !plan.fix_step && !position_loop_forced;
-  const bool sent = telemetry_.send_due(*this, link_, room);
+  telemetry_.count();
+  const bool sent =
+      room && telemetry_.due() && background_.fits(iteration_elapsed_us(), BackgroundBudget::kTelemetryUs);
+  if (sent) telemetry_.send_next(*this, link_);
   mark(hal::TracePoint::kTelemetryDone);
-  if (room && !sent && !link_.stream_params()) link_.stream_logs();
+  if (room && !sent && link_.streaming() && logger_.backlog() <= BackgroundBudget::kStreamLogBacklog &&
+      background_.fits(iteration_elapsed_us(), BackgroundBudget::kStreamUs) && !link_.stream_params()) {
+    link_.stream_logs();
+  }
   mark(hal::TracePoint::kStreamed);
   logger_.iteration(*this, plan, imu, mag, dt, hovering, on_ground);
   loop_timer_.end(micros_());

@@ -112,10 +112,18 @@ void FlightLogger::configure(const Params& p, float loop_hz) {
   estimator_rate_.configure(kEstimatorStatusHz, loop_hz);
 }
 
-uint64_t FlightLogger::stamp(uint32_t now_us) {
+void FlightLogger::count_clock(uint32_t now_us) {
   if (now_us < clock_last_) ++clock_high_;
   clock_last_ = now_us;
-  return (static_cast<uint64_t>(clock_high_) << 32) | now_us;
+}
+
+uint64_t FlightLogger::stamp(uint32_t now_us) {
+  count_clock(now_us);
+  // The two halves put together in memory: a 64-bit shift is a library loop on the AVR.
+  const uint32_t halves[2] = {now_us, clock_high_};
+  uint64_t t;
+  memcpy(&t, halves, sizeof t);
+  return t;
 }
 
 void FlightLogger::start(const FlightApp& app) {
@@ -126,16 +134,21 @@ void FlightLogger::start(const FlightApp& app) {
   imu_count_ = 0;
   max_us_ = 0;
   overruns_seen_ = app.loop_timer().overruns();
-  write_definitions(app);
+  dropped_seen_ = writer_.dropped();
+  // The definitions follow in the iterations (iteration()): an arming between iterations or in the mode
+  // machine leaves them to the background of the next ones.
 }
 
 void FlightLogger::write_definitions(const FlightApp& app) {
   // On the ground no iteration has a deadline to keep: a log opened at boot gets its definitions in its
   // first iteration, so that its data starts with the first IMU sample (the replay needs the boot
   // calibration's samples).
-  const uint16_t budget = app.armed() ? kHeaderBytesPerIteration : 0xFFFFu;
+  const bool armed = app.armed();
+  const uint16_t budget = armed ? kHeaderBytesPerIteration : 0xFFFFu;
+  const BackgroundBudget& background = app.background();
   uint16_t bytes = 0;
-  while (phase_ != kPhaseData && bytes < budget && writer_.flush()) {
+  while (phase_ != kPhaseData && bytes < budget &&
+         (!armed || background.fits(app.iteration_elapsed_us(), BackgroundBudget::kDefinitionUs)) && writer_.flush()) {
     if (!next_definition(app, &bytes)) {
       phase_ = kPhaseData;
       write_status(app);
@@ -190,20 +203,25 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     start(app);
   }
   const uint32_t t = app.now_us();
-  const uint64_t now = stamp(t);
+  count_clock(t);
   if (timing_rate_.tick()) timing_due_ = true;
   if (estimator_rate_.tick()) estimator_due_ = true;
   if (!writer_.is_open()) return;
+  const uint64_t now = stamp(t);
   const LoopTimer& loop = app.loop_timer();
   if (loop.last_exec_us() > max_us_) max_us_ = loop.last_exec_us();
   if (loop.overruns() != overruns_seen_) timing_due_ = true;
   // The definitions and the slow records go where the iteration has room: no fix step, and above 100 Hz
   // not the frame-rate work's iteration either.
-  const bool spare = !plan.fix_step && !(plan.multi_rate && plan.frame_work);
+  bool spare = !plan.fix_step && !(plan.multi_rate && plan.frame_work);
   if (phase_ != kPhaseData) {
     if (spare || !app.armed()) write_definitions(app);
     if (phase_ != kPhaseData) return;
   }
+  if (writer_.dropped() != dropped_seen_) note_dropout(t);
+  // A full buffer makes room in the store only as far as the iteration has time (else the record is
+  // dropped and counted): the records are composed after the iteration's flight stages.
+  writer_.set_room_flush_limit(app.background().log_bytes(app.iteration_elapsed_us()));
   if (++imu_count_ >= imu_div_) {
     imu_count_ = 0;
     write_imu_topics(app, now, imu, dt, hovering, on_ground);
@@ -215,7 +233,10 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     }
   }
   if (plan.frame_work) write_frame_topics(app, now);
-  // At most one of the slow records an iteration.
+  // The slow records (at most one an iteration) wait for an iteration with time left for them.
+  if (spare && (timing_due_ || estimator_due_ || queued_result_ != kNoResult)) {
+    spare = app.background().fits(app.iteration_elapsed_us(), BackgroundBudget::kSlowRecordsUs);
+  }
   if (spare && timing_due_) {
     write_loop_timing(app);
   } else if (spare && estimator_due_) {
@@ -225,8 +246,23 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     vision_fix(t, &queued_fix_, queued_capture_us_, nullptr, static_cast<LogFixResult>(queued_result_));
     queued_result_ = kNoResult;
   }
-  // The iteration's records, and those of the events since the last one, in one append.
-  writer_.flush();
+  // The iteration's records, and those of the events since the last one, in one append, as far as the
+  // iteration has time for them (the rest waits in the writer's buffer for the next iterations).
+  writer_.flush(app.background().log_bytes(app.iteration_elapsed_us()));
+  writer_.set_room_flush_limit(0xFFFFu);
+}
+
+void FlightLogger::note_dropout(uint32_t now_us) {
+  // Records were lost (the writer's buffer full): a dropout message ahead of the next records, as PX4's
+  // logger writes, its duration from the first iteration that saw the loss to this one.
+  if (!in_dropout_) {
+    in_dropout_ = true;
+    dropout_start_us_ = now_us;
+  }
+  const uint32_t ms = (now_us - dropout_start_us_) / 1000u;
+  if (!writer_.dropout(static_cast<uint16_t>(ms < 0xFFFFu ? (ms == 0 ? 1u : ms) : 0xFFFFu))) return;
+  dropped_seen_ = writer_.dropped();
+  in_dropout_ = false;
 }
 
 void FlightLogger::write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt,

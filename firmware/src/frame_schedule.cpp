@@ -20,6 +20,13 @@ void StageClock::tick() {
   }
 }
 
+uint16_t BackgroundBudget::log_bytes(uint32_t elapsed_us) const {
+  if (!kBudgeted) return 0xFFFFu;
+  if (elapsed_us + kLogAppendUs >= deadline_us_) return 0;
+  const uint32_t bytes = (deadline_us_ - elapsed_us - kLogAppendUs) / kLogByteUs;
+  return bytes < 0xFFFFu ? static_cast<uint16_t>(bytes) : 0xFFFFu;
+}
+
 IterationPlan FrameSchedule::next(float dt, bool fix_in_progress) {
   // The clock counts every iteration (calibration and disarmed ones too); the time each stage covers is
   // accumulated here and handed to the iteration that runs it.

@@ -41,7 +41,7 @@ uint8_t landed_state(bool armed, bool landed, FlightMode mode) {
 
 void Telemetry::configure(const Params& p, float loop_hz) {
   // One telemetry stream per iteration (scheduler.h: an iteration that sent all four took 45 000 more
-  // cycles on the AVR than one that sent none): the slots keep the default rates apart, send_due()
+  // cycles on the AVR than one that sent none): the slots keep the default rates apart, send_next()
   // spreads any others, so rates that add up to more than the loop rate share it.
   due_ = 0;
   heartbeat_rate_.configure(p.get(kTelHbHz), loop_hz, 1);
@@ -52,20 +52,22 @@ void Telemetry::configure(const Params& p, float loop_hz) {
   estimator_rate_.configure(p.get(kTelEstHz), loop_hz, 9);
 }
 
-bool Telemetry::send_due(const FlightApp& app, GroundLink& link, bool room) {
+void Telemetry::count() {
   if (heartbeat_rate_.tick()) due_ |= kHeartbeat;
   if (attitude_rate_.tick()) due_ |= kAttitude;
   if (position_rate_.tick()) due_ |= kPosition;
   if (status_rate_.tick()) due_ |= kStatus;
   if (extended_state_rate_.tick()) due_ |= kExtendedState;
   if (estimator_rate_.tick()) due_ |= kEstimatorStatus;
-  if (!room || due_ == 0) return false;
+}
+
+void Telemetry::send_next(const FlightApp& app, GroundLink& link) {
+  if (due_ == 0) return;
   // The lowest bit: a stream that waited is sent before one that came due later only in this order,
   // and at the default rates streams never fall due in the same iteration (their slots).
   const Stream stream = static_cast<Stream>(due_ & static_cast<uint8_t>(-due_));
   due_ = static_cast<uint8_t>(due_ & ~stream);
   send(stream, app, link);
-  return true;
 }
 
 void Telemetry::send(Stream stream, const FlightApp& app, GroundLink& link) {

@@ -76,36 +76,59 @@ void UlogWriter::close() {
   flash_left_ = 0;
 }
 
-bool UlogWriter::flush() {
+bool UlogWriter::flush(uint16_t max_bytes) {
   while (open_) {
     if (head_ == tail_) {
       head_ = tail_ = 0;
       if (flash_left_ == 0) return true;
-      const uint8_t n = flash_left_ < kStagingBytes ? static_cast<uint8_t>(flash_left_) : kStagingBytes;
+      const uint16_t n = flash_left_ < kStagingBytes ? flash_left_ : kStagingBytes;
       flash_copy(buffer_, flash_rest_, n);
       flash_rest_ += n;
       flash_left_ = static_cast<uint16_t>(flash_left_ - n);
       tail_ = n;
     }
-    const uint8_t want = static_cast<uint8_t>(tail_ - head_);
+    if (max_bytes == 0) return false;
+    const uint16_t pending = static_cast<uint16_t>(tail_ - head_);
+    const uint16_t want = pending < max_bytes ? pending : max_bytes;
     const uint16_t took = store_->append(store_->context, buffer_ + head_, want);
-    head_ = static_cast<uint8_t>(head_ + (took < want ? took : want));
+    const uint16_t taken = took < want ? took : want;
+    head_ = static_cast<uint16_t>(head_ + taken);
+    max_bytes = static_cast<uint16_t>(max_bytes - taken);
     if (took < want) return false;
   }
   return true;
 }
 
+void UlogWriter::compact() {
+  memmove(buffer_, buffer_ + head_, tail_ - head_);
+  tail_ = static_cast<uint16_t>(tail_ - head_);
+  head_ = 0;
+}
+
+bool UlogWriter::dropout(uint16_t duration_ms) {
+  uint8_t* p = reserve(ulog::kDropout, sizeof duration_ms, sizeof duration_ms);
+  if (p == nullptr) return false;
+  memcpy(p, &duration_ms, sizeof duration_ms);
+  return true;
+}
+
 uint8_t* UlogWriter::reserve(uint8_t type, uint16_t payload, uint8_t in_buffer) {
   if (!open_) return nullptr;
-  const uint8_t need = static_cast<uint8_t>(ulog::kMessageHeaderBytes + in_buffer);
-  // The queued records go to the store when the next one needs their room, else with the next flush():
-  // one append for several records (about 600 cycles a call on the ATmega2560's DataFlash).
-  if (flash_left_ != 0 || kStagingBytes - tail_ < need) flush();
-  if (flash_left_ == 0 && kStagingBytes - tail_ < need && head_ > 0) {
-    // Move the pending bytes to the front to make room behind them.
-    memmove(buffer_, buffer_ + head_, tail_ - head_);
-    tail_ = static_cast<uint8_t>(tail_ - head_);
-    head_ = 0;
+  const uint16_t need = static_cast<uint16_t>(ulog::kMessageHeaderBytes + in_buffer);
+  // The queued records wait for the next flush() (one append for several records, about 600 cycles a
+  // call on the ATmega2560's DataFlash, in an iteration with time for it), or go when the next one needs
+  // their room. A format's text goes first.
+  if (flash_left_ != 0) flush();
+  if (flash_left_ == 0 && kStagingBytes - tail_ < need) {
+    if (kStagingBytes - pending() < need) {
+      // Full: the store takes what the iteration has time for, once (the limit counts down), and the
+      // pending bytes move to the front once.
+      const uint16_t before = pending();
+      flush(room_flush_limit_);
+      const uint16_t sent = static_cast<uint16_t>(before - pending());
+      if (room_flush_limit_ != 0xFFFFu) room_flush_limit_ = static_cast<uint16_t>(room_flush_limit_ - sent);
+    }
+    if (head_ > 0) compact();
   }
   if (flash_left_ != 0 || kStagingBytes - tail_ < need) {
     ++dropped_;
@@ -115,7 +138,7 @@ uint8_t* UlogWriter::reserve(uint8_t type, uint16_t payload, uint8_t in_buffer) 
   p[0] = static_cast<uint8_t>(payload & 0xFFu);
   p[1] = static_cast<uint8_t>(payload >> 8);
   p[2] = type;
-  tail_ = static_cast<uint8_t>(tail_ + need);
+  tail_ = static_cast<uint16_t>(tail_ + need);
   return p + ulog::kMessageHeaderBytes;
 }
 
@@ -144,7 +167,6 @@ bool UlogWriter::add_logged(uint16_t msg_id, FlashText format) {
   p[1] = static_cast<uint8_t>(msg_id & 0xFFu);
   p[2] = static_cast<uint8_t>(msg_id >> 8);
   memcpy(p + 3, name, n);
-  flush();
   return true;
 }
 
@@ -163,7 +185,6 @@ bool UlogWriter::info(FlashText name, FlashText value) {
   p[0] = n;
   memcpy(p + 1, key, n);
   flash_copy(p + 1 + n, value.p, value_length);
-  flush();
   return true;
 }
 
@@ -174,7 +195,6 @@ bool UlogWriter::key_value(uint8_t type, const uint8_t* key, uint8_t key_length,
   p[0] = key_length;
   memcpy(p + 1, key, key_length);
   memcpy(p + 1 + key_length, value, size);
-  flush();
   return true;
 }
 
@@ -197,7 +217,6 @@ bool UlogWriter::logged_string(uint8_t level, uint64_t timestamp_us, const char*
   uint8_t* p = reserve(ulog::kLogging, payload, payload);
   if (p == nullptr) return false;
   UlogFields(p).u8(level).u64(timestamp_us).bytes(text, length);
-  flush();
   return true;
 }
 

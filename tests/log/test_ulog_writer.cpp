@@ -120,8 +120,9 @@ void busy_store_run(uint16_t max_take, unsigned busy_every, unsigned busy_run, c
   EXPECT_EQ(r.out.find("\"monotonic\": false"), std::string::npos);
 }
 
-// Busy for 12 calls in 20: the records of 12 calls (348 bytes) overflow the staging buffer.
-TEST(UlogWriter, BusyStoreGetsWholeRecordsOrNone) { busy_store_run(0xFFFF, 20, 12, "busy"); }
+// Busy for 24 calls in 40: the records of 24 calls (600 bytes) overflow the staging buffer.
+static_assert(24 * (quad::fw::ulog::kDataHeaderBytes + kCounterBytes) > UlogWriter::kStagingBytes, "the busy run must overflow");
+TEST(UlogWriter, BusyStoreGetsWholeRecordsOrNone) { busy_store_run(0xFFFF, 40, 24, "busy"); }
 TEST(UlogWriter, StoreTakingAFewBytesAtATimeGetsWholeRecordsOrNone) { busy_store_run(7, 0, 0, "trickle"); }
 
 TEST(UlogWriter, WithoutAStoreNothingOpens) {

@@ -6,7 +6,7 @@
 RUN is the flight's run folder (quad_sim --out), IMAGE the emulated DataFlash avr_pil wrote at exit
 (--dataflash). The log is taken out of the image by tools/avr_pil/dataflash_logs.py (the layout of
 docs/logging.md, not the firmware's driver) and read by @foxglove/ulog (tools/node/ulog_check.js): every
-topic present in time order, the IMU records as many as the flown iterations, loop_timing counting no
+topic present in time order, no dropout message, the IMU records as many as the flown iterations, loop_timing counting no
 overrun in flight when avr_pil timed none. The bytes the scenario's log_download brought over the emulated
 radio (RUN/log_download.ulg, summary.json log_download) must be the image's log byte for byte.
 The emulated chip must have refused no command (a read of main memory while a page programs).
@@ -63,6 +63,8 @@ def main(node, run, image):
             t = topics.get(topic)
             check(t is not None and t["count"] > 0 and t["monotonic"],
                   f"{topic}: {t['count'] if t else 0} records, timestamps in order")
+        # The firmware writes a dropout message after records it had to drop (its writer's buffer full).
+        check(info.get("dropouts", 0) == 0, f"no dropout message in the log ({info.get('dropouts', 0)})")
         with open(os.path.join(run, "firmware.log")) as f:
             firmware_log = f.read()
         flown = re.search(r"cycles of whole iteration flown: (\d+) samples", firmware_log)

@@ -28,7 +28,9 @@
 // of FlightApp::step (estimator, mode machine, control, landing and telemetry, parameter and log stream,
 // the flight log, a fix step inside an iteration, a fix fused on arrival), and each period's work (the
 // iteration and the fixes fused on arrival before the next one). Against the period (SYS_LOOP_HZ from --params, else its
-// default, at 16 MHz) it counts the overruns of the whole iteration and of the period's work.
+// default, at 16 MHz) it counts the overruns of the whole iteration and of the period's work. It prints
+// the five longest flown iterations stage by stage, and with --iterations-csv FILE writes every flown
+// iteration's stages to FILE.
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -167,13 +169,23 @@ struct PhaseProfile {
   bool in_step = false, in_fix = false, period_open = false, period_flown = false;
   Samples control_flown, control_idle, step, step_flown, fix, work, work_flown;
   Samples stages[kStageCount];
+  // Each flown iteration's stages, for the breakdown of the longest ones.
+  struct Breakdown {
+    Sample whole;
+    uint32_t stage[kStageCount];
+  };
+  Breakdown current{};
+  std::vector<Breakdown> flown_breakdowns;
   bool flown = false;  // the current iteration computed motor commands
   uint32_t iterations = 0;
   Sample sample(const avr_t* avr, uint64_t since) const {
     return {static_cast<uint32_t>(avr->cycle - since), iterations == 0 ? 0 : iterations - 1};
   }
   void stage(const avr_t* avr, Stage s) {
-    if (in_step) stages[s].push_back(sample(avr, last_mark));
+    if (in_step) {
+      stages[s].push_back(sample(avr, last_mark));
+      current.stage[s] += stages[s].back().cycles;
+    }
     last_mark = avr->cycle;
   }
   // The work of one period: the iteration and the vision fixes fused on arrival before the next one (in
@@ -196,6 +208,7 @@ struct PhaseProfile {
         p->step_begin = p->last_mark = now;
         p->in_step = true;
         p->flown = false;
+        p->current = Breakdown{};
         ++p->iterations;
         break;
       case Point::kEstimated: p->stage(avr, kEstimator); break;
@@ -215,7 +228,11 @@ struct PhaseProfile {
         if (p->in_step) {
           p->stage(avr, kFlightLog);
           p->step.push_back(p->sample(avr, p->step_begin));
-          if (p->flown) p->step_flown.push_back(p->step.back());
+          if (p->flown) {
+            p->step_flown.push_back(p->step.back());
+            p->current.whole = p->step.back();
+            p->flown_breakdowns.push_back(p->current);
+          }
           p->period_flown = p->flown;
           p->period_work = p->step.back();
           p->period_open = true;
@@ -227,6 +244,7 @@ struct PhaseProfile {
         if (p->in_fix) {
           p->fix.push_back(p->sample(avr, p->fix_begin));
           p->stages[p->in_step ? kFixInIteration : kFixOnArrival].push_back(p->fix.back());
+          if (p->in_step) p->current.stage[kFixInIteration] += p->fix.back().cycles;
           if (!p->in_step && p->period_open) p->period_work.cycles += p->fix.back().cycles;
           // The fix's cycles are its own stage, not the next one's.
           if (p->in_step) p->last_mark = now;
@@ -244,6 +262,34 @@ struct PhaseProfile {
                  v.size(), v[v.size() / 2].cycles, v[std::min(v.size() - 1, v.size() * 99 / 100)].cycles,
                  v.back().cycles, v.back().iteration);
   }
+  // Every flown iteration, stage by stage, as CSV (--iterations-csv).
+  void write_csv(const std::string& path) const {
+    FILE* f = std::fopen(path.c_str(), "w");
+    if (f == nullptr) {
+      std::fprintf(stderr, "avr_pil: cannot write %s\n", path.c_str());
+      return;
+    }
+    std::fprintf(f, "iteration,whole,estimator,modes,control,telemetry,stream,flight_log,fix_step\n");
+    for (const Breakdown& b : flown_breakdowns) {
+      std::fprintf(f, "%u,%u", b.whole.iteration, b.whole.cycles);
+      for (int s = 0; s < kFixOnArrival; ++s) std::fprintf(f, ",%u", b.stage[s]);
+      std::fprintf(f, "\n");
+    }
+    std::fclose(f);
+  }
+  // The n longest flown iterations, stage by stage.
+  void longest_flown(size_t n) const {
+    std::vector<Breakdown> v = flown_breakdowns;
+    n = std::min(n, v.size());
+    std::partial_sort(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n), v.end(),
+                      [](const Breakdown& a, const Breakdown& b) { return a.whole.cycles > b.whole.cycles; });
+    for (size_t i = 0; i < n; ++i) {
+      std::fprintf(stderr, "avr_pil: longest flown iteration %zu: %u cycles (iteration %u):", i + 1, v[i].whole.cycles,
+                   v[i].whole.iteration);
+      for (int s = 0; s < kFixOnArrival; ++s) std::fprintf(stderr, " %s %u;", kStageNames[s] + 6, v[i].stage[s]);
+      std::fprintf(stderr, "\n");
+    }
+  }
   void overruns(const char* what, const Samples& v) const {
     if (v.empty()) return;
     const size_t over = static_cast<size_t>(std::count_if(v.begin(), v.end(), [&](const Sample& s) { return s.cycles > period_cycles; }));
@@ -259,6 +305,7 @@ struct PhaseProfile {
     report("iteration and fixes after it", work);
     report("iteration and fixes after it flown", work_flown);
     for (int s = 0; s < kStageCount; ++s) report(kStageNames[s], stages[s]);
+    longest_flown(5);
     overruns("whole iteration", step);
     overruns("whole iteration flown", step_flown);
     overruns("iteration and fixes after it", work);
@@ -329,7 +376,7 @@ bool pump(UartBridge& u) {
 int usage() {
   std::fprintf(stderr,
                "usage: avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]\n"
-               "               [--params FILE] [--dataflash FILE] [--realtime] [--max-seconds S]\n");
+               "               [--params FILE] [--dataflash FILE] [--iterations-csv FILE] [--realtime] [--max-seconds S]\n");
   return 2;
 }
 
@@ -348,7 +395,7 @@ bool preload_eeprom(avr_t* avr, std::vector<uint8_t>& blob) {  // non-const: sim
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string elf, uart0, uart2, params, dataflash;
+  std::string elf, uart0, uart2, params, dataflash, iterations_csv;
   bool realtime = false;
   double max_seconds = 0.0;
   for (int i = 1; i < argc; ++i) {
@@ -366,6 +413,7 @@ int main(int argc, char** argv) {
     else if (a == "--uart0-baud" || a == "--uart2-baud") value(a.c_str());
     else if (a == "--params") params = value("--params");
     else if (a == "--dataflash") dataflash = value("--dataflash");
+    else if (a == "--iterations-csv") iterations_csv = value("--iterations-csv");
     else if (a == "--realtime") realtime = true;
     else if (a == "--max-seconds") max_seconds = std::atof(value("--max-seconds"));
     else {
@@ -483,6 +531,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   profile.report();
+  if (!iterations_csv.empty()) profile.write_csv(iterations_csv);
   avr_terminate(avr);
   return 0;
 }

@@ -114,6 +114,13 @@ class FlightApp {
   uint32_t fixes_rejected() const { return fixes_rejected_; }
   const LoopTimer& loop_timer() const { return loop_timer_; }
   LoopTimer& loop_timer() { return loop_timer_; }
+  // The iteration's time so far, on the firmware's own clock, and what its background work may take.
+  // Read only where the background has a deadline (BackgroundBudget::kBudgeted): elsewhere 0, and the
+  // clock is read twice an iteration as the loop timer reads it.
+  uint32_t iteration_elapsed_us() const {
+    return BackgroundBudget::kBudgeted ? loop_timer_.elapsed_us(micros_()) : 0u;
+  }
+  const BackgroundBudget& background() const { return background_; }
   const StateEstimator& estimator() const { return estimator_; }
   const FlightControl& control() const { return control_; }
   const FlightLogger& logger() const { return logger_; }
@@ -185,6 +192,7 @@ class FlightApp {
   StoreStatus store_status_ = StoreStatus::kEmpty;
   LoopTimer loop_timer_;
   FrameSchedule schedule_;
+  BackgroundBudget background_;
   StateEstimator estimator_;
   FlightControl control_;
   GroundLink link_;

@@ -4,8 +4,8 @@
 // LOG_MODE 1 opens a log when the vehicle arms and closes it when it disarms; 2 opens one at the first
 // iteration after boot and keeps it to the end; 0 logs nothing. The definitions (formats, information,
 // every parameter, the subscriptions) are written over the first iterations of a log, at most
-// kHeaderBytesPerIteration each while armed, so that no flight iteration carries all of them (on the
-// ground, all at once); the data starts when they are complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
+// kHeaderBytesPerIteration each and in the time the iteration has left while armed (BackgroundBudget),
+// so that no flight iteration carries all of them (on the ground, all at once); the data starts when they are complete, with a vehicle_status record. Lines (STATUSTEXT) sent before that are not in the log.
 //
 // What an iteration writes, and where (frame_schedule.h):
 //   every LOG_IMU_DIV-th iteration   sensor_combined, vehicle_attitude
@@ -16,7 +16,8 @@
 //                                    estimator_status (at kEstimatorStatusHz)
 // Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
 // STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
-// since the last one go to the store in one append at its end.
+// since the last one go to the store in one append at its end, as many bytes as the iteration has time
+// for (BackgroundBudget); the rest waits in the writer's buffer for the next iterations.
 #pragma once
 
 #include <stdint.h>
@@ -71,14 +72,9 @@ class FlightLogger {
  public:
   // estimator_status records a second (the health report's ESTIMATOR_STATUS fields).
   static constexpr float kEstimatorStatusHz = 5.0f;
-  // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes).
-  // The ATmega2560 at 200 Hz has the room of about 128 bytes of definitions beside a flown iteration's
-  // records (docs/logging.md, "Cost on the ATmega2560"); the other targets take 512.
-#if defined(__AVR__)
-  static constexpr uint16_t kHeaderBytesPerIteration = 128;
-#else
+  // Definition bytes queued per armed iteration at most (a format's text goes whole, up to 190 bytes),
+  // and on the ATmega2560 only while the iteration has time for another (BackgroundBudget).
   static constexpr uint16_t kHeaderBytesPerIteration = 512;
-#endif
 
   // store: the target's log storage, or null (nothing is logged).
   void init(const LogStore* store) { writer_.attach(store); }
@@ -109,6 +105,8 @@ class FlightLogger {
   bool header_done() const { return writer_.is_open() && phase_ == kPhaseData; }
   uint16_t logs_opened() const { return logs_opened_; }
   uint32_t dropped() const { return writer_.dropped(); }
+  // Bytes waiting for the store.
+  uint16_t backlog() const { return writer_.pending(); }
   LogMode mode() const { return mode_; }
 
  private:
@@ -128,6 +126,10 @@ class FlightLogger {
                         bool on_ground);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
   uint64_t stamp(uint32_t now_us);
+  // Counts the wraps of the 32-bit clock (every iteration, logging or not).
+  void count_clock(uint32_t now_us);
+  // Records were dropped since the last dropout message: writes one when there is room.
+  void note_dropout(uint32_t now_us);
 
   UlogWriter writer_;
   LogMode mode_ = LogMode::kArmed;
@@ -142,6 +144,9 @@ class FlightLogger {
   RateDivider timing_rate_;
   RateDivider estimator_rate_;
   uint32_t overruns_seen_ = 0;
+  uint32_t dropped_seen_ = 0;     // writer_.dropped() at the last dropout message
+  uint32_t dropout_start_us_ = 0;  // the first iteration that saw the records lost
+  bool in_dropout_ = false;
   uint32_t max_us_ = 0;        // the longest iteration of this log
   uint32_t clock_high_ = 0;    // stamp(): the wraps of the 32-bit clock
   uint32_t clock_last_ = 0;

@@ -62,6 +62,50 @@ struct IterationPlan {
   float frame_dt = 0.0f;       // s since the frame-rate work last ran (with frame_work)
 };
 
+// The application's background work: telemetry, the parameter and log streams, the flight log's
+// definitions and its writes to the log store. It goes in what the flight stages leave of the period:
+// each piece starts only when its worst case ends before the deadline (the period less a margin for the
+// flight log's records, the iteration's end and the interrupts after it, and at the thesis' rate less a
+// vision fix fused on arrival after the iteration), and what does not fit waits
+// for a later iteration. The flight stages never wait. The costs are the ATmega2560's (docs/performance.md,
+// "Background work"); the other targets run an iteration in a few percent of its period and give the
+// background no deadline, so that a host preempted by its operating system sends and logs as usual.
+class BackgroundBudget {
+ public:
+#if defined(__AVR__)
+  static constexpr bool kBudgeted = true;
+#else
+  static constexpr bool kBudgeted = false;
+#endif
+  static constexpr uint16_t kTelemetryUs = 950;  // one stream's frame to both ports (14 800 cycles)
+  static constexpr uint16_t kStreamUs = 720;     // a LOG_DATA (10 970 cycles) or a PARAM_VALUE
+  static constexpr uint16_t kDefinitionUs = 250;  // one of the flight log's definitions (most 1 500 cycles)
+  // The streams (a log download, a parameter list) wait while the flight log has more than this many
+  // bytes waiting for its store: the flight's own log goes first.
+  static constexpr uint16_t kStreamLogBacklog = 128;
+  static constexpr uint8_t kSlowRecordsUs = 200;  // loop_timing or estimator_status and a queued fix's result, composed
+  static constexpr uint8_t kLogAppendUs = 80;    // a store append's command, and a page programmed
+  static constexpr uint8_t kLogByteUs = 2;       // a byte to the store (27 cycles)
+  static constexpr uint8_t kMarginEighths = 1;   // the margin, in eighths of the period
+  // A vision fix fused on arrival (at the thesis' rate) shares the period with the iteration before it.
+  static constexpr uint16_t kFixOnArrivalUs = 2100;  // 33 000 cycles
+
+  // period_us: the loop's period; fuses_on_arrival: FrameSchedule::fuses_on_arrival().
+  void configure(uint32_t period_us, bool fuses_on_arrival) {
+    deadline_us_ = period_us - period_us / 8u * kMarginEighths;
+    if (fuses_on_arrival && deadline_us_ > kFixOnArrivalUs) deadline_us_ -= kFixOnArrivalUs;
+  }
+  // Whether work of cost_us started elapsed_us into the iteration ends before the deadline.
+  bool fits(uint32_t elapsed_us, uint32_t cost_us) const {
+    return !kBudgeted || elapsed_us + cost_us <= deadline_us_;
+  }
+  // How many bytes the log store may take from elapsed_us on (0xFFFF: no limit).
+  uint16_t log_bytes(uint32_t elapsed_us) const;
+
+ private:
+  uint32_t deadline_us_ = 0;
+};
+
 class FrameSchedule {
  public:
   // The stages at kRateHz out of a loop at loop_hz.

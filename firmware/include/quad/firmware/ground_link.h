@@ -82,6 +82,8 @@ class GroundLink {
   // The next LOG_ENTRY of a LOG_REQUEST_LIST, else the next LOG_DATA of a LOG_REQUEST_DATA when its port
   // has room for it (ground_link_logs.cpp). Returns whether it sent one.
   bool stream_logs();
+  // Whether a parameter list, a log list or a log download is being answered.
+  bool streaming() const { return param_stream_next_ >= 0 || list_next_ != 0 || data_id_ != 0; }
   // A storage write blocks the AVR's loop for milliseconds: the signing clock is saved on the ground,
   // at most every few seconds, and at once with force.
   void persist_signing_clock(uint32_t now_us, bool force) { radio_.persist_clock(io_.storage, now_us, force); }

@@ -23,6 +23,8 @@ class LoopTimer {
   // Brackets one iteration (start/end on the same clock) to measure its execution time.
   void begin(uint32_t now_us) { begin_us_ = now_us; }
   void end(uint32_t now_us);
+  // The time since begin().
+  uint32_t elapsed_us(uint32_t now_us) const { return now_us - begin_us_; }
 
   // Ticks of the grid that passed without an iteration, plus iterations that took longer than a
   // period.

@@ -23,10 +23,14 @@ class Telemetry {
     gyro_clipped_ = gyro_clipped_ || gyro;
     accel_clipped_ = accel_clipped_ || accel;
   }
-  // Once per iteration: counts the streams' rates and sends at most one stream that is due (the first in
-  // the order heartbeat, attitude, position, status, extended state, estimator status; the others wait for the next iterations), none when
-  // the iteration has no room (`room` false: a vision fix's step took it). Returns whether it sent one.
-  bool send_due(const FlightApp& app, GroundLink& link, bool room);
+  // Once per iteration: counts the streams' rates.
+  void count();
+  // Whether a stream is due and not sent yet.
+  bool due() const { return due_ != 0; }
+  // Sends one stream that is due (the first in the order heartbeat, attitude, position, status, extended
+  // state, estimator status; the others wait for the next iterations). An iteration without room for it
+  // (a vision fix's step, or no time left: FlightApp::step) sends none.
+  void send_next(const FlightApp& app, GroundLink& link);
 
  private:
   enum Stream : uint8_t {

@@ -4,9 +4,11 @@
 //
 // It owns one staging buffer and no other storage. A record is composed in the buffer and waits there
 // until flush() (commit() flushes at once), or until a record behind it needs its room: the records of
-// a control iteration go to the store in one append. What the store does not take at once (busy) stays
-// in the buffer and goes first on the next call, so the stream never loses part of a record. A record
-// that finds no room behind the pending bytes is dropped whole and counted (dropped()). A format record
+// a control iteration go to the store in one append, and flush(max_bytes) hands the store no more than
+// an iteration has time for, the rest waiting in the buffer for a later iteration. What the store does not take at once (busy) stays in the buffer
+// and goes first on the next call, so the stream never loses part of a record. A record that finds no
+// room behind the pending bytes is dropped whole and counted (dropped()), and the next record that fits
+// is preceded by a dropout message (ULog 'O', dropout()) that says how long the gap was. A format record
 // is longer than a data record: its text stays in flash and is copied in behind the buffer as the store
 // drains it, and no other record is queued until it has all gone.
 //
@@ -31,6 +33,7 @@ constexpr uint8_t kParameter = 'P';
 constexpr uint8_t kAddLogged = 'A';
 constexpr uint8_t kData = 'D';
 constexpr uint8_t kLogging = 'L';
+constexpr uint8_t kDropout = 'O';
 
 constexpr uint8_t kFileHeaderBytes = 16;   // "ULog" 01 12 35, version, uint64 timestamp
 constexpr uint8_t kMessageHeaderBytes = 3;  // uint16 msg_size (payload), uint8 msg_type
@@ -59,9 +62,11 @@ class UlogFields {
 
 class UlogWriter {
  public:
-  // The records of one control iteration: the flight log's largest (sensor_combined, vehicle_attitude,
-  // sensor_mag, vehicle_local_position, the setpoint and actuator_motors) take 239 bytes.
-  static constexpr uint8_t kStagingBytes = 255;
+  // The records of nearly two control iterations: the flight log's largest (sensor_combined,
+  // vehicle_attitude, sensor_mag, vehicle_local_position, the setpoint and actuator_motors) take 239
+  // bytes, and an iteration without time for the store leaves its records to the next
+  // (BackgroundBudget). No more fits the ATmega2560's 8 KiB beside the stack (docs/targets.md, "Memory").
+  static constexpr uint16_t kStagingBytes = 448;
 
   // store: where the log goes; null, or a store without open(), means nowhere (every open() fails).
   void attach(const LogStore* store) { store_ = store; }
@@ -88,9 +93,15 @@ class UlogWriter {
   uint8_t* begin_data(uint16_t msg_id, uint8_t size);
   void commit() { flush(); }  // the queued records to the store now
 
-  // Hands pending bytes to the store; true when nothing is left.
-  bool flush();
+  // Hands pending bytes to the store, at most max_bytes of them; true when nothing is left.
+  bool flush(uint16_t max_bytes = 0xFFFFu);
+  // A dropout message (duration_ms: how long records were lost), queued like a record.
+  bool dropout(uint16_t duration_ms);
+  // How many bytes a record that finds the buffer full may hand to the store to make its room (a control
+  // iteration without time left: few or none, and the record is dropped); 0xFFFF by default.
+  void set_room_flush_limit(uint16_t max_bytes) { room_flush_limit_ = max_bytes; }
   bool idle() const { return head_ == tail_ && flash_left_ == 0; }
+  uint16_t pending() const { return static_cast<uint16_t>(tail_ - head_ + flash_left_); }
   uint32_t dropped() const { return dropped_; }
 
  private:
@@ -99,16 +110,19 @@ class UlogWriter {
   // Room for a record of `in_buffer` bytes after the message header; the header is written with
   // msg_size = payload. Null (and a drop counted) when there is none.
   uint8_t* reserve(uint8_t type, uint16_t payload, uint8_t in_buffer);
+  // Moves the pending bytes to the front of the buffer.
+  void compact();
 
   static constexpr uint8_t kCloseAttempts = 64;  // flush() calls close() makes at most
 
   const LogStore* store_ = nullptr;
   uint8_t buffer_[kStagingBytes];
-  uint8_t head_ = 0;  // the first byte the store has not taken
-  uint8_t tail_ = 0;  // the end of the queued bytes
+  uint16_t head_ = 0;  // the first byte the store has not taken
+  uint16_t tail_ = 0;  // the end of the queued bytes
   const char* flash_rest_ = nullptr;  // what remains of a format's text in flash, after the buffer
   uint16_t flash_left_ = 0;
   uint32_t dropped_ = 0;
+  uint16_t room_flush_limit_ = 0xFFFFu;
   bool open_ = false;
 };
 
