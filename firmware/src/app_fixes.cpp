@@ -1,0 +1,66 @@
+// The station's fixes as they arrive from the ground link: LANDING_TARGET (the star in the camera rig's
+// body frame, turned into the IMU's by the calibrated camera mount) for either estimator, its
+// covariances for the EKF, and a position already in NED (VISION_POSITION_ESTIMATE).
+#include "quad/firmware/app.h"
+
+namespace quad {
+namespace fw {
+namespace mav = ::quad::mavlink;
+
+void FlightApp::star_fix(const mav::LandingTarget& received) {
+  ++fixes_received_;
+  const uint32_t capture_us = static_cast<uint32_t>(received.time_usec);
+  if (received.frame != mav::kFrameBodyFrd || received.position_valid != 1) {
+    ++fixes_invalid_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, received.q, LogFixResult::kInvalid);
+    return;
+  }
+  // Into the IMU's body frame through the calibrated camera mount (EST_CAM_*), for both estimators.
+  mav::LandingTarget msg = received;
+  Vec3 star_body{msg.x, msg.y, msg.z};
+  estimator_.camera_mount().apply(&star_body, msg.q);
+  msg.x = star_body.x;
+  msg.y = star_body.y;
+  msg.z = star_body.z;
+  if (estimator_.ekf_selected()) {
+    star_fix_ekf(msg, capture_us);
+    return;
+  }
+  Vec3 p_ned;
+  if (!estimator_.position_from_star(star_body, capture_us, &p_ned)) {
+    ++fixes_rejected_;
+    logger_.vision_fix(now_us_, nullptr, capture_us, msg.q, LogFixResult::kRejectedOld);
+    return;
+  }
+  position_fix_at(p_ned, capture_us, msg.q);
+}
+
+void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us) {
+  // The EKF takes the star in the body frame (and its attitude, q = 1 0 0 0 when none was fitted) and
+  // fuses it at its capture time; the station's covariances follow in LANDING_TARGET_COVARIANCE.
+  est::StarFix fix;
+  fix.capture_us = capture_us;
+  fix.star_body = Vec3{msg.x, msg.y, msg.z};
+  fix.q_bs = Quat{msg.q[0], msg.q[1], msg.q[2], msg.q[3]};
+  fix.has_attitude = !(msg.q[0] == 1.0f && msg.q[1] == 0.0f && msg.q[2] == 0.0f && msg.q[3] == 0.0f);
+  const est::FixResult r = estimator_.queue_star(fix);
+  fix_result(r, false);
+  // The log records the fix as the thesis pair would have taken it (NED through the attitude at the
+  // capture time; none when no attitude is recorded there) and what the EKF did with it.
+  Vec3 p_ned;
+  const bool converted = estimator_.position_from_star(fix.star_body, capture_us, &p_ned);
+  logger_.vision_fix(now_us_, converted ? &p_ned : nullptr, capture_us, msg.q, log_fix_result(r, false));
+}
+
+void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
+  estimator_.attach_covariance(static_cast<uint32_t>(msg.time_usec), msg.position_covariance,
+                               msg.attitude_covariance, msg.attitude_valid == 1);
+}
+
+void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {
+  ++fixes_received_;
+  position_fix_at(p_ned, capture_us, nullptr);
+}
+
+}  // namespace fw
+}  // namespace quad
