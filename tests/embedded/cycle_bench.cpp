@@ -80,22 +80,8 @@ quad::ctrl::Mixer g_mixer;
 uint32_t g_now_us = 1000000;
 uint32_t g_step = 0;
 
-template <typename F>
-void measure(const char* name, F&& f) {
-  quad_probe::name(name);
-  quad_probe::start();
-  f();
-  quad_probe::stop();
-}
-
-// A zero-length section whose name reports a failed scenario check (read by check_cycle_budget.cmake).
-void check(bool ok, const char* what) {
-  if (ok) return;
-  quad_probe::name("check_failed:");
-  quad_probe::name(what);
-  quad_probe::start();
-  quad_probe::stop();
-}
+using quad_probe::check;
+using quad_probe::measure;
 
 quad::ctrl::VehicleState vehicle_state() {
   return {g_filter.position(), g_filter.velocity(), g_observer.attitude(), g_observer.rate()};

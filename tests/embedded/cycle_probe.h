@@ -22,4 +22,22 @@ inline void keep(const T& value) {
   __asm__ __volatile__("" : : "r"(&value) : "memory");
 }
 
+// One named section around f().
+template <typename F>
+inline void measure(const char* section, F&& f) {
+  name(section);
+  start();
+  f();
+  stop();
+}
+
+// A zero-length section whose name reports a failed scenario check (read by check_cycle_budget.cmake).
+inline void check(bool ok, const char* what) {
+  if (ok) return;
+  name("check_failed:");
+  name(what);
+  start();
+  stop();
+}
+
 }  // namespace quad_probe

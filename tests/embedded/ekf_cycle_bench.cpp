@@ -16,6 +16,7 @@
 #include "quad/estimation/delayed_ekf.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/math/math.h"
+#include "bench_noise.h"
 
 namespace {
 
@@ -25,34 +26,15 @@ constexpr uint32_t kPeriodUs = 10000;  // the 100 Hz predict: one IMU sample per
 constexpr float kDt = 1e-6f * kPeriodUs;
 constexpr uint32_t kFixDelayUs = 40000;
 
-volatile float g_noise_scale = 1.0f;
-uint32_t g_seed = 12345u;
-float noise(float amplitude) {
-  g_seed = g_seed * 1664525u + 1013904223u;
-  return amplitude * g_noise_scale *
-         (static_cast<float>(static_cast<int32_t>(g_seed >> 8) - 8388608L) * (1.0f / 8388608.0f));
-}
+using quad_bench::noise;
 
 quad::est::DelayedEkf<quad::est::history_length(100)> g_ekf;
 uint32_t g_now_us = 1000000;
 const Vec3 kStar{0.0f, 0.0f, 0.0f};
 const Vec3 kHover{0.0f, 0.0f, -1.5f};
 
-template <typename F>
-void measure(const char* name, F&& f) {
-  quad_probe::name(name);
-  quad_probe::start();
-  f();
-  quad_probe::stop();
-}
-
-void check(bool ok, const char* what) {
-  if (ok) return;
-  quad_probe::name("check_failed:");
-  quad_probe::name(what);
-  quad_probe::start();
-  quad_probe::stop();
-}
+using quad_probe::check;
+using quad_probe::measure;
 
 quad::est::StarFix star_fix(uint32_t capture_us) {
   quad::est::StarFix f;
