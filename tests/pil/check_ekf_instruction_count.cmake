@@ -3,35 +3,8 @@
 # (+-1 SysTick tick = 40), the EKF fused fixes and stayed finite, and its iteration that fuses a fix
 # (the mean and the largest over 4 s) is within BUDGET instructions.
 #   cmake -DQEMU=<qemu-system-arm> -DIMAGE=<mps2_ekf_instruction_count.elf> -DBUDGET=<instructions> -P ...
-foreach(var QEMU IMAGE BUDGET)
-  if(NOT DEFINED ${var} OR "${${var}}" STREQUAL "" OR "${${var}}" MATCHES "NOTFOUND$")
-    message(FATAL_ERROR "check_ekf_instruction_count.cmake: ${var} is not set (qemu-system-arm: tools/packages-debian.txt)")
-  endif()
-endforeach()
-execute_process(COMMAND "${QEMU}" -M mps2-an386 -nographic -monitor none -icount shift=0
-                        -semihosting-config enable=on,target=native -serial stdio -kernel "${IMAGE}"
-                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 120)
-message(STATUS "\n${out}")
-if(NOT rc EQUAL 0 OR NOT out MATCHES "\ndone\n")
-  message(FATAL_ERROR "the EKF instruction-count image did not finish (exit ${rc}): ${err}")
-endif()
-
-function(figure name out)
-  string(REGEX MATCH "(^|\n)${name} ([0-9]+)\n" line "${out}")
-  if(line STREQUAL "")
-    message(FATAL_ERROR "no figure '${name}' in the output")
-  endif()
-  set(value "${CMAKE_MATCH_2}" PARENT_SCOPE)
-endfunction()
-
-set(failures "")
-foreach(expected 4000 40000)
-  figure(calibration_${expected} "${out}")
-  math(EXPR error "${value} - ${expected}")
-  if(error GREATER 40 OR error LESS -40)
-    list(APPEND failures "calibration_${expected} read ${value}: the SysTick/-icount method is off")
-  endif()
-endforeach()
+set(CHECK_NAME check_ekf_instruction_count.cmake)
+include("${CMAKE_CURRENT_LIST_DIR}/instruction_count_run.cmake")
 figure(ekf_state_ok "${out}")
 if(NOT value EQUAL 1)
   list(APPEND failures "the EKF did not set its position from the fixes or is not finite")

@@ -12,16 +12,6 @@
 namespace quad::vision {
 namespace {
 
-std::vector<cv::Point3f> board_points(const ChessboardSpec& board) {
-  std::vector<cv::Point3f> points;
-  for (int r = 0; r < board.inner_corners.height; ++r) {
-    for (int c = 0; c < board.inner_corners.width; ++c) {
-      points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m), 0.0f);
-    }
-  }
-  return points;
-}
-
 int covered_cells(const std::vector<std::vector<cv::Point2f>>& views, cv::Size size, int cells) {
   std::set<int> hit;
   for (const auto& view : views) {
@@ -35,6 +25,16 @@ int covered_cells(const std::vector<std::vector<cv::Point2f>>& views, cv::Size s
 }
 
 }  // namespace
+
+std::vector<cv::Point3f> board_points(const ChessboardSpec& board) {
+  std::vector<cv::Point3f> points;
+  for (int r = 0; r < board.inner_corners.height; ++r) {
+    for (int c = 0; c < board.inner_corners.width; ++c) {
+      points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m), 0.0f);
+    }
+  }
+  return points;
+}
 
 std::optional<std::vector<cv::Point2f>> find_chessboard(const cv::Mat& gray, const ChessboardSpec& board) {
   // The sector-based detector finds the board without the classic detector's pathological run times

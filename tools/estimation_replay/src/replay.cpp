@@ -90,6 +90,15 @@ void write_row(std::ostream& out, double t, bool att_valid, const Quat& q, const
   if (track) track->push_back(Estimate{t, att_valid, pos_valid, q, p});
 }
 
+// The row's magnetometer sample, or the last one when the row has none (the filters hold it).
+Vec3 held_mag(const LogRow& r, Vec3* last_mag) {
+  if (r.mag) {
+    *last_mag = Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
+                     static_cast<float>((*r.mag)[2])};
+  }
+  return *last_mag;
+}
+
 // The EKF over the rows: IMU increments every row, the predict every row (the log's rate), fixes as the
 // star in the body frame at their capture time. It starts (attitude from the conditioned observer's
 // initialisation, the observer's learned field as its reference) on the first row with a magnetometer
@@ -108,10 +117,7 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
   for (const LogRow& r : rows) {
     const Vec3 g = vec(r.gyro), a = vec(r.accel);
     const bool mag_new = r.mag.has_value();
-    const Vec3 m = mag_new ? Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
-                                  static_cast<float>((*r.mag)[2])}
-                           : last_mag;
-    if (mag_new) last_mag = m;
+    const Vec3 m = held_mag(r, &last_mag);
     const uint32_t now = to_us(r.t);
     if (!initialized) {
       initialized = mag_new && observer.initialize(a, m);
@@ -168,10 +174,7 @@ ReplaySummary replay(const std::vector<LogRow>& rows, const ReplayOptions& optio
   for (const LogRow& r : rows) {
     const Vec3 g = vec(r.gyro), a = vec(r.accel);
     const bool mag_new = r.mag.has_value();
-    const Vec3 m = mag_new ? Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
-                                  static_cast<float>((*r.mag)[2])}
-                           : last_mag;
-    if (mag_new) last_mag = m;
+    const Vec3 m = held_mag(r, &last_mag);
     if (!initialized) {
       initialized = mag_new && attitude.initialize(a, m);
     } else {

@@ -1,5 +1,7 @@
 #include "quad/vision/ground/marker_geometry.h"
 
+#include "quad/vision/star_pose.h"  // quaternion_from_rotation
+
 #include <cmath>
 
 namespace quad::vision::ground {
@@ -64,27 +66,6 @@ std::optional<TriangulatedPoint> triangulate(const std::vector<PixelObservation>
   point.covariance = cv::Matx33d(cv::Mat(info.inv(cv::DECOMP_SVD) * (sigma_px * sigma_px)));
   point.reprojection_rms_px = cv::norm(r) / std::sqrt(static_cast<double>(r.rows));
   return point;
-}
-
-cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R) {
-  // Shepperd's method: the largest of the four squared components first.
-  const double tr = R(0, 0) + R(1, 1) + R(2, 2);
-  cv::Vec4d q;
-  if (tr > 0) {
-    const double s = 2.0 * std::sqrt(1.0 + tr);
-    q = cv::Vec4d(0.25 * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s, (R(1, 0) - R(0, 1)) / s);
-  } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
-    const double s = 2.0 * std::sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2));
-    q = cv::Vec4d((R(2, 1) - R(1, 2)) / s, 0.25 * s, (R(0, 1) + R(1, 0)) / s, (R(0, 2) + R(2, 0)) / s);
-  } else if (R(1, 1) > R(2, 2)) {
-    const double s = 2.0 * std::sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2));
-    q = cv::Vec4d((R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, 0.25 * s, (R(1, 2) + R(2, 1)) / s);
-  } else {
-    const double s = 2.0 * std::sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1));
-    q = cv::Vec4d((R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s, (R(1, 2) + R(2, 1)) / s, 0.25 * s);
-  }
-  if (q[0] < 0) q = -q;
-  return q / cv::norm(q);
 }
 
 std::optional<RigidPose> fit_rigid_pose(const std::vector<cv::Vec3d>& body, const std::vector<TriangulatedPoint>& ned) {

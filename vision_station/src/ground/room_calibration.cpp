@@ -12,16 +12,6 @@
 namespace quad::vision::ground {
 namespace {
 
-std::vector<cv::Point3f> board_frame_points(const ChessboardSpec& board) {
-  std::vector<cv::Point3f> points;
-  for (int r = 0; r < board.inner_corners.height; ++r) {
-    for (int c = 0; c < board.inner_corners.width; ++c) {
-      points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m), 0.0f);
-    }
-  }
-  return points;
-}
-
 // Camera centre in NED seen from one placement with the given corner order.
 cv::Vec3d centre_from_placement(const std::vector<cv::Point2f>& corners, const FloorPlacement& placement,
                                 const ChessboardSpec& board, const cv::Matx33d& K, const cv::Vec<double, 5>& D) {
@@ -79,8 +69,7 @@ RoomCalibrationResult calibrate_room_camera(const std::vector<BoardView>& views,
   }
 
   // Intrinsics: every view, in the board's own frame.
-  const std::vector<cv::Point3f> board_points = board_frame_points(board);
-  std::vector<std::vector<cv::Point3f>> object(views.size(), board_points);
+  std::vector<std::vector<cv::Point3f>> object(views.size(), board_points(board));
   std::vector<std::vector<cv::Point2f>> image;
   for (const BoardView& v : views) image.push_back(v.corners);
   cv::Mat K_mat, D_mat;

@@ -18,6 +18,10 @@ struct ChessboardSpec {
   double square_m = 0.025;       // side of one square, metres
 };
 
+// The inner corners in the board's own frame (x along a row, y down the columns, z = 0), row by row as
+// cv::findChessboardCorners returns them.
+std::vector<cv::Point3f> board_points(const ChessboardSpec& board);
+
 // Thrown when the views cannot give a trustworthy calibration; what() says what to capture.
 struct CalibrationSetError : std::runtime_error {
   using std::runtime_error::runtime_error;

@@ -40,6 +40,4 @@ struct RigidPose {
 // covariance from each marker's covariance (Gauss-Newton information of the fit).
 std::optional<RigidPose> fit_rigid_pose(const std::vector<cv::Vec3d>& body_frd, const std::vector<TriangulatedPoint>& ned);
 
-cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R);
-
 }  // namespace quad::vision::ground
