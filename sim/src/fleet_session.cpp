@@ -22,6 +22,7 @@
 #include "quad/sim/fleet_world.h"
 #include "quad/sim/flight_modes.h"
 #include "quad/sim/frames.h"
+#include "quad/sim/ground_ids.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
 #include "quad/sim/metrics.h"
@@ -96,6 +97,7 @@ struct Craft {
         uart0_out(s.uart0_baud, Rng(s.seed, "uart0/" + v.name)),
         radio_up(s.radio_baud, Rng(s.seed, "radio_up/" + v.name)),
         radio_down(s.radio_baud, Rng(s.seed, "radio_down/" + v.name)),
+        ids(static_cast<uint8_t>(v.system_id)),
         metrics(FlightMetricsConfig{s.hold_start_s, s.hold_end_s, s.extra_holds, s.settle_band_m, 1.05, 2.0, ground_down}) {
     radio_up.set_radio(s.radio);
     radio_down.set_radio(s.radio);
@@ -114,6 +116,8 @@ struct Craft {
   mav::Parser uart0_parser, uart2_splitter;
   mav::Parser ground_parser{mav::dialect_message_info};
   std::unique_ptr<UdpLink> udp;
+  GroundIds ids;  // the vehicle as system_id at its UDP port
+  mav::Parser udp_parser{mav::dialect_message_info};
   std::unique_ptr<FirmwareProcess> firmware;
   std::unique_ptr<CsvLog> log;
   // Schedule and exchange.
@@ -478,7 +482,9 @@ void FleetSession::physics_period(double t_end) {
     for (auto& c : crafts_) {
       c->radio_down.deliver_until(now, [&](const uint8_t* d, size_t n) {
         c->ground_parser.feed(d, n, [&](const mav::Frame& f) {
-          if (c->udp) c->udp->send(f.bytes, f.size);
+          uint8_t out[mav::kMaxFrameLength];
+          if (c->udp)
+            if (const size_t m = c->ids.to_ground(f, out, sizeof out)) c->udp->send(out, m);
           handle_frame(*c, f, now, false);
         });
       });
@@ -559,7 +565,14 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
     v.add("fixes_sent", static_cast<long>(sent)).add("crashed", c->metrics.crashed());
     if (c->metrics.crashed()) v.add("crash_time_s", c->metrics.crash_time_s());
     v.add("armed_at_end", c->armed).add("mode_at_end", c->mode < 0 ? std::string("-") : flight_mode_name(c->mode));
-    if (c->udp) v.add("gcs_udp_local_port", static_cast<long>(c->udp->local_port())).add("gcs_udp_peer", c->udp->peer());
+    if (c->udp) {
+      const GroundIdStats& g = c->ids.stats();
+      Json ids;
+      ids.add("restamped", static_cast<long>(g.restamped)).add("readdressed", static_cast<long>(g.readdressed))
+          .add("dropped", static_cast<long>(g.dropped)).add("signed_passed", static_cast<long>(g.signed_passed));
+      v.add("gcs_udp_local_port", static_cast<long>(c->udp->local_port())).add("gcs_udp_peer", c->udp->peer())
+          .add("gcs_udp_datagrams_received", static_cast<long>(c->udp->stats().datagrams_received)).add("ground_ids", ids);
+    }
     v.add("firmware_cpu_s", c->firmware_cpu_s);
     crashed = crashed || c->metrics.crashed();
     vehicles.add(c->spec.name, v);
@@ -624,8 +637,12 @@ SessionResult FleetSession::run() {
       // The firmware's radio output, frame by frame onto the radio; a ground station's datagrams onto the uplink.
       for (size_t n; (n = c->uart2.read_some(buf, sizeof buf)) > 0;)
         c->uart2_splitter.feed(buf, n, [&](const mav::Frame& f) { c->radio_down.send(f.bytes, f.size, t); });
-      if (c->udp)
-        for (size_t n; (n = c->udp->receive(buf, sizeof buf)) > 0;) radio_uplink(*c, buf, n, t);
+      if (!c->udp) continue;
+      for (size_t n; (n = c->udp->receive(buf, sizeof buf)) > 0;)
+        c->udp_parser.feed(buf, n, [&](const mav::Frame& f) {
+          uint8_t out[mav::kMaxFrameLength];
+          if (const size_t m = c->ids.to_vehicle(f, out, sizeof out)) radio_uplink(*c, out, m, t);
+        });
     }
     physics_period(t + period);
     log_rows(world_->time());

@@ -2,7 +2,8 @@
 # Land-all over the vehicles' own ground UDP ports: sim/scenarios/two_vehicles.yaml paced by the wall clock
 # (--realtime) with --gcs, its scheduled land moved to 24 s; once both vehicles hold in AUTO (12 s in),
 # tools/node/fleet_command.js land-all sends each one MAV_CMD_NAV_LAND over node-mavlink and must see both
-# accepted; each firmware must then report LANDING before 24 s, and both end on the ground disarmed.
+# accepted (the COMMAND_ACK from each vehicle's system id: east is system 2, the firmware 1 behind its port);
+# each firmware must then report LANDING before 24 s, and both end on the ground disarmed.
 #   fleet_land_all_check.sh QUAD_SIM NODE NODE_DIR SCENARIO OUT_DIR
 set -euo pipefail
 sim=$1 node=$2 node_dir=$3 scenario=$4 out=$5
@@ -30,4 +31,7 @@ for v in west east; do
 done
 [ "$(field "Object.values(j.vehicles).every(v => !v.armed_at_end && !v.crashed)")" = true ] ||
   { echo "FAILED: a vehicle is still armed or crashed"; cat "$out/summary.json"; exit 1; }
-echo "land-all: both vehicles landed and disarmed"
+# east is system 2 at its port: its frames restamped, the tool's COMMAND_LONG to 2 readdressed to the firmware's 1.
+[ "$(field "j.vehicles.east.system_id === 2 && j.vehicles.east.ground_ids.readdressed >= 1 && j.vehicles.east.ground_ids.restamped > 0")" = true ] ||
+  { echo "FAILED: east (system 2) was not translated at its port"; cat "$out/summary.json"; exit 1; }
+echo "land-all: both vehicles landed and disarmed; east answered as system 2"

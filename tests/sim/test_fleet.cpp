@@ -11,10 +11,12 @@
 #include <sstream>
 #include <string>
 
+#include "quad/link/dialect.h"
 #include "quad/sim/fix_source.h"
 #include "quad/sim/fleet_model.h"
 #include "quad/sim/fleet_session.h"
 #include "quad/sim/fleet_world.h"
+#include "quad/sim/ground_ids.h"
 #include "quad/sim/run_output.h"
 #include "quad/sim/scenario.h"
 
@@ -107,6 +109,56 @@ TEST(FleetWorld, HullsTouchingCountAsOneCollision) {
   w.start(s.vehicles, 0.0);
   for (int i = 0; i < 50; ++i) w.step();
   EXPECT_TRUE(w.collisions().empty());
+}
+
+namespace mav = quad::mavlink;
+
+// One frame through the codec's parser (CRC checked); calls f with it.
+template <class F>
+void parse_one(const uint8_t* bytes, size_t n, F&& f) {
+  mav::Parser p{mav::dialect_message_info};
+  int frames = 0;
+  p.feed(bytes, n, [&](const mav::Frame& frame) { ++frames, f(frame); });
+  ASSERT_EQ(frames, 1) << "one valid frame";
+}
+
+TEST(GroundIds, TheVehicleLeavesAsItsSystemIdAndIsAddressedByIt) {
+  GroundIds ids(2);
+  mav::Sender firmware(1, 1), gcs(255, 190);
+  uint8_t in[mav::kMaxFrameLength], out[mav::kMaxFrameLength];
+  mav::Heartbeat hb;
+  hb.custom_mode = 2;
+  parse_one(in, firmware.encode(hb, in, sizeof in), [&](const mav::Frame& f) {
+    const size_t n = ids.to_ground(f, out, sizeof out);
+    parse_one(out, n, [&](const mav::Frame& g) {
+      EXPECT_EQ(g.system_id, 2);
+      mav::Heartbeat back;
+      ASSERT_TRUE(mav::decode(g, back));
+      EXPECT_EQ(back.custom_mode, 2u);
+    });
+  });
+  for (const auto& [target, expected] : {std::pair<int, int>{2, 1}, {0, 0}, {3, -1}}) {
+    mav::CommandLong cmd;
+    cmd.command = 21;
+    cmd.target_system = static_cast<uint8_t>(target);
+    parse_one(in, gcs.encode(cmd, in, sizeof in), [&](const mav::Frame& f) {
+      const size_t n = ids.to_vehicle(f, out, sizeof out);
+      if (expected < 0) {
+        EXPECT_EQ(n, 0u) << "another system's command is dropped";
+        return;
+      }
+      parse_one(out, n, [&](const mav::Frame& g) {
+        mav::CommandLong back;
+        ASSERT_TRUE(mav::decode(g, back));
+        EXPECT_EQ(back.target_system, expected);
+        EXPECT_EQ(back.command, 21);
+        EXPECT_EQ(g.system_id, 255);
+      });
+    });
+  }
+  EXPECT_EQ(ids.stats().restamped, 1u);
+  EXPECT_EQ(ids.stats().readdressed, 1u);
+  EXPECT_EQ(ids.stats().dropped, 1u);
 }
 
 #else

@@ -1,7 +1,8 @@
 #!/usr/bin/env node
 // Land-all and disarm-all for a multi-vehicle run (docs/simulator.md, "Several vehicles"): sends every
-// vehicle of a running `quad_sim --gcs` fleet run a COMMAND_LONG on that vehicle's own ground UDP port
-// (the ports are in RUN/summary.json, vehicles.NAME.gcs_udp_local_port) and waits for its COMMAND_ACK.
+// vehicle of a running `quad_sim --gcs` fleet run a COMMAND_LONG on that vehicle's own ground UDP port,
+// addressed to the vehicle's system id (both in RUN/summary.json: vehicles.NAME.gcs_udp_local_port and
+// system_id), and waits for its COMMAND_ACK from that system id.
 //
 //   node fleet_command.js RUN_DIR land-all|disarm-all [--host 127.0.0.1] [--timeout-ms 3000]
 //
@@ -56,7 +57,7 @@ function vehiclePorts(run) {
   }
   const ports = Object.entries(summary.vehicles || {})
     .filter(([, v]) => Number.isInteger(v.gcs_udp_local_port))
-    .map(([name, v]) => ({ name, port: v.gcs_udp_local_port }));
+    .map(([name, v]) => ({ name, port: v.gcs_udp_local_port, system: v.system_id }));
   if (!ports.length) usage(`${file}: no vehicle has a ground UDP port (run quad_sim with --gcs)`);
   return ports;
 }
@@ -78,7 +79,7 @@ function commandVehicle(host, vehicle, action, timeoutMs) {
     };
     splitter.pipe(new MavLinkPacketParser()).on('data', (packet) => {
       const clazz = REGISTRY[packet.header.msgid];
-      if (!clazz || clazz.MSG_NAME !== 'COMMAND_ACK') return;
+      if (!clazz || clazz.MSG_NAME !== 'COMMAND_ACK' || packet.header.sysid !== vehicle.system) return;
       const ack = packet.protocol.data(packet.payload, clazz);
       if (ack.command !== command) return;
       finish(ack.result === 0 ? `${vehicle.name}: accepted` : `${vehicle.name}: FAILED (COMMAND_ACK result ${ack.result})`);
@@ -87,7 +88,7 @@ function commandVehicle(host, vehicle, action, timeoutMs) {
     const send = () => {
       if (attempts++ === 3) return finish(`${vehicle.name}: FAILED (no COMMAND_ACK on port ${vehicle.port})`);
       const msg = new common.CommandLong();
-      msg.targetSystem = 1;  // each firmware's own id on its own link (quad/link/dialect.h)
+      msg.targetSystem = vehicle.system;
       msg.targetComponent = 1;
       msg.command = command;
       if (action === 'disarm-all') [msg._param1, msg._param2] = [0, FORCE_DISARM];
