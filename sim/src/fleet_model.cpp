@@ -1,8 +1,8 @@
 #include "quad/sim/fleet_model.h"
 
+#include <cctype>
 #include <cstdio>
 #include <fstream>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 
@@ -28,10 +28,41 @@ std::pair<size_t, size_t> element(const std::string& xml, const std::string& ope
   return {begin, end + close.size()};
 }
 
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
 // Every name="X", site="X" and joint="X" in `text` becomes "PREFIX/X".
 std::string prefix_names(const std::string& text, const std::string& prefix) {
-  static const std::regex kName(R"re(\b(name|site|joint)="([^"]+)")re");
-  return std::regex_replace(text, kName, "$1=\"" + prefix + "/$2\"");
+  std::string out;
+  size_t copied = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (i > 0 && is_word_char(text[i - 1])) continue;
+    for (const char* key : {"name=\"", "site=\"", "joint=\""}) {
+      const size_t len = std::char_traits<char>::length(key);
+      if (text.compare(i, len, key) != 0) continue;
+      out += text.substr(copied, i + len - copied) + prefix + "/";
+      copied = i + len;
+      i = copied - 1;
+      break;
+    }
+  }
+  return out + text.substr(copied);
+}
+
+// The value of attribute `key` in the first `<body ...>` opening tag of `body_text`, with the tag's
+// bounds, or npos when the tag has no such attribute.
+struct Attribute {
+  size_t value_begin = std::string::npos;
+  size_t value_end = std::string::npos;
+};
+Attribute body_attribute(const std::string& body_text, const std::string& key) {
+  const size_t tag_end = body_text.find('>');
+  const std::string needle = " " + key + "=\"";
+  const size_t at = body_text.find(needle);
+  if (at == std::string::npos || at > tag_end) return {};
+  const size_t begin = at + needle.size();
+  const size_t end = body_text.find('"', begin);
+  if (end == std::string::npos || end > tag_end) return {};
+  return {begin, end};
 }
 
 std::string num(double v) {
@@ -53,10 +84,10 @@ const char* rgba(const std::string& colour) {
 std::string vehicle_body(const std::string& body, const FleetVehicle& v, double rest_z) {
   std::string out = prefix_names(body, v.name);
   // The start position as the body's reference pose (qpos0), so the copies never overlap at load.
-  static const std::regex kPos(R"re(<body ([^>]*)pos="[^"]*")re");
-  out = std::regex_replace(out, kPos, "<body $1pos=\"" + num(v.initial_north_east_m.x()) + " " +
-                                          num(-v.initial_north_east_m.y()) + " " + num(rest_z) + "\"",
-                           std::regex_constants::format_first_only);
+  const Attribute pos = body_attribute(out, "pos");
+  if (pos.value_begin != std::string::npos)
+    out.replace(pos.value_begin, pos.value_end - pos.value_begin,
+                num(v.initial_north_east_m.x()) + " " + num(-v.initial_north_east_m.y()) + " " + num(rest_z));
   std::string extra = "      <geom name=\"" + v.name + "/hull\" type=\"cylinder\" pos=\"0 0 0.02\" size=\"" +
                       num(kHullRadiusM) + " " + num(kHullHalfHeightM) +
                       "\" contype=\"2\" conaffinity=\"2\" mass=\"0\" rgba=\"0 0 0 0\" group=\"3\"/>\n";
@@ -75,10 +106,12 @@ std::string fleet_model_xml(const std::string& model_path, const std::vector<Fle
   const std::string body_text = xml.substr(body.first, body.second - body.first);
   if (body_text.find("<body", 1) != std::string::npos)
     throw std::runtime_error(model_path + ": the quad body has child bodies; the fleet model repeats a single body");
-  std::smatch pos;
-  if (!std::regex_search(body_text, pos, std::regex(R"re(pos="\S+ \S+ (\S+)")re")))
-    throw std::runtime_error(model_path + ": the quad body has no pos");
-  const double rest_z = std::stod(pos[1]);
+  const Attribute pos = body_attribute(body_text, "pos");
+  if (pos.value_begin == std::string::npos) throw std::runtime_error(model_path + ": the quad body has no pos");
+  double north = 0.0, west = 0.0, rest_z = 0.0;
+  const std::string pos_text = body_text.substr(pos.value_begin, pos.value_end - pos.value_begin);
+  if (std::sscanf(pos_text.c_str(), "%lf %lf %lf", &north, &west, &rest_z) != 3)
+    throw std::runtime_error(model_path + ": the quad body's pos \"" + pos_text + "\" is not three numbers");
   const auto actuator = element(xml, "<actuator>", "actuator", model_path);
   const auto sensor = element(xml, "<sensor>", "sensor", model_path);
   if (!(body.second < actuator.first && actuator.second < sensor.first))
