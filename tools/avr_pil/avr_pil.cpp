@@ -148,8 +148,10 @@ int open_port(const std::string& path, char uart) {
 // Cycle counts of the phases the firmware marks on GPIOR1 (quad/hal/hal.h, hal::TracePoint). Every
 // figure is measured on the AVR's cycle counter, so interrupts taken inside a phase count in it.
 constexpr avr_io_addr_t kGpior1 = 0x4A;
-// --pc-profile: the cycles of every instruction executed inside the control iterations (interrupts
-// included) from the first flown one on, by program address; tools/avr_pil/pc_profile.py sums them by function.
+// --pc-profile FILE: the cycles of every instruction executed inside the control iterations and the vision
+// fixes (interrupts included) from the first flown iteration on, by program address
+// (tools/avr_pil/pc_profile.py sums them by function), and in FILE.periods each period's cycles (the
+// iteration's, then with the fixes fused after it, before the next one).
 bool g_pc_profile_armed = false;
 struct PhaseProfile {
   struct Sample {
@@ -502,7 +504,8 @@ int main(int argc, char** argv) {
   int state = cpu_Running;
   std::vector<uint64_t> pc_cycles(pc_profile.empty() ? 0 : 0x20000, 0);
   std::vector<uint64_t> periods;
-  uint64_t period_acc = 0;
+  uint64_t period_acc = 0, step_acc = 0;
+  std::vector<uint64_t> period_steps;
   bool was_in_step = false;
   uint16_t lowest_sp = static_cast<uint16_t>(avr->ramend);
   while (!g_stop) {
@@ -514,8 +517,13 @@ int main(int argc, char** argv) {
       if (!pc_profile.empty() && running && g_pc_profile_armed && (profile.in_step || profile.in_fix)) {
         pc_cycles[pc_before >> 1] += avr->cycle - cycle_before;
         // A period's work: an iteration and the fixes fused after it, up to the next iteration.
-        if (profile.in_step && !was_in_step && period_acc != 0) periods.push_back(period_acc), period_acc = 0;
+        if (profile.in_step && !was_in_step && period_acc != 0) {
+          periods.push_back(period_acc);
+          period_steps.push_back(step_acc);
+          period_acc = step_acc = 0;
+        }
         period_acc += avr->cycle - cycle_before;
+        if (profile.in_step) step_acc += avr->cycle - cycle_before;
       }
       was_in_step = profile.in_step;
       // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
@@ -560,6 +568,13 @@ int main(int argc, char** argv) {
       if (pc_cycles[i] != 0) std::fprintf(f, "%zx %llu\n", i * 2, static_cast<unsigned long long>(pc_cycles[i]));
     }
     std::fclose(f);
+    if (FILE* g = std::fopen((pc_profile + ".periods").c_str(), "w")) {
+      for (size_t i = 0; i < periods.size(); ++i) {
+        std::fprintf(g, "%llu %llu\n", static_cast<unsigned long long>(period_steps[i]),
+                     static_cast<unsigned long long>(periods[i]));
+      }
+      std::fclose(g);
+    }
     std::sort(periods.begin(), periods.end());
     if (!periods.empty()) {
       std::fprintf(stderr, "avr_pil: pc profile: %zu periods (iteration and fixes after it, from the first flown), "
