@@ -150,7 +150,7 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // The flight log's records of this iteration go first (they wait at most an iteration; a second wait
   // loses them).
   const bool room = !plan.fix_step && !position_loop_forced;
-  const uint16_t records_us = logger_.records_due_us(plan.frame_work);
+  const uint16_t records_us = logger_.records_due_us(plan);
   telemetry_.count();
   const bool sent = room && telemetry_.due() &&
                     background_.fits(iteration_elapsed_us(), BackgroundBudget::kTelemetryUs + records_us);

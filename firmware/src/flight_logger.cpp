@@ -124,19 +124,24 @@ void FlightLogger::write_topics(const FlightApp& app, const IterationPlan& plan,
                                 bool on_ground) {
   const BackgroundBudget& background = app.background();
   const uint32_t elapsed = app.iteration_elapsed_us();
-  // The iteration's records, each only when its composition ends before the deadline; what does not fit
-  // waits for the next iteration: the IMU topics log that iteration's sample (one every LOG_IMU_DIV-th
-  // iteration on average; at LOG_IMU_DIV 1 the sample is lost, and counted), the frame-rate topics that
-  // iteration's state (lost and counted when the next frame-rate work comes first).
+  // Above the thesis' rate the iteration's records go only when their composition ends before the
+  // deadline; what does not fit waits for the next iteration: the IMU topics log that iteration's sample
+  // (one every LOG_IMU_DIV-th iteration on average; at LOG_IMU_DIV 1 the sample is lost, and counted), the
+  // frame-rate topics that iteration's state (lost and counted when the next frame-rate work comes first).
+  // At the thesis' rate every iteration has its own records, and the period keeps a fix's time after the
+  // deadline, which they may take.
+  const bool budgeted = plan.multi_rate;
   if (imu_count_ < imu_div_) ++imu_count_;
   if (plan.frame_work) {
     if (frame_due_) writer_.count_drop();
     frame_due_ = true;
   }
   uint32_t records_us = 0;
-  const bool imu_now = imu_count_ >= imu_div_ && background.fits(elapsed, BackgroundBudget::kImuRecordsUs);
+  const bool imu_now =
+      imu_count_ >= imu_div_ && (!budgeted || background.fits(elapsed, BackgroundBudget::kImuRecordsUs));
   if (imu_now) records_us = BackgroundBudget::kImuRecordsUs;
-  const bool frame_now = frame_due_ && background.fits(elapsed + records_us, BackgroundBudget::kFrameRecordsUs);
+  const bool frame_now = frame_due_ && (!budgeted || background.fits(elapsed + records_us,
+                                                                      BackgroundBudget::kFrameRecordsUs));
   if (frame_now) records_us += BackgroundBudget::kFrameRecordsUs;
   if (imu_count_ >= imu_div_ && !imu_now) {
     ++records_deferred_;

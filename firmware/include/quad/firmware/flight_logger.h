@@ -14,8 +14,9 @@
 //   an iteration with no fix step and no frame-rate work of a faster loop: the definitions, and
 //                                    loop_timing (once a second, and after an overrun) or else
 //                                    estimator_status (at kEstimatorStatusHz)
-// On the ATmega2560 the IMU and frame-rate topics are composed only when the iteration has time for them
-// (BackgroundBudget::kImuRecordsUs, kFrameRecordsUs); otherwise they go in the next iteration with time,
+// On the ATmega2560 above the thesis' rate the IMU and frame-rate topics are composed only when the
+// iteration has time for them (BackgroundBudget::kImuRecordsUs, kFrameRecordsUs); otherwise they go in the
+// next iteration with time,
 // with that iteration's sample and state: the IMU topics then skip one sample and take the next, one in
 // LOG_IMU_DIV on average (at LOG_IMU_DIV 1 the skipped sample is lost and counted as a drop, so a dropout
 // message follows), and frame-rate topics still waiting when the next frame-rate work comes are counted
@@ -111,12 +112,12 @@ class FlightLogger {
   bool header_done() const { return writer_.is_open() && phase_ == kPhaseData; }
   uint16_t logs_opened() const { return logs_opened_; }
   uint32_t dropped() const { return writer_.dropped(); }
-  // The time (BackgroundBudget) the records due in the coming iteration() take to compose, frame_work:
-  // the iteration runs the frame-rate work; 0 when no log is recording data. The background work before
-  // the flight log leaves it.
-  uint16_t records_due_us(bool frame_work) const {
-    if (!header_done()) return 0;
-    uint16_t us = (frame_work || frame_due_) ? BackgroundBudget::kFrameRecordsUs : 0;
+  // The time (BackgroundBudget) the records due in the coming iteration() of `plan` take to compose, above
+  // the thesis' rate (iteration()); 0 when no log is recording data. The background work before the
+  // flight log leaves it.
+  uint16_t records_due_us(const IterationPlan& plan) const {
+    if (!header_done() || !plan.multi_rate) return 0;
+    uint16_t us = (plan.frame_work || frame_due_) ? BackgroundBudget::kFrameRecordsUs : 0;
     if (imu_count_ + 1 >= imu_div_) us = static_cast<uint16_t>(us + BackgroundBudget::kImuRecordsUs);
     return us;
   }
