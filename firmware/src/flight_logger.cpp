@@ -136,13 +136,13 @@ void FlightLogger::write_topics(const FlightApp& app, const IterationPlan& plan,
     if (frame_due_) writer_.count_drop();
     frame_due_ = true;
   }
-  uint32_t records_us = 0;
+  uint32_t records_us = 0;  // the time the records composed below take, above the thesis' rate
   const bool imu_now =
       imu_count_ >= imu_div_ && (!budgeted || background.fits(elapsed, BackgroundBudget::kImuRecordsUs));
-  if (imu_now) records_us = BackgroundBudget::kImuRecordsUs;
+  if (imu_now && budgeted) records_us = BackgroundBudget::kImuRecordsUs;
   const bool frame_now = frame_due_ && (!budgeted || background.fits(elapsed + records_us,
                                                                       BackgroundBudget::kFrameRecordsUs));
-  if (frame_now) records_us += BackgroundBudget::kFrameRecordsUs;
+  if (frame_now && budgeted) records_us += BackgroundBudget::kFrameRecordsUs;
   if (imu_count_ >= imu_div_ && !imu_now) {
     ++records_deferred_;
     if (imu_div_ <= 1) {
