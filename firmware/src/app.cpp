@@ -147,14 +147,18 @@ void FlightApp::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSam
   // The application's own output, spread: one telemetry stream, streamed parameter or log frame per
   // iteration, none beside a vision fix's step (frame_schedule.h) or a position loop out of its turn,
   // and each only when it ends in time (BackgroundBudget); what waits goes in a later iteration.
+  // The flight log's records of this iteration go first (they wait at most an iteration; a second wait
+  // loses them).
   const bool room = !plan.fix_step && !position_loop_forced;
+  const uint16_t records_us = logger_.records_due_us(plan);
   telemetry_.count();
-  const bool sent =
-      room && telemetry_.due() && background_.fits(iteration_elapsed_us(), BackgroundBudget::kTelemetryUs);
+  const bool sent = room && telemetry_.due() &&
+                    background_.fits(iteration_elapsed_us(), BackgroundBudget::kTelemetryUs + records_us);
   if (sent) telemetry_.send_next(*this, link_);
   mark(hal::TracePoint::kTelemetryDone);
   if (room && !sent && link_.streaming() && logger_.backlog() <= BackgroundBudget::kStreamLogBacklog &&
-      background_.fits(iteration_elapsed_us(), BackgroundBudget::kStreamUs) && !link_.stream_params()) {
+      background_.fits(iteration_elapsed_us(), BackgroundBudget::kStreamUs + records_us) &&
+      !link_.stream_params()) {
     link_.stream_logs();
   }
   mark(hal::TracePoint::kStreamed);

@@ -7,25 +7,7 @@ namespace fw {
 
 namespace {
 
-// The topics' formats (PX4's field names where PX4 has the topic), one after the other, each ended by a
-// NUL, in LogTopic order. Field order is the data's byte order.
-constexpr char kFormats[] QUAD_FLASH =
-    "sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] accelerometer_m_s2;float dt;uint8_t hovering;uint8_t on_ground;\0"
-    "sensor_mag:uint64_t timestamp;float[3] magnetometer_ga;\0"
-    "vehicle_attitude:uint64_t timestamp;float[4] q;float[3] gyro_bias;\0"
-    "vehicle_local_position:uint64_t timestamp;float x;float y;float z;float vx;float vy;float vz;"
-    "float[3] pos_variance;float[3] vel_variance;float[3] accel_bias;\0"
-    "vision_fix:uint64_t timestamp;uint64_t timestamp_sample;float x;float y;float z;float[4] q;"
-    "uint8_t result;\0"
-    "vehicle_local_position_setpoint:uint64_t timestamp;float x;float y;float z;float yaw;\0"
-    "actuator_motors:uint64_t timestamp;float[4] control;\0"
-    "vehicle_status:uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;uint8_t failsafe;\0"
-    "loop_timing:uint64_t timestamp;uint32_t iterations;uint32_t overruns;uint32_t last_us;uint32_t max_us;"
-    "float load;\0"
-    "estimator_status:uint64_t timestamp;float vel_test_ratio;float pos_test_ratio;float hgt_test_ratio;"
-    "float mag_test_ratio;float pos_horiz_accuracy;float pos_vert_accuracy;uint16_t solution_status_flags;";
-
-// Field bytes of each topic's data (the formats above).
+// Field bytes of each topic's data (the formats in flight_log_definitions.cpp).
 constexpr uint8_t kSensorCombinedBytes = 8 + 12 + 12 + 4 + 1 + 1;
 constexpr uint8_t kSensorMagBytes = 8 + 12;
 constexpr uint8_t kAttitudeBytes = 8 + 16 + 12;
@@ -34,7 +16,7 @@ constexpr uint8_t kVisionFixBytes = 8 + 8 + 12 + 16 + 1;
 constexpr uint8_t kSetpointBytes = 8 + 16;
 constexpr uint8_t kMotorsBytes = 8 + 16;
 constexpr uint8_t kStatusBytes = 8 + 3;
-constexpr uint8_t kLoopTimingBytes = 8 + 16 + 4;
+constexpr uint8_t kLoopTimingBytes = 8 + 16 + 4 + 2;
 constexpr uint8_t kEstimatorStatusBytes = 8 + 24 + 2;
 // A frame-rate iteration's records, queued together and stored in one append (FlightLogger::iteration).
 static_assert(ulog::data_record_bytes(kSensorCombinedBytes) + ulog::data_record_bytes(kAttitudeBytes) +
@@ -42,17 +24,6 @@ static_assert(ulog::data_record_bytes(kSensorCombinedBytes) + ulog::data_record_
                       ulog::data_record_bytes(kSetpointBytes) + ulog::data_record_bytes(kMotorsBytes) <=
                   UlogWriter::kStagingBytes,
               "an iteration's records must fit the writer's buffer");
-
-#if defined(__AVR__)
-#define QUAD_LOG_HW "apm25"
-#elif defined(__arm__)
-#define QUAD_LOG_HW "mps2-an386"
-#else
-#define QUAD_LOG_HW "host"
-#endif
-#if !defined(QUAD_GIT_HASH)
-#define QUAD_GIT_HASH ""
-#endif
 
 float nan() { return __builtin_nanf(""); }
 
@@ -68,42 +39,6 @@ LogFixResult log_fix_result(est::FixResult r, bool reset) {
     default: return LogFixResult::kRejectedOld;
   }
 }
-
-namespace {
-
-// Where a topic's format starts in kFormats and its length, counted by the compiler: walking the texts
-// in flash from the start for each format and subscription record costs the AVR thousands of cycles in
-// the header's armed iterations (docs/logging.md, "Cost on the ATmega2560").
-struct FormatSpan {
-  uint16_t offset;
-  uint16_t length;
-};
-
-constexpr FormatSpan format_span(uint8_t topic) {
-  uint16_t at = 0;
-  for (uint8_t i = 0; i < topic; ++i) {
-    while (kFormats[at] != '\0') ++at;
-    ++at;
-  }
-  uint16_t n = 0;
-  while (kFormats[at + n] != '\0') ++n;
-  return FormatSpan{at, n};
-}
-
-constexpr FormatSpan kFormatSpans[kLogTopicCount] QUAD_FLASH = {
-    format_span(0), format_span(1), format_span(2), format_span(3), format_span(4),
-    format_span(5), format_span(6), format_span(7), format_span(8), format_span(9)};
-static_assert(kLogTopicCount == 10, "one span per topic");
-
-FormatSpan log_topic_span(uint8_t topic) {
-  FormatSpan span;
-  flash_copy(&span, &kFormatSpans[topic], sizeof span);
-  return span;
-}
-
-}  // namespace
-
-FlashText log_topic_format(uint8_t topic) { return FlashText{kFormats + log_topic_span(topic).offset}; }
 
 void FlightLogger::configure(const Params& p, float loop_hz) {
   mode_ = static_cast<LogMode>(static_cast<uint8_t>(p.get(kLogMode) + 0.5f));
@@ -132,68 +67,13 @@ void FlightLogger::start(const FlightApp& app) {
   phase_ = kPhaseFormats;
   item_ = 0;
   imu_count_ = 0;
+  frame_due_ = false;
+  records_deferred_ = 0;
   max_us_ = 0;
   overruns_seen_ = app.loop_timer().overruns();
   dropped_seen_ = writer_.dropped();
   // The definitions follow in the iterations (iteration()): an arming between iterations or in the mode
   // machine leaves them to the background of the next ones.
-}
-
-void FlightLogger::write_definitions(const FlightApp& app) {
-  // On the ground no iteration has a deadline to keep: a log opened at boot gets its definitions in its
-  // first iteration, so that its data starts with the first IMU sample (the replay needs the boot
-  // calibration's samples).
-  const bool armed = app.armed();
-  const uint16_t budget = armed ? kHeaderBytesPerIteration : 0xFFFFu;
-  const BackgroundBudget& background = app.background();
-  uint16_t bytes = 0;
-  while (phase_ != kPhaseData && bytes < budget &&
-         (!armed || background.fits(app.iteration_elapsed_us(), BackgroundBudget::kDefinitionUs)) && writer_.flush()) {
-    if (!next_definition(app, &bytes)) {
-      phase_ = kPhaseData;
-      write_status(app);
-    }
-  }
-}
-
-bool FlightLogger::next_definition(const FlightApp& app, uint16_t* bytes) {
-  switch (phase_) {
-    case kPhaseFormats: {
-      const FormatSpan span = log_topic_span(item_);
-      writer_.format(FlashText{kFormats + span.offset}, span.length);
-      *bytes = static_cast<uint16_t>(*bytes + span.length);
-      if (++item_ == kLogTopicCount) phase_ = kPhaseInfo, item_ = 0;
-      return true;
-    }
-    case kPhaseInfo:
-      switch (item_++) {
-        case 0: writer_.info(QUAD_TEXT("sys_name"), QUAD_TEXT("quad-stereo")); break;
-        case 1: writer_.info(QUAD_TEXT("ver_hw"), QUAD_TEXT(QUAD_LOG_HW)); break;
-        case 2: if (QUAD_GIT_HASH[0] != '\0') writer_.info(QUAD_TEXT("ver_sw"), QUAD_TEXT(QUAD_GIT_HASH)); break;
-        default:
-          writer_.info(QUAD_TEXT("loop_hz"), static_cast<uint32_t>(app.params().get(kLoopHz) + 0.5f));
-          phase_ = kPhaseParams, item_ = 0;
-          break;
-      }
-      *bytes = static_cast<uint16_t>(*bytes + 32);
-      return true;
-    case kPhaseParams: {
-      const ParamInfo info = param_info(item_);
-      writer_.parameter(info.name, app.params().get(item_));
-      *bytes = static_cast<uint16_t>(*bytes + 30);
-      if (++item_ == kParamCount) phase_ = kPhaseSubscriptions, item_ = 0;
-      return true;
-    }
-    case kPhaseSubscriptions:
-      if (item_ == kLogTopicCount) return false;
-      writer_.add_logged(item_, log_topic_format(item_));
-      ++item_;
-      *bytes = static_cast<uint16_t>(*bytes + 30);
-      return true;
-    case kPhaseData:
-      break;
-  }
-  return false;
 }
 
 void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, const hal::ImuSample& imu,
@@ -204,9 +84,9 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   }
   const uint32_t t = app.now_us();
   count_clock(t);
+  if (!writer_.is_open()) return;
   if (timing_rate_.tick()) timing_due_ = true;
   if (estimator_rate_.tick()) estimator_due_ = true;
-  if (!writer_.is_open()) return;
   const uint64_t now = stamp(t);
   const LoopTimer& loop = app.loop_timer();
   if (loop.last_exec_us() > max_us_) max_us_ = loop.last_exec_us();
@@ -219,20 +99,7 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
     if (phase_ != kPhaseData) return;
   }
   if (writer_.dropped() != dropped_seen_) note_dropout(t);
-  // A full buffer makes room in the store only as far as the iteration has time (else the record is
-  // dropped and counted): the records are composed after the iteration's flight stages.
-  writer_.set_room_flush_limit(app.background().log_bytes(app.iteration_elapsed_us()));
-  if (++imu_count_ >= imu_div_) {
-    imu_count_ = 0;
-    write_imu_topics(app, now, imu, dt, hovering, on_ground);
-  }
-  if (mag != nullptr) {
-    uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
-    if (p != nullptr) {
-      UlogFields(p).u64(now).f32(&mag->field.x, 3);
-    }
-  }
-  if (plan.frame_work) write_frame_topics(app, now);
+  write_topics(app, plan, now, imu, mag, dt, hovering, on_ground);
   // The slow records (at most one an iteration) wait for an iteration with time left for them.
   if (spare && (timing_due_ || estimator_due_ || queued_result_ != kNoResult)) {
     spare = app.background().fits(app.iteration_elapsed_us(), BackgroundBudget::kSlowRecordsUs);
@@ -250,6 +117,56 @@ void FlightLogger::iteration(const FlightApp& app, const IterationPlan& plan, co
   // iteration has time for them (the rest waits in the writer's buffer for the next iterations).
   writer_.flush(app.background().log_bytes(app.iteration_elapsed_us()));
   writer_.set_room_flush_limit(0xFFFFu);
+}
+
+void FlightLogger::write_topics(const FlightApp& app, const IterationPlan& plan, uint64_t now,
+                                const hal::ImuSample& imu, const hal::MagSample* mag, float dt, bool hovering,
+                                bool on_ground) {
+  const BackgroundBudget& background = app.background();
+  const uint32_t elapsed = app.iteration_elapsed_us();
+  // Above the thesis' rate the iteration's records go only when their composition ends before the
+  // deadline; what does not fit waits for the next iteration: the IMU topics log that iteration's sample
+  // (one every LOG_IMU_DIV-th iteration on average; at LOG_IMU_DIV 1 the sample is lost, and counted), the
+  // frame-rate topics that iteration's state (lost and counted when the next frame-rate work comes first).
+  // At the thesis' rate every iteration has its own records, and the period keeps a fix's time after the
+  // deadline, which they may take.
+  const bool budgeted = plan.multi_rate;
+  if (imu_count_ < imu_div_) ++imu_count_;
+  if (plan.frame_work) {
+    if (frame_due_) writer_.count_drop();
+    frame_due_ = true;
+  }
+  uint32_t records_us = 0;  // the time the records composed below take, above the thesis' rate
+  const bool imu_now =
+      imu_count_ >= imu_div_ && (!budgeted || background.fits(elapsed, BackgroundBudget::kImuRecordsUs));
+  if (imu_now && budgeted) records_us = BackgroundBudget::kImuRecordsUs;
+  const bool frame_now = frame_due_ && (!budgeted || background.fits(elapsed + records_us,
+                                                                      BackgroundBudget::kFrameRecordsUs));
+  if (frame_now && budgeted) records_us += BackgroundBudget::kFrameRecordsUs;
+  if (imu_count_ >= imu_div_ && !imu_now) {
+    ++records_deferred_;
+    if (imu_div_ <= 1) {
+      imu_count_ = 0;
+      writer_.count_drop();
+    }
+  }
+  if (frame_due_ && !frame_now) ++records_deferred_;
+  // A full buffer makes room in the store only as far as the iteration has time after the records.
+  writer_.set_room_flush_limit(background.log_bytes(elapsed + records_us));
+  if (imu_now) {
+    imu_count_ = 0;
+    write_imu_topics(app, now, imu, dt, hovering, on_ground);
+  }
+  if (mag != nullptr) {
+    uint8_t* p = writer_.begin_data(kLogSensorMag, kSensorMagBytes);
+    if (p != nullptr) {
+      UlogFields(p).u64(now).f32(&mag->field.x, 3);
+    }
+  }
+  if (frame_now) {
+    frame_due_ = false;
+    write_frame_topics(app, now);
+  }
 }
 
 void FlightLogger::note_dropout(uint32_t now_us) {
@@ -308,7 +225,8 @@ void FlightLogger::write_loop_timing(const FlightApp& app) {
       .u32(loop.overruns())
       .u32(loop.last_exec_us())
       .u32(max_us_)
-      .f32(static_cast<float>(loop.load_permille()) * 1e-3f);
+      .f32(static_cast<float>(loop.load_permille()) * 1e-3f)
+      .bytes(&records_deferred_, sizeof records_deferred_);
 }
 
 void FlightLogger::write_estimator_status(const FlightApp& app) {

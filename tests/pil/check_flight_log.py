@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""The flight log of an APM 2.5 processor-in-the-loop flight (tests/pil/CMakeLists.txt, pil_flight_avr_100hz).
+"""The flight log of an APM 2.5 processor-in-the-loop flight (tests/pil/CMakeLists.txt, pil_flight_avr_100hz and
+pil_flight_avr_200hz).
 
     check_flight_log.py NODE RUN IMAGE
 
@@ -85,7 +86,8 @@ def main(node, run, image):
         if timing and over:
             grew = timing["last"]["overruns"] - timing["first"]["overruns"]
             print(f"      loop_timing: overruns {timing['first']['overruns']} .. {timing['last']['overruns']}, "
-                  f"max_us {timing['last']['max_us']}; avr_pil: {over.group(1)} flown iterations over the period")
+                  f"max_us {timing['last']['max_us']}, records_deferred {timing['last'].get('records_deferred')}; "
+                  f"avr_pil: {over.group(1)} flown iterations over the period")
             if int(over.group(1)) == 0:
                 check(grew == 0, f"loop_timing counts no overrun in flight ({grew}), as avr_pil timed none")
             else:

@@ -148,6 +148,11 @@ int open_port(const std::string& path, char uart) {
 // Cycle counts of the phases the firmware marks on GPIOR1 (quad/hal/hal.h, hal::TracePoint). Every
 // figure is measured on the AVR's cycle counter, so interrupts taken inside a phase count in it.
 constexpr avr_io_addr_t kGpior1 = 0x4A;
+// --pc-profile FILE: the cycles of every instruction executed inside the control iterations and the vision
+// fixes (interrupts included) from the first flown iteration on, by program address
+// (tools/avr_pil/pc_profile.py sums them by function), and in FILE.periods each period's cycles (the
+// iteration's, then with the fixes fused after it, before the next one).
+bool g_pc_profile_armed = false;
 struct PhaseProfile {
   struct Sample {
     uint32_t cycles;
@@ -221,6 +226,7 @@ struct PhaseProfile {
         if (p->in_step) p->control_flown.push_back(p->sample(avr, p->step_begin));
         p->stage(avr, kControl);
         p->flown = true;
+        g_pc_profile_armed = true;
         break;
       case Point::kTelemetryDone: p->stage(avr, kTelemetry); break;
       case Point::kStreamed: p->stage(avr, kStream); break;
@@ -376,7 +382,7 @@ bool pump(UartBridge& u) {
 int usage() {
   std::fprintf(stderr,
                "usage: avr_pil --elf IMAGE.elf [--uart0 PATH] [--uart2 PATH] [--uart0-baud N] [--uart2-baud N]\n"
-               "               [--params FILE] [--dataflash FILE] [--iterations-csv FILE] [--realtime] [--max-seconds S]\n");
+               "               [--params FILE] [--dataflash FILE] [--iterations-csv FILE] [--pc-profile FILE] [--realtime] [--max-seconds S]\n");
   return 2;
 }
 
@@ -395,7 +401,7 @@ bool preload_eeprom(avr_t* avr, std::vector<uint8_t>& blob) {  // non-const: sim
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string elf, uart0, uart2, params, dataflash, iterations_csv;
+  std::string elf, uart0, uart2, params, dataflash, iterations_csv, pc_profile;
   bool realtime = false;
   double max_seconds = 0.0;
   for (int i = 1; i < argc; ++i) {
@@ -414,6 +420,7 @@ int main(int argc, char** argv) {
     else if (a == "--params") params = value("--params");
     else if (a == "--dataflash") dataflash = value("--dataflash");
     else if (a == "--iterations-csv") iterations_csv = value("--iterations-csv");
+    else if (a == "--pc-profile") pc_profile = value("--pc-profile");
     else if (a == "--realtime") realtime = true;
     else if (a == "--max-seconds") max_seconds = std::atof(value("--max-seconds"));
     else {
@@ -495,10 +502,30 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   constexpr int kSlice = 2000;  // AVR instructions between host-side polls (~0.1-0.3 ms of AVR time)
   int state = cpu_Running;
+  std::vector<uint64_t> pc_cycles(pc_profile.empty() ? 0 : 0x20000, 0);
+  std::vector<uint64_t> periods;
+  uint64_t period_acc = 0, step_acc = 0;
+  std::vector<uint64_t> period_steps;
+  bool was_in_step = false;
   uint16_t lowest_sp = static_cast<uint16_t>(avr->ramend);
   while (!g_stop) {
     for (int i = 0; i < kSlice; ++i) {
+      const uint32_t pc_before = avr->pc;
+      const uint64_t cycle_before = avr->cycle;
+      const bool running = avr->state == cpu_Running;
       state = avr_run(avr);
+      if (!pc_profile.empty() && running && g_pc_profile_armed && (profile.in_step || profile.in_fix)) {
+        pc_cycles[pc_before >> 1] += avr->cycle - cycle_before;
+        // A period's work: an iteration and the fixes fused after it, up to the next iteration.
+        if (profile.in_step && !was_in_step && period_acc != 0) {
+          periods.push_back(period_acc);
+          period_steps.push_back(step_acc);
+          period_acc = step_acc = 0;
+        }
+        period_acc += avr->cycle - cycle_before;
+        if (profile.in_step) step_acc += avr->cycle - cycle_before;
+      }
+      was_in_step = profile.in_step;
       // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
       const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
       if (sp < lowest_sp) lowest_sp = sp;
@@ -531,6 +558,32 @@ int main(int argc, char** argv) {
     return 1;
   }
   profile.report();
+  if (!pc_profile.empty()) {
+    FILE* f = std::fopen(pc_profile.c_str(), "w");
+    if (f == nullptr) {
+      std::fprintf(stderr, "avr_pil: --pc-profile %s: cannot write\n", pc_profile.c_str());
+      return 1;
+    }
+    for (size_t i = 0; i < pc_cycles.size(); ++i) {
+      if (pc_cycles[i] != 0) std::fprintf(f, "%zx %llu\n", i * 2, static_cast<unsigned long long>(pc_cycles[i]));
+    }
+    std::fclose(f);
+    if (FILE* g = std::fopen((pc_profile + ".periods").c_str(), "w")) {
+      for (size_t i = 0; i < periods.size(); ++i) {
+        std::fprintf(g, "%llu %llu\n", static_cast<unsigned long long>(period_steps[i]),
+                     static_cast<unsigned long long>(periods[i]));
+      }
+      std::fclose(g);
+    }
+    std::sort(periods.begin(), periods.end());
+    if (!periods.empty()) {
+      std::fprintf(stderr, "avr_pil: pc profile: %zu periods (iteration and fixes after it, from the first flown), "
+                   "median %llu, p99 %llu, max %llu cycles\n", periods.size(),
+                   static_cast<unsigned long long>(periods[periods.size() / 2]),
+                   static_cast<unsigned long long>(periods[periods.size() * 99 / 100]),
+                   static_cast<unsigned long long>(periods.back()));
+    }
+  }
   if (!iterations_csv.empty()) profile.write_csv(iterations_csv);
   avr_terminate(avr);
   return 0;

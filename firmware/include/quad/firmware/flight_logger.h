@@ -14,6 +14,13 @@
 //   an iteration with no fix step and no frame-rate work of a faster loop: the definitions, and
 //                                    loop_timing (once a second, and after an overrun) or else
 //                                    estimator_status (at kEstimatorStatusHz)
+// On the ATmega2560 above the thesis' rate the IMU and frame-rate topics are composed only when the
+// iteration has time for them (BackgroundBudget::kImuRecordsUs, kFrameRecordsUs); otherwise they go in the
+// next iteration with time,
+// with that iteration's sample and state: the IMU topics then skip one sample and take the next, one in
+// LOG_IMU_DIV on average (at LOG_IMU_DIV 1 the skipped sample is lost and counted as a drop, so a dropout
+// message follows), and frame-rate topics still waiting when the next frame-rate work comes are counted
+// as a drop. loop_timing's records_deferred counts the records composed late.
 // Events between iterations queue their records at once: vision fixes, mode changes (vehicle_status),
 // STATUSTEXT lines (logged strings), parameter changes. An iteration's data records and those queued
 // since the last one go to the store in one append at its end, as many bytes as the iteration has time
@@ -105,6 +112,17 @@ class FlightLogger {
   bool header_done() const { return writer_.is_open() && phase_ == kPhaseData; }
   uint16_t logs_opened() const { return logs_opened_; }
   uint32_t dropped() const { return writer_.dropped(); }
+  // The time (BackgroundBudget) the records due in the coming iteration() of `plan` take to compose, above
+  // the thesis' rate (iteration()); 0 when no log is recording data. The background work before the
+  // flight log leaves it.
+  uint16_t records_due_us(const IterationPlan& plan) const {
+    if (!header_done() || !plan.multi_rate) return 0;
+    uint16_t us = (plan.frame_work || frame_due_) ? BackgroundBudget::kFrameRecordsUs : 0;
+    if (imu_count_ + 1 >= imu_div_) us = static_cast<uint16_t>(us + BackgroundBudget::kImuRecordsUs);
+    return us;
+  }
+  // Records composed in a later iteration than theirs for want of time (loop_timing records_deferred).
+  uint16_t records_deferred() const { return records_deferred_; }
   // Bytes waiting for the store.
   uint16_t backlog() const { return writer_.pending(); }
   LogMode mode() const { return mode_; }
@@ -122,6 +140,9 @@ class FlightLogger {
   void write_estimator_status(const FlightApp& app);
   // now: this iteration's stamp().
   void write_frame_topics(const FlightApp& app, uint64_t now);
+  // The IMU, magnetometer and frame-rate topics of the iteration, each when it has time for them.
+  void write_topics(const FlightApp& app, const IterationPlan& plan, uint64_t now, const hal::ImuSample& imu,
+                    const hal::MagSample* mag, float dt, bool hovering, bool on_ground);
   void write_imu_topics(const FlightApp& app, uint64_t now, const hal::ImuSample& imu, float dt, bool hovering,
                         bool on_ground);
   // The vehicle clock on 64 bits (the 32-bit microsecond clock wraps after 71 minutes).
@@ -141,6 +162,8 @@ class FlightLogger {
   bool boot_log_started_ = false;
   bool timing_due_ = false;
   bool estimator_due_ = false;
+  bool frame_due_ = false;     // the frame-rate topics wait for an iteration with time for them
+  uint16_t records_deferred_ = 0;
   RateDivider timing_rate_;
   RateDivider estimator_rate_;
   uint32_t overruns_seen_ = 0;

@@ -84,6 +84,12 @@ class BackgroundBudget {
   // bytes waiting for its store: the flight's own log goes first.
   static constexpr uint16_t kStreamLogBacklog = 128;
   static constexpr uint8_t kSlowRecordsUs = 200;  // loop_timing or estimator_status and a queued fix's result, composed
+  // The flight log's own records, composed (UlogFields) with their reserve in the writer's buffer: the IMU
+  // topics (sensor_combined and vehicle_attitude, measured 3 700-4 300 cycles) and the frame-rate topics
+  // (vehicle_local_position, the setpoint and actuator_motors). What does not fit waits for the next
+  // iteration (FlightLogger::iteration).
+  static constexpr uint16_t kImuRecordsUs = 300;
+  static constexpr uint16_t kFrameRecordsUs = 350;
   static constexpr uint8_t kLogAppendUs = 80;    // a store append's command, and a page programmed
   static constexpr uint8_t kLogByteUs = 2;       // a byte to the store (27 cycles)
   static constexpr uint8_t kMarginEighths = 1;   // the margin, in eighths of the period

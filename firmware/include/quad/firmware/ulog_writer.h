@@ -103,6 +103,8 @@ class UlogWriter {
   bool idle() const { return head_ == tail_ && flash_left_ == 0; }
   uint16_t pending() const { return static_cast<uint16_t>(tail_ - head_ + flash_left_); }
   uint32_t dropped() const { return dropped_; }
+  // A record the caller gave up without composing it: counted like a drop (a dropout message follows).
+  void count_drop() { ++dropped_; }
 
  private:
   // An information or parameter record: the key ("type name", key_length bytes), then the value.
