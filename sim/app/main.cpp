@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "quad/sim/fleet_session.h"
 #include "quad/sim/hil_session.h"
 #include "quad/sim/recorder.h"
 #include "quad/sim/scenario.h"
@@ -206,7 +207,11 @@ int main(int argc, char** argv) {
     std::signal(SIGPIPE, SIG_IGN);
     std::fprintf(stderr, "quad_sim: %s (seed %llu), %s, run folder %s\n", scenario.name.c_str(),
                  static_cast<unsigned long long>(scenario.seed), realtime ? "real time" : "lockstep", out_dir.c_str());
-    const quad::sim::SessionResult r = quad::sim::run_session(scenario, options);
+    const bool fleet = !scenario.vehicles.empty();
+    if (fleet && (viewer || !record.empty() || !ground_port.empty()))
+      return usage("--viewer, --record and --ground-port are single-vehicle options (the scenario has vehicles:)");
+    const quad::sim::SessionResult r =
+        fleet ? quad::sim::run_fleet_session(scenario, options) : quad::sim::run_session(scenario, options);
     bool outputs_ok = true;
     if (recorder) {
       const std::string error = recorder->finish();
@@ -227,7 +232,7 @@ int main(int argc, char** argv) {
       }
     }
     window.reset();
-    if (plots) {
+    if (plots && !fleet) {  // plot_run.py draws one vehicle's log
       const std::string python = access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3";
       const std::string cmd = python + " '" QUAD_SIM_SOURCE_DIR "/plots/plot_run.py' '" + out_dir + "'";
       if (std::system(cmd.c_str()) != 0) {

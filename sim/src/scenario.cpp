@@ -305,6 +305,24 @@ void apply_override(YAML::Node& root, const ScenarioOverride& o, const std::stri
 
 }  // namespace
 
+const char* fix_source_name(FixSourceKind kind) {
+  switch (kind) {
+    case FixSourceKind::kSynthetic: return "synthetic";
+    case FixSourceKind::kOnboardStar: return "onboard_star";
+    case FixSourceKind::kGroundCameras: return "ground_cameras";
+  }
+  return "?";
+}
+
+std::vector<Marker> default_marker_layout() {
+  // Body FRD, metres: red on the front arm, green on the right arm, blue on the back arm, yellow on a
+  // mast above the hub; each 6 cm above the arm (FRD z up is negative), 2 cm balls.
+  return {{"red", {0.20, 0.0, -0.06}, 0.02},
+          {"green", {0.0, 0.20, -0.06}, 0.02},
+          {"blue", {-0.20, 0.0, -0.06}, 0.02},
+          {"yellow", {0.0, 0.0, -0.16}, 0.02}};
+}
+
 Eigen::Vector3d Scenario::wind_at(double t) const {
   Eigen::Vector3d w = wind_mean_ned_m_s;
   for (const Gust& g : gusts)
@@ -528,13 +546,100 @@ void parse_flight(const YAML::Node& root, const Field& top, Scenario& s) {
   std::stable_sort(s.rc.begin(), s.rc.end(), by_time);
 }
 
+std::vector<Marker> parse_markers(const Field& f) {
+  static const char* const kColours[] = {"red", "green", "blue", "yellow"};
+  std::vector<Marker> out;
+  for (size_t i = 0; i < f.size(); ++i) {
+    const Field m = f.at(i);
+    m.expect_map({"colour", "position_frd_m", "radius_m"});
+    Marker marker;
+    marker.colour = m["colour"].text();
+    if (std::find_if(std::begin(kColours), std::end(kColours), [&](const char* c) { return marker.colour == c; }) ==
+        std::end(kColours))
+      m["colour"].fail("must be red, green, blue or yellow");
+    marker.position_frd_m = m["position_frd_m"].vec3();
+    if (marker.position_frd_m.norm() > 1.0) m["position_frd_m"].fail("must lie within 1 m of the centre of mass");
+    m["radius_m"].get(marker.radius_m, 0.002, 0.2);
+    out.push_back(marker);
+  }
+  return out;
+}
+
+FixSourceKind parse_fix_source(const Field& f) {
+  const std::string name = f.text();
+  for (FixSourceKind k : {FixSourceKind::kSynthetic, FixSourceKind::kOnboardStar, FixSourceKind::kGroundCameras})
+    if (name == fix_source_name(k)) return k;
+  f.fail("is not a fix source (expected one of: synthetic, onboard_star, ground_cameras)");
+}
+
+// One item of `vehicles:`; `shared` holds the scenario's commands and firmware parameters.
+FleetVehicle parse_fleet_vehicle(const Field& v, const YAML::Node& node, const Scenario& shared, size_t index) {
+  v.expect_map({"name", "system_id", "initial", "fix_source", "markers", "firmware_params", "commands"});
+  FleetVehicle out;
+  out.name = v["name"].defined() ? v["name"].text() : "v" + std::to_string(index + 1);
+  const bool word = !out.name.empty() && std::all_of(out.name.begin(), out.name.end(), [](unsigned char c) {
+    return std::isalnum(c) || c == '_' || c == '-';
+  });
+  if (!word) v["name"].fail("must be a word of letters, digits, '_' or '-' (it names the vehicle's run folder)");
+  out.system_id = v["system_id"].defined() ? v["system_id"].integer(1, 254) : static_cast<int>(index) + 1;
+  if (const Field f = v["initial"]; f.defined()) {
+    f.expect_map({"north_east_m", "height_m", "yaw_deg"});
+    if (f["north_east_m"].defined()) out.initial_north_east_m = f["north_east_m"].vec2();
+    f["height_m"].get(out.initial_height_m, 0.0, 1000.0);
+    if (f["yaw_deg"].defined()) out.initial_yaw_rad = f["yaw_deg"].number(-360.0, 360.0) * kDeg;
+  }
+  if (v["fix_source"].defined()) out.fix_source = parse_fix_source(v["fix_source"]);
+  if (v["markers"].defined()) out.markers = parse_markers(v["markers"]);
+  out.firmware_params = shared.firmware_params;
+  if (const Field f = v["firmware_params"]; f.defined()) {
+    if (!node["firmware_params"].IsMap()) f.fail("must be a mapping of parameter names to values");
+    for (const auto& kv : node["firmware_params"]) {
+      const std::string k = f.key_name(kv.first);
+      const double value = f[k.c_str()].number();
+      auto same = std::find_if(out.firmware_params.begin(), out.firmware_params.end(), [&](const auto& p) { return p.first == k; });
+      if (same != out.firmware_params.end()) same->second = value;
+      else out.firmware_params.emplace_back(k, value);
+    }
+  }
+  // The scenario's commands go to every vehicle, their setpoints relative to the vehicle's start.
+  for (GcsCommand c : shared.commands) {
+    if (c.setpoint_ned_m) c.setpoint_ned_m->head<2>() += out.initial_north_east_m;
+    out.commands.push_back(c);
+  }
+  if (const Field f = v["commands"]; f.defined())
+    for (size_t i = 0; i < f.size(); ++i) out.commands.push_back(parse_command(f.at(i), shared.duration_s));
+  for (const GcsCommand& c : out.commands)
+    if (c.log_download || c.param_list)
+      v.fail("has a log_download or param_list command: a multi-vehicle run sends arm, mode, setpoint and land only");
+  std::stable_sort(out.commands.begin(), out.commands.end(), [](const auto& a, const auto& b) { return a.at_s < b.at_s; });
+  return out;
+}
+
+// `vehicles:` several vehicles in one world. The single-vehicle keys that a fleet does not share are
+// refused here, so a scenario never silently loses one.
+void parse_fleet(const YAML::Node& root, const Field& top, Scenario& s) {
+  const Field list = top["vehicles"];
+  if (list.size() < 1 || list.size() > 32) list.fail("must list 1 to 32 vehicles");
+  for (const char* k : {"initial", "rc", "faults"})
+    if (top[k].defined()) top[k].fail("is per vehicle in a scenario with vehicles: (not supported at the top)");
+  if (s.camera.enabled) top["camera"]["enabled"].fail("is a fix source in a scenario with vehicles: (vehicles[i].fix_source)");
+  for (size_t i = 0; i < list.size(); ++i) {
+    FleetVehicle v = parse_fleet_vehicle(list.at(i), root["vehicles"][i], s, i);
+    for (const FleetVehicle& other : s.vehicles) {
+      if (other.name == v.name) list.at(i)["name"].fail("repeats the name of another vehicle");
+      if (other.system_id == v.system_id) list.at(i)["system_id"].fail("repeats the system id of another vehicle");
+    }
+    s.vehicles.push_back(std::move(v));
+  }
+}
+
 Scenario scenario_from(const YAML::Node& root, const std::string& name, const std::string& base_dir) {
   Scenario s;
   s.path = name;
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
                   "vision", "external_pose", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
-                  "rc", "faults", "metrics", "firmware_params"});
+                  "rc", "faults", "metrics", "firmware_params", "vehicles"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);
   if (top["seed"].defined()) s.seed = static_cast<uint64_t>(top["seed"].integer(0, 2147483647));
@@ -542,6 +647,7 @@ Scenario scenario_from(const YAML::Node& root, const std::string& name, const st
   parse_links(top, s);
   parse_vision(top, base_dir, s);
   parse_flight(root, top, s);
+  if (top["vehicles"].defined()) parse_fleet(root, top, s);
   return s;
 }
 

@@ -139,6 +139,39 @@ struct CameraParams {
   Eigen::Vector3d mount_error_rad = Eigen::Vector3d::Zero();
 };
 
+// A vehicle's position fix in a multi-vehicle scenario (quad/sim/fix_source.h): the simulated onboard-star
+// fix (vision_fix.h), the rendered onboard cameras with a vision station per vehicle, or the fixed
+// ground cameras seeing every vehicle's colour markers (seed 003).
+enum class FixSourceKind { kSynthetic, kOnboardStar, kGroundCameras };
+const char* fix_source_name(FixSourceKind kind);
+
+// One colour marker on the airframe (seed 003 sec. 3.2: red, green, blue and yellow balls at known
+// places on the vehicle): its centre in body FRD and its radius.
+struct Marker {
+  std::string colour;  // red, green, blue or yellow
+  Eigen::Vector3d position_frd_m = Eigen::Vector3d::Zero();
+  double radius_m = 0.02;
+};
+// The default layout: three on the arms, one on a mast, not coplanar, so four markers fix the attitude
+// without the sign ambiguity of a symmetric set (seed 003 sec. 2).
+std::vector<Marker> default_marker_layout();
+
+// One vehicle of a multi-vehicle scenario (`vehicles:`). Each runs its own firmware process on its own
+// HIL link and radio; the scenario's other keys (links, sensors, motors, vision, metrics) are shared.
+struct FleetVehicle {
+  std::string name;
+  int system_id = 1;  // the id the ground side gives this vehicle (docs/simulator.md, "Several vehicles")
+  Eigen::Vector2d initial_north_east_m = Eigen::Vector2d::Zero();
+  double initial_height_m = 0.0;
+  double initial_yaw_rad = 0.0;
+  FixSourceKind fix_source = FixSourceKind::kSynthetic;
+  std::vector<Marker> markers = default_marker_layout();
+  // The scenario's firmware parameters with this vehicle's own on top.
+  std::vector<std::pair<std::string, double>> firmware_params;
+  // The scenario's commands (setpoints offset by this vehicle's start) and its own, sorted by time.
+  std::vector<GcsCommand> commands;
+};
+
 struct Scenario {
   std::string path;  // where it was loaded from
   std::string name;
@@ -182,6 +215,9 @@ struct Scenario {
   double hold_start_s = 0.0, hold_end_s = 0.0;
   std::vector<std::pair<double, double>> extra_holds;
   double settle_band_m = 0.05;
+
+  // Several vehicles in one world (empty: the single vehicle of the keys above, `initial` etc.).
+  std::vector<FleetVehicle> vehicles;
 
   Eigen::Vector3d wind_at(double t) const;
 };
