@@ -129,12 +129,18 @@ void DelayedEkfCore::fuse_due_fixes(const ImuIncrement& e) {
 
 void DelayedEkfCore::fuse_fix(StarFix fix, const ImuIncrement& e) {
   // Moved from its capture time to the increment's end (at most one step): the star seen from the body
-  // drifts by -w x b - R^T v, the star's attitude in the body turns by -w.
+  // drifts by -w x b - R^T v, the star's attitude in the body turns by -w; an external pose's position
+  // moves by v, its q_IB turns by w.
   const EkfState& x = filter_.state();
   const float lag = 1e-6f * static_cast<float>(micros_between(e.t_us, fix.capture_us));
   const Vec3 w = e.delta_angle * (1.0f / e.dt) - x.gyro_bias;
-  fix.star_body -= (cross(w, fix.star_body) + rotate_inverse(x.q, x.v)) * lag;
-  if (fix.has_attitude) fix.q_bs = small_turn(w * -lag) * fix.q_bs;
+  if (fix.ned) {
+    fix.star_body += x.v * lag;
+    if (fix.has_attitude) fix.q_bs = fix.q_bs * small_turn(w * lag);
+  } else {
+    fix.star_body -= (cross(w, fix.star_body) + rotate_inverse(x.q, x.v)) * lag;
+    if (fix.has_attitude) fix.q_bs = small_turn(w * -lag) * fix.q_bs;
+  }
   const bool lost = filter_.horizontal_pos_sigma() > kResetPositionSigma;
   if (!position_initialized_ || lost || rejections_in_a_row_ >= kResetAfterRejections) {
     // The attitude first (it rotates the fix into NED), then the position set from the fix.

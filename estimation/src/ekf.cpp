@@ -55,6 +55,11 @@ Quat attitude_from_star(const Quat& q_bs, const Quat& estimate) {
   return best;
 }
 
+// q_IB measured by a fix: an external pose's own, or the star's.
+Quat measured_attitude(const StarFix& fix, const Quat& estimate) {
+  return fix.ned ? normalized(fix.q_bs) : attitude_from_star(fix.q_bs, estimate);
+}
+
 }  // namespace
 
 bool cholesky3(const float u[6], float l[6]) {
@@ -323,17 +328,17 @@ void ErrorStateEkf::fuse_star(const StarFix& fix, EkfFuse* position_result, EkfF
   EkfFuse pr = EkfFuse::kRejectedInvalid, ar = EkfFuse::kRejectedInvalid;
   const Mat3 r = to_dcm(x_.q);
   if (is_finite(fix.star_body)) {
-    // h = R^T (s - p): H_theta = [h]x, H_p = -R^T (body-frame attitude error).
+    // h = R^T (s - p): H_theta = [h]x, H_p = -R^T (body-frame attitude error); an external pose's h = p.
     Group g;
     g.rows = 3;
     g.c0 = kEkfTheta;
     g.width = 6;
-    const Vec3 h = mul_transpose(r, params_.star_ned - x_.p);
+    const Vec3 h = fix.ned ? x_.p : mul_transpose(r, params_.star_ned - x_.p);
     const Mat3 sk = skew(h);
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) {
-        g.h[i][j] = sk.m[i][j];
-        g.h[i][3 + j] = -r.m[j][i];
+        g.h[i][j] = fix.ned ? 0.0f : sk.m[i][j];
+        g.h[i][3 + j] = fix.ned ? (i == j ? 1.0f : 0.0f) : -r.m[j][i];
       }
     }
     const Vec3 nu = fix.star_body - h;  // seed 004 eq. 3.22: measurement minus prediction
@@ -366,7 +371,7 @@ EkfFuse ErrorStateEkf::fuse_star_attitude(const StarFix& fix) {
   g.width = 3;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
-  const Quat measured = attitude_from_star(fix.q_bs, x_.q);
+  const Quat measured = measured_attitude(fix, x_.q);
   const Vec3 nu = to_rotation_vector(conjugate(x_.q) * measured);  // body-frame rotation to the measurement
   g.nu[0] = nu.x;
   g.nu[1] = nu.y;
@@ -379,7 +384,7 @@ EkfFuse ErrorStateEkf::fuse_star_heading(const StarFix& fix) {
   // The heading of q_IB measured from the star against the estimate's, H = e3^T R as for the
   // magnetometer; its variance the attitude covariance's share about NED down.
   const Mat3 r = to_dcm(x_.q);
-  const Mat3 rm = to_dcm(attitude_from_star(fix.q_bs, x_.q));
+  const Mat3 rm = to_dcm(measured_attitude(fix, x_.q));
   if (!(rm.m[0][0] * rm.m[0][0] + rm.m[1][0] * rm.m[1][0] > 0.25f)) return EkfFuse::kRejectedInvalid;
   Group g;
   g.rows = 1;
@@ -400,9 +405,9 @@ EkfFuse ErrorStateEkf::fuse_star_heading(const StarFix& fix) {
 }
 
 void ErrorStateEkf::initialize_position(const StarFix& fix) {
-  const Mat3 r = to_dcm(x_.q);
-  const Vec3 rotated = r * fix.star_body;
-  x_.p = params_.star_ned - rotated;
+  // (An external pose: R = I and no attitude share, p = the fix.)
+  const Mat3 r = fix.ned ? Mat3::identity() : to_dcm(x_.q);
+  x_.p = fix.ned ? fix.star_body : params_.star_ned - r * fix.star_body;
   // Cov(p) = R C R^T + [R b]x P_theta [R b]x^T (the attitude's share), no cross-covariances.
   float c[3][3];
   float noise[6];
@@ -414,7 +419,7 @@ void ErrorStateEkf::initialize_position(const StarFix& fix) {
   Mat3 pt;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) pt.m[i][j] = P_[i][j];
-  const Mat3 jt = r * skew(fix.star_body);  // d(R b)/d theta = -R [b]x; the sign cancels in J P J^T
+  const Mat3 jt = fix.ned ? Mat3{} : r * skew(fix.star_body);  // d(R b)/d theta = -R [b]x; the sign cancels
   const Mat3 cov = r * cm * transpose(r) + jt * pt * transpose(jt);
   for (int i = 0; i < kN; ++i) {
     for (int k = 0; k < 3; ++k) {

@@ -1,6 +1,7 @@
 // The station's fixes as they arrive from the ground link: LANDING_TARGET (the star in the camera rig's
 // body frame, turned into the IMU's by the calibrated camera mount) for either estimator, its
-// covariances for the EKF, and a position already in NED (VISION_POSITION_ESTIMATE).
+// covariances for the EKF, and external poses already in NED (external_pose.h: motion capture, ground
+// cameras), which the camera mount does not concern.
 #include "quad/firmware/app.h"
 
 namespace quad {
@@ -57,9 +58,32 @@ void FlightApp::star_covariance(const mav::LandingTargetCovariance& msg) {
                                msg.attitude_covariance, msg.attitude_valid == 1);
 }
 
-void FlightApp::position_fix(const Vec3& p_ned, uint32_t capture_us) {
+void FlightApp::external_pose(const ExternalPose& pose) {
   ++fixes_received_;
-  position_fix_at(p_ned, capture_us, nullptr);
+  // The capture time on the vehicle clock: the sender's stamp, or the arrival minus EXT_POSE_DELAY.
+  const float delay_s = params_.get(kExtPoseDelay);
+  const uint32_t capture_us = delay_s < 0.0f ? static_cast<uint32_t>(pose.time_usec)
+                                             : now_us_ - static_cast<uint32_t>(delay_s * 1e6f);
+  if (!estimator_.ekf_selected()) {
+    // The thesis pair takes the position, with its own noise (KF_FIX_SIG_XY, KF_FIX_SIG_Z).
+    position_fix_at(pose.p_ned, capture_us, nullptr);
+    return;
+  }
+  // The EKF: position and covariance in NED, the attitude as the star's (EST_STAR_ATT).
+  est::StarFix fix;
+  fix.ned = true;
+  fix.capture_us = capture_us;
+  fix.star_body = pose.p_ned;
+  fix.q_bs = pose.q_ib;
+  fix.has_attitude = pose.has_attitude;
+  fix.has_covariance = pose.has_covariance;
+  for (uint8_t i = 0; i < 6; ++i) {
+    fix.pos_cov[i] = pose.pos_cov[i];
+    fix.att_cov[i] = pose.att_cov[i];
+  }
+  const est::FixResult r = estimator_.queue_star(fix);
+  fix_result(r, false);
+  logger_.vision_fix(now_us_, &pose.p_ned, capture_us, nullptr, log_fix_result(r, false));
 }
 
 }  // namespace fw

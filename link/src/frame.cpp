@@ -45,6 +45,7 @@ bool find_message_info(uint32_t message_id, MessageInfo* info) {
     case LogData::kId: return found<LogData>(info);
     case LogErase::kId: return found<LogErase>(info);
     case LogRequestEnd::kId: return found<LogRequestEnd>(info);
+    case AttPosMocap::kId: return found<AttPosMocap>(info);
     case LandingTarget::kId: return found<LandingTarget>(info);
     case EstimatorStatus::kId: return found<EstimatorStatus>(info);
     case ExtendedSysState::kId: return found<ExtendedSysState>(info);

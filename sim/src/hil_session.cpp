@@ -29,6 +29,7 @@
 #include "quad/sim/station_loop.h"
 #include "quad/sim/udp_link.h"
 #include "quad/sim/vehicle.h"
+#include "quad/sim/external_pose_feed.h"
 #include "quad/sim/vision_fix.h"
 
 namespace quad::sim {
@@ -122,6 +123,7 @@ class Session {
   Mpu6000 imu_;
   Hmc5883l mag_;
   SimulatedVisionFix vision_;
+  SimulatedExternalPose external_pose_;  // the motion-capture feed, when the scenario has one
   ImuReading imu_reading_{};
   bool mag_fresh_ = false;
   Eigen::Vector3d field_ned_;
@@ -239,6 +241,7 @@ Session::Session(const Scenario& s, const SessionOptions& o)
       imu_(s.imu, Rng(s.seed, "imu")),
       mag_(s.mag, Rng(s.seed, "magnetometer")),
       vision_(s.vision, Rng(s.seed, "vision")),
+      external_pose_(s.external_pose, Rng(s.seed, "external_pose")),
       field_ned_(s.field_ned_gauss),
       uart0_(s.uart0_baud),
       uart2_(s.radio_baud),
@@ -658,6 +661,8 @@ void Session::physics_period(double t_end) {
       vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
       vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); });
     }
+    external_pose_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout);
+    external_pose_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); });
     if (o_.realtime) deliver_radio(now);
     radio_down_.deliver_until(now, [&](const uint8_t* d, size_t n) { radio_downlink(d, n, now); });
     if (o_.on_frame && now + 1e-9 >= next_frame_t_) {
@@ -853,7 +858,8 @@ void Session::write_summary(bool complete, const std::string& reason) {
   else j.add_null("altitude_reached_s");
   j.add("crashed", metrics_.crashed());
   if (metrics_.crashed()) j.add("crash_time_s", metrics_.crash_time_s());
-  j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_.released())).add("links", links);
+  j.add("estimate_vs_truth", est).add("vision_fixes_sent", static_cast<long>(vision_.released()))
+      .add("external_poses_sent", static_cast<long>(external_pose_.released())).add("links", links);
   if (log_download_.started()) {
     const LogDownload& d = log_download_;
     Json ld;

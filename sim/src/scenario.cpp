@@ -430,6 +430,23 @@ void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
     f["latency_s"].get(s.vision.latency_s, 0.0, 10.0);
     f["noise_m"].get(s.vision.noise_m, 0.0, 10.0);
   }
+  if (const Field f = top["external_pose"]; f.defined()) {
+    f.expect_map({"message", "rate_hz", "latency_s", "noise_m", "attitude_noise_deg", "target_system", "clock_offset_s"});
+    s.external_pose.enabled = true;
+    if (f["message"].defined()) {
+      const std::string m = f["message"].text();
+      if (m == "att_pos_mocap") s.external_pose.message = ExternalPoseMessage::kAttPosMocap;
+      else if (m == "vision_position_estimate") s.external_pose.message = ExternalPoseMessage::kVisionPositionEstimate;
+      else if (m == "external_pose_targeted") s.external_pose.message = ExternalPoseMessage::kTargeted;
+      else f["message"].fail("must be att_pos_mocap, vision_position_estimate or external_pose_targeted");
+    }
+    f["rate_hz"].get(s.external_pose.rate_hz, 0.1, 1000.0);
+    f["latency_s"].get(s.external_pose.latency_s, 0.0, 10.0);
+    f["noise_m"].get(s.external_pose.noise_m, 0.0, 10.0);
+    f["attitude_noise_deg"].get(s.external_pose.attitude_noise_deg, 0.0, 90.0);
+    if (f["target_system"].defined()) s.external_pose.target_system = f["target_system"].integer(1, 255);
+    f["clock_offset_s"].get(s.external_pose.clock_offset_s, 0.0, 1e10);
+  }
   if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
   if (const Field f = top["station_settings"]; f.defined()) {
     for (const std::string& k : f.keys()) {
@@ -621,7 +638,7 @@ Scenario scenario_from(const YAML::Node& root, const std::string& name, const st
   s.path = name;
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "vision", "external_pose", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
                   "rc", "faults", "metrics", "firmware_params", "vehicles"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);

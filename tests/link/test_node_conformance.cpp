@@ -102,7 +102,7 @@ TEST_F(NodeConformance, FramesEncodedByNodeMavlinkDecodeExactly) {
   const std::string bytes = read_file(bin);
   size_t types = 0;
   mav::for_each_message_type([&](auto) { ++types; });
-  ASSERT_EQ(types, 27u);
+  ASSERT_EQ(types, 28u);
   ASSERT_EQ(expected.size(), 60u * types);
 
   mav::Parser parser;

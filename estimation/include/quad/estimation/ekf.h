@@ -74,7 +74,8 @@ struct EkfParams {
   Vec3 mag_ref_ned{0.42f, 0.0f, 0.91f};  // Earth field in NED, magnetometer units
 };
 
-// The station's fix: the star in body FRD and, when the station fitted the pose, its attitude.
+// The station's fix: the star in body FRD and, when the station fitted the pose, its attitude; or an
+// external pose in NED (ned).
 struct StarFix {
   uint32_t capture_us = 0;
   Vec3 star_body;         // LANDING_TARGET x y z
@@ -83,6 +84,9 @@ struct StarFix {
   float att_cov[6];       // rad^2 (valid when has_covariance && has_attitude)
   bool has_covariance = false;
   bool has_attitude = false;
+  // An external pose (motion capture): star_body holds the body's NED position, pos_cov is in NED and
+  // q_bs holds q_IB itself (h = p and h = q instead of the star's R^T (s - p) and q_BS).
+  bool ned = false;
 };
 
 // Outcome of one measurement group.

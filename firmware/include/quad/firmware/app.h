@@ -150,7 +150,7 @@ class FlightApp {
   void position_target(const Vec3& target, const float* yaw);
   void star_fix(const mavlink::LandingTarget& msg);
   void star_covariance(const mavlink::LandingTargetCovariance& msg);
-  void position_fix(const Vec3& p_ned, uint32_t capture_us);
+  void external_pose(const ExternalPose& pose);
   ParamUpdate set_param(uint8_t index, float value);
   uint64_t timesync_us() const { return hil() ? hil_time_usec_ : now_us_; }
   // An iteration has run; hil_time_usec(): the simulator's time of the last one.

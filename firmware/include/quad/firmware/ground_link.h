@@ -15,13 +15,15 @@
 //   void position_target(const Vec3&, const float* yaw)      SET_POSITION_TARGET_LOCAL_NED
 //   void star_fix(const mavlink::LandingTarget&)             LANDING_TARGET from the vision station
 //   void star_covariance(const mavlink::LandingTargetCovariance&)   its covariances (the project's dialect)
-//   void position_fix(const Vec3&, uint32_t capture_us)      VISION_POSITION_ESTIMATE
+//   void external_pose(const ExternalPose&)                  ATT_POS_MOCAP, VISION_POSITION_ESTIMATE, and
+//                                                            EXTERNAL_POSE_TARGETED addressed to this vehicle
 //   ParamUpdate set_param(uint8_t index, float value)        PARAM_SET, found by name
 //   uint32_t now_us() const, uint64_t timesync_us() const    the vehicle clock
 #pragma once
 
 #include <stdint.h>
 
+#include "quad/firmware/external_pose.h"
 #include "quad/firmware/flight_control.h"
 #include "quad/firmware/log_store.h"
 #include "quad/firmware/params.h"
@@ -107,6 +109,9 @@ class GroundLink {
 
   template <class Handler>
   void dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h);
+  // The external poses, read from the frame where it lies (external_pose.h).
+  template <class Handler>
+  void on_external_pose(const mavlink::Frame& frame, Handler& h);
   template <class Handler>
   void on_command(uint8_t port, const mavlink::CommandLong& cmd, Handler& h);
   template <class Handler>
@@ -209,11 +214,11 @@ void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h)
       if (mav::decode(frame, msg)) h.star_covariance(msg);
       break;
     }
-    case mav::VisionPositionEstimate::kId: {
-      mav::VisionPositionEstimate msg;
-      if (mav::decode(frame, msg)) h.position_fix(Vec3{msg.x, msg.y, msg.z}, static_cast<uint32_t>(msg.usec));
+    case mav::VisionPositionEstimate::kId:
+    case mav::AttPosMocap::kId:
+    case mav::ExternalPoseTargeted::kId:
+      on_external_pose(frame, h);
       break;
-    }
     case mav::ParamRequestList::kId: {
       mav::ParamRequestList msg;
       if (mav::decode(frame, msg) && addressed_to_vehicle(msg.target_system)) {
@@ -249,6 +254,19 @@ void GroundLink::dispatch(uint8_t port, const mavlink::Frame& frame, Handler& h)
       dispatch_log(port, frame);
       break;
   }
+}
+
+template <class Handler>
+void GroundLink::on_external_pose(const mavlink::Frame& frame, Handler& h) {
+  ExternalPose pose;
+  if (frame.message_id == mavlink::AttPosMocap::kId) {
+    decode_att_pos_mocap(frame, &pose);
+  } else if (frame.message_id == mavlink::VisionPositionEstimate::kId) {
+    decode_vision_position_estimate(frame, &pose);
+  } else if (decode_external_pose_targeted(frame, &pose) != mavlink::kVehicleSystemId) {
+    return;  // another vehicle's on a shared channel (0, everyone, means nothing for a pose)
+  }
+  h.external_pose(pose);
 }
 
 template <class Handler>

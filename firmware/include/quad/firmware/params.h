@@ -75,6 +75,10 @@ namespace fw {
   X(kVisStarN, "VIS_STAR_N", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarE, "VIS_STAR_E", 0.0f, -1000.0f, 1000.0f)                                            \
   X(kVisStarD, "VIS_STAR_D", 0.0f, -1000.0f, 1000.0f)                                            \
+  /* external poses (ATT_POS_MOCAP, VISION_POSITION_ESTIMATE, EXTERNAL_POSE_TARGETED): below 0 their */ \
+  /* time_usec is the vehicle's clock (a sender that follows it with TIMESYNC); else the capture time */ \
+  /* is the arrival minus this (s), as PX4's EKF2_EV_DELAY, for a sender on its own clock */      \
+  X(kExtPoseDelay, "EXT_POSE_DELAY", -1.0f, -1.0f, 0.25f)                                        \
   /* the camera rig's mount error: the body frame the station reports fixes in, relative to the IMU's */ \
   /* (ZYX Euler angles, rad; tools/mount_calibration, docs/estimation.md "The camera mount"), */  \
   /* applied to every fix's position and attitude before either estimator takes it */           \

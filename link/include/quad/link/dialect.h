@@ -5,9 +5,9 @@
 //   - the vehicle's system and component ids;
 //   - the flight modes: HEARTBEAT.custom_mode and MAV_CMD_DO_SET_MODE param2 numbers, and their names;
 //   - SETUP_SIGNING (MAVLink common, id 256), which only the vehicle and the ground station speak, and the
-//     project's own LANDING_TARGET_COVARIANCE (dialect_pose.h): the parsers that must recognise them use
-//     dialect_message_info() instead of the codec's table. Id,
-//     CRC_EXTRA and layout are those of node-mavlink 2.3's mavlink-mappings (SetupSigning: MSG_ID 256,
+//     project's own LANDING_TARGET_COVARIANCE and EXTERNAL_POSE_TARGETED (dialect_pose.h): the parsers
+//     that must recognise them use dialect_message_info() instead of the codec's table. Id, CRC_EXTRA and
+//     layout are those of node-mavlink 2.3's mavlink-mappings (SetupSigning: MSG_ID 256,
 //     MAGIC_NUMBER 71, PAYLOAD_LENGTH 42), checked against node-mavlink in
 //     tests/firmware/test_radio_signing.cpp.
 #pragma once
@@ -75,6 +75,7 @@ inline bool dialect_message_info(uint32_t message_id, MessageInfo* info) {
   switch (message_id) {
     case SetupSigning::kId: *info = message_info<SetupSigning>(); return true;
     case LandingTargetCovariance::kId: *info = message_info<LandingTargetCovariance>(); return true;
+    case ExternalPoseTargeted::kId: *info = message_info<ExternalPoseTargeted>(); return true;
     default: return find_message_info(message_id, info);
   }
 }

@@ -528,6 +528,30 @@ struct LogRequestEnd {
   }
 };
 
+// ATT_POS_MOCAP (138): a motion-capture system's pose of the vehicle: q body FRD to NED (w first), x y z
+// NED, at time_usec; covariance the 6x6 pose covariance's upper triangle by rows (x y z roll pitch yaw),
+// NaN in its first element when unknown.
+struct AttPosMocap {
+  static constexpr uint32_t kId = 138;
+  static constexpr uint8_t kCrcExtra = 109;
+  static constexpr uint8_t kBaseLength = 36;
+  static constexpr uint8_t kLength = 120;
+  static constexpr const char* kName = "ATT_POS_MOCAP";
+  uint64_t time_usec = 0;
+  float q[4] = {};
+  float x = 0.0f;
+  float y = 0.0f;
+  float z = 0.0f;
+  // extensions
+  float covariance[21] = {};
+  template <class M, class Io>
+  static constexpr void fields(M& m, Io& io) {
+    io(m.time_usec); io(m.q); io(m.x); io(m.y); io(m.z);
+    io.extensions();
+    io(m.covariance);
+  }
+};
+
 // LANDING_TARGET (149): a target seen from the vehicle; here the star, x/y/z in body FRD (frame 12).
 struct LandingTarget {
   static constexpr uint32_t kId = 149;
@@ -627,7 +651,8 @@ void for_each_message_type(F&& f) {
   f(ParamSet{}); f(AttitudeQuaternion{}); f(LocalPositionNed{}); f(ManualControl{}); f(CommandLong{});
   f(CommandAck{}); f(SetPositionTargetLocalNed{}); f(HilActuatorControls{}); f(VisionPositionEstimate{});
   f(HilSensor{}); f(Timesync{}); f(HilStateQuaternion{}); f(LogRequestList{}); f(LogEntry{});
-  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(LandingTarget{}); f(EstimatorStatus{});
+  f(LogRequestData{}); f(LogData{}); f(LogErase{}); f(LogRequestEnd{}); f(AttPosMocap{}); f(LandingTarget{});
+  f(EstimatorStatus{});
   f(ExtendedSysState{});
   f(Statustext{});
 }
@@ -662,6 +687,7 @@ static_assert(lengths_match_fields<LogRequestData>(), "LOG_REQUEST_DATA layout")
 static_assert(lengths_match_fields<LogData>(), "LOG_DATA layout");
 static_assert(lengths_match_fields<LogErase>(), "LOG_ERASE layout");
 static_assert(lengths_match_fields<LogRequestEnd>(), "LOG_REQUEST_END layout");
+static_assert(lengths_match_fields<AttPosMocap>(), "ATT_POS_MOCAP layout");
 static_assert(lengths_match_fields<LandingTarget>(), "LANDING_TARGET layout");
 static_assert(lengths_match_fields<EstimatorStatus>(), "ESTIMATOR_STATUS layout");
 static_assert(lengths_match_fields<ExtendedSysState>(), "EXTENDED_SYS_STATE layout");

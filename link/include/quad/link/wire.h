@@ -50,6 +50,7 @@ class Reader {
     offset_ += sizeof(T);
   }
   void extensions() {}
+  void skip(size_t bytes) { offset_ += bytes; }
 
  private:
   const uint8_t* payload_;
@@ -76,6 +77,40 @@ constexpr SizeCounter count_fields() {
   SizeCounter counter{};
   Msg::fields(msg, counter);
   return counter;
+}
+
+// The wire offset of a definition's field number `index` (0 = the first in wire order), at compile time,
+// so that a receiver can read single fields of a payload where it is (read_at) instead of copying the
+// whole message.
+struct OffsetCounter {
+  size_t fields_left = 0;
+  size_t offset = 0;
+  template <class T>
+  constexpr void operator()(const T&) {
+    if (fields_left == 0) return;
+    offset += sizeof(T);
+    --fields_left;
+  }
+  constexpr void extensions() {}
+};
+
+template <class Msg>
+constexpr size_t field_offset(size_t index) {
+  Msg msg{};
+  OffsetCounter counter{};
+  counter.fields_left = index;
+  Msg::fields(msg, counter);
+  return counter.offset;
+}
+
+// The value at `offset` of a payload of `length` bytes, zero-extended as Reader does.
+template <class T>
+T read_at(const uint8_t* payload, size_t length, size_t offset) {
+  T value;
+  Reader reader(payload, length);
+  reader.skip(offset);
+  reader(value);
+  return value;
 }
 
 }  // namespace wire

@@ -86,6 +86,22 @@ struct VisionParams {
   double attitude_sigma_deg = -1.0;
 };
 
+// A motion-capture feed (`external_pose:`; quad/sim/external_pose_feed.h): the truth plus noise as one of
+// the field's external-pose messages, on the radio.
+enum class ExternalPoseMessage { kAttPosMocap, kVisionPositionEstimate, kTargeted };
+struct ExternalPoseParams {
+  bool enabled = false;  // true when the scenario has the key
+  ExternalPoseMessage message = ExternalPoseMessage::kAttPosMocap;
+  double rate_hz = 50.0;
+  double latency_s = 0.01;           // capture to the radio
+  double noise_m = 0.001;            // per axis, NED
+  double attitude_noise_deg = 0.1;   // per body axis
+  int target_system = 1;             // EXTERNAL_POSE_TARGETED's
+  // Added to the capture time in the stamp: 0, the simulator's clock (the vehicle's, in HIL); else the
+  // mocap computer's own clock, which the firmware maps with EXT_POSE_DELAY.
+  double clock_offset_s = 0.0;
+};
+
 // One camera's lens in OpenCV's pinhole model: focal lengths and principal point (px), distortion
 // (k1, k2, p1, p2, k3) applied to normalised undistorted coordinates (quad/sim/camera_model.h).
 struct LensParams {
@@ -174,6 +190,7 @@ struct Scenario {
   double rc_rate_hz = 50.0;
 
   VisionParams vision;
+  ExternalPoseParams external_pose;
   CameraParams camera;
   // Extra keys for the vision station's settings file (name -> number or word), written beside the
   // camera mount the simulator puts there (quad/sim/station_loop.h).
