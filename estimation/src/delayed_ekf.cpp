@@ -124,11 +124,12 @@ void DelayedEkfCore::fuse_ground(const ImuIncrement& e) {
   // fuses the last known position without aiding) once a fix has set the position: before that the
   // first fix sets it. The position first: its update takes the velocity's correlation with the
   // position, so the zero velocity that follows does not move it along the dead reckoning.
-  // While fixes are fused they hold the position: the hold starts from where they leave it.
+  // While fixes are fused they hold the position (and say where the floor is): the hold starts from
+  // where they leave it.
   const bool aided = fix_fused_ && micros_between(e.t_us, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
   if (!still_ || aided) hold_ = filter_.state().p;
   if (e.on_floor) hold_.z = floor_down_;
-  if (position_initialized_) filter_.fuse_position_hold(hold_);
+  if (position_initialized_ && !aided) filter_.fuse_position_hold(hold_);
   filter_.fuse_zero_velocity();
 }
 
