@@ -71,11 +71,12 @@ void DelayedEkfCore::mag(const Vec3& field) {
   acc_.has_mag = true;
 }
 
-void DelayedEkfCore::predict(uint32_t t_us, bool still, bool hovering) {
+void DelayedEkfCore::predict(uint32_t t_us, bool still, bool hovering, bool on_floor) {
   if (!started_) return;
   if (acc_.dt > 0.0f) {
     acc_.t_us = t_us;
     acc_.still = still;
+    acc_.on_floor = still && on_floor;
     acc_.hovering = hovering;
     buffer_[head_] = acc_;
     head_ = static_cast<uint16_t>((head_ + 1u) % capacity_);
@@ -106,8 +107,8 @@ const ImuIncrement& DelayedEkfCore::entry(uint16_t age_from_oldest) const {
 void DelayedEkfCore::advance(const ImuIncrement& e) {
   filter_.predict(e.delta_angle, e.delta_velocity, e.dt);
   filter_us_ = e.t_us;
+  if (e.still) fuse_ground(e);
   still_ = e.still;
-  if (e.still) filter_.fuse_zero_velocity();
   if (e.hovering && use_hover_force_ && filter_.fuse_hover_force(e.delta_velocity * (1.0f / e.dt)) == EkfFuse::kFused)
     ++health_.hover_forces_fused;
   if (e.has_mag && use_mag_) {
@@ -116,6 +117,20 @@ void DelayedEkfCore::advance(const ImuIncrement& e) {
     if (r == EkfFuse::kRejectedGate) ++health_.headings_rejected;
   }
   fuse_due_fixes(e);
+}
+
+void DelayedEkfCore::fuse_ground(const ImuIncrement& e) {
+  // Where the vehicle came to rest; on the floor its height is known. Held (a measurement, as PX4's EKF2
+  // fuses the last known position without aiding) once a fix has set the position: before that the
+  // first fix sets it. The position first: its update takes the velocity's correlation with the
+  // position, so the zero velocity that follows does not move it along the dead reckoning.
+  // While fixes are fused they hold the position (and say where the floor is): the hold starts from
+  // where they leave it.
+  const bool aided = fix_fused_ && micros_between(e.t_us, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
+  if (!still_ || aided) hold_ = filter_.state().p;
+  if (e.on_floor) hold_.z = floor_down_;
+  if (position_initialized_ && !aided) filter_.fuse_position_hold(hold_);
+  filter_.fuse_zero_velocity();
 }
 
 void DelayedEkfCore::fuse_due_fixes(const ImuIncrement& e) {

@@ -471,6 +471,28 @@ EkfFuse ErrorStateEkf::fuse_zero_velocity() {
   return EkfFuse::kFused;
 }
 
+EkfFuse ErrorStateEkf::fuse_position_hold(const Vec3& p_hold) {
+  // h = p, H = I on the position; a pseudo-measurement like the zero velocity (PX4 EKF2's fusion of the
+  // last known position without aiding), so not gated either.
+  if (!is_finite(p_hold)) return EkfFuse::kRejectedInvalid;
+  Group g;
+  g.rows = 3;
+  g.c0 = kEkfPos;
+  g.width = 3;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
+  g.nu[0] = p_hold.x - x_.p.x;
+  g.nu[1] = p_hold.y - x_.p.y;
+  g.nu[2] = p_hold.z - x_.p.z;
+  const float var = params_.hold_position_sigma * params_.hold_position_sigma;
+  const float noise[6] = {var, 0.0f, 0.0f, var, 0.0f, var};
+  for (int i = 0; i < 6; ++i) g.noise[i] = noise[i];
+  float y[kN][3], w[3], s[3];
+  if (whiten(P_, g, y, w, s) < 0.0f) return EkfFuse::kRejectedInvalid;
+  apply_group(P_, x_, y, w, 3);
+  return EkfFuse::kFused;
+}
+
 EkfFuse ErrorStateEkf::fuse_hover_force(const Vec3& specific_force) {
   // h = b_a (x, y), H = I on the accelerometer bias: one scalar group per axis, each gated.
   if (!is_finite(specific_force)) return EkfFuse::kRejectedInvalid;

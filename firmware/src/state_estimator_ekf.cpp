@@ -49,6 +49,7 @@ void StateEstimator::configure_ekf(const Params& p) {
   // The observer's reference field (learned at the boot calibration, turned by MAG_DECL).
   ekf_params_.mag_ref_ned = observer_.params().mag_ref_ned;
   ekf_.set_params(ekf_params_, kEkfDelayS, ekf_mag_use_ && mag_ref_learned_, ekf_hover_force_);
+  ekf_.set_floor(star_ned_.z - ground_height_);
   // Selected on the ground after the calibration: start from the observer's attitude.
   if (type_ == EstimatorType::kEkf && before != type_ && calibration_.done()) start_ekf(filter_.time_us());
 }
@@ -69,7 +70,10 @@ void StateEstimator::step_ekf(uint32_t t_us, const Vec3& gyro, const Vec3& accel
   const float force_error = absf(norm(accel) - kGravity);
   // Disarmed, or landed or touching down by the land detector (the ground hold's condition).
   const bool still = (!armed_ || on_ground_) && norm(gyro) < kStillRate && force_error < kStillForce;
-  ekf_.predict(t_us, still, hovering);
+  // Come to rest below LAND_VIS_HGT above the star, the vehicle stands on the star's floor (as the thesis
+  // pair's hold_ground()).
+  const bool on_floor = star_ned_.z - ekf_.position().z < star_view_height_;
+  ekf_.predict(t_us, still, hovering, on_floor);
 }
 
 est::FixResult StateEstimator::queue_star(const est::StarFix& fix) {

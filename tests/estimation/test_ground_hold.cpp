@@ -1,7 +1,9 @@
 // Standing on the ground (quad/estimation/ground_hold.h and PositionFilterCore::fuse_still): when the
 // vehicle counts as still, that the pseudo-measurements are eq. 8.11b's update (against Eigen's Kalman
 // update in double), that they hold a dead-reckoning filter still for 30 s where it would otherwise run
-// away, and that the next fix is then an ordinary update.
+// away, and that the next fix is then an ordinary update. The EKF's counterpart (ErrorStateEkf::
+// fuse_position_hold, DelayedEkfCore's still increments): the update against Eigen's in double, and the
+// floor's height and the position where it came to rest held for 30 s.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include "quad/estimation/delayed_ekf.h"
 #include "quad/estimation/ground_hold.h"
 #include "quad/estimation/position_filter.h"
 
@@ -312,4 +315,108 @@ TEST(GroundHold, ZeroVelocityAtTouchdownStopsTheDeadReckoning) {
   std::printf("[figure] 0.5 s at rest after a touchdown with 0.14 m/s of error: estimate moved %.4f m\n", moved);
   EXPECT_LT(moved, 0.005f);
   EXPECT_LT(quad::absf(kf.velocity().z), 0.01f);
+}
+
+namespace {
+
+using quad::Quat;
+using quad::est::DelayedEkf;
+using quad::est::EkfParams;
+using quad::est::ErrorStateEkf;
+using quad::est::StarFix;
+
+constexpr int kEkfN = quad::est::kEkfErrorStates;
+
+// A level, still vehicle's IMU sample with an accelerometer error (body FRD = NED here).
+void still_sample(quad::est::DelayedEkfCore& ekf, const Vec3& accel_error) {
+  ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG} + accel_error, kDt);
+}
+
+}  // namespace
+
+TEST(GroundHold, EkfPositionHoldIsTheKalmanUpdateOfThePosition) {
+  ErrorStateEkf ekf;
+  ekf.set_params(EkfParams{});
+  ekf.reset(Quat::identity(), Vec3{0.1f, -0.2f, -0.3f}, Vec3{0.05f, 0.02f, -0.1f}, Vec3{}, Vec3{});
+  // Correlations between position, velocity, attitude and the biases: a second of prediction, tilted.
+  for (int i = 0; i < 100; ++i) ekf.predict(Vec3{0.001f, -0.002f, 0.0005f}, Vec3{0.01f, -0.02f, -kG * kDt}, kDt);
+  Eigen::Matrix<double, kEkfN, kEkfN> p;
+  for (int i = 0; i < kEkfN; ++i)
+    for (int j = 0; j < kEkfN; ++j) p(i, j) = ekf.covariance(i, j);
+  const quad::est::EkfState before = ekf.state();
+  const Vec3 hold{0.12f, -0.18f, -0.13f};
+  // Eigen's batch update in double: H = [0 I 0], R = sigma^2 I.
+  Eigen::Matrix<double, 3, kEkfN> h = Eigen::Matrix<double, 3, kEkfN>::Zero();
+  h.block<3, 3>(0, quad::est::kEkfPos) = Eigen::Matrix3d::Identity();
+  const double r = EkfParams{}.hold_position_sigma * EkfParams{}.hold_position_sigma;
+  const Eigen::Matrix3d s = h * p * h.transpose() + r * Eigen::Matrix3d::Identity();
+  const Eigen::Matrix<double, kEkfN, 3> k = p * h.transpose() * s.inverse();
+  const Eigen::Vector3d nu(hold.x - before.p.x, hold.y - before.p.y, hold.z - before.p.z);
+  const Eigen::Matrix<double, kEkfN, 1> dx = k * nu;
+  const Eigen::Matrix<double, kEkfN, kEkfN> p_after = p - k * h * p;
+  ASSERT_EQ(ekf.fuse_position_hold(hold), quad::est::EkfFuse::kFused);
+  const quad::est::EkfState& x = ekf.state();
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(x.p[i], before.p[i] + dx(quad::est::kEkfPos + i), 1e-6) << "p " << i;
+    EXPECT_NEAR(x.v[i], before.v[i] + dx(quad::est::kEkfVel + i), 1e-5) << "v " << i;
+    EXPECT_NEAR(x.accel_bias[i], before.accel_bias[i] + dx(quad::est::kEkfAccelBias + i), 1e-5) << "b_a " << i;
+  }
+  for (int i = 0; i < kEkfN; ++i)
+    for (int j = 0; j < kEkfN; ++j)
+      EXPECT_NEAR(ekf.covariance(i, j), p_after(i, j), 1e-6 + 1e-4 * std::abs(p(i, j))) << i << ", " << j;
+  EXPECT_EQ(ekf.fuse_position_hold(Vec3{NAN, 0.0f, 0.0f}), quad::est::EkfFuse::kRejectedInvalid);
+}
+
+// Fixes put the vehicle 4 cm above the floor it stands on (the dead-reckoned end of a landing); then 30 s
+// still with an accelerometer error of (0.05, -0.04, 0.1) m/s^2: on the floor the estimate comes down to
+// the floor's height and stays, and stays where it came to rest horizontally; off the floor (still but
+// higher than the star's view) the height is held where it came to rest.
+TEST(GroundHold, EkfHoldsTheFloorAndWhereItCameToRest) {
+  const float floor_down = -0.13f;
+  const Vec3 accel_error{0.05f, -0.04f, 0.1f};
+  for (const bool on_floor : {true, false}) {
+    DelayedEkf<quad::est::history_length(100)> ekf;
+    EkfParams params;
+    params.star_ned = Vec3{};
+    params.star_attitude = quad::est::StarAttitudeUse::kNone;
+    ekf.set_params(params, 0.1f, false);
+    ekf.set_floor(floor_down);
+    uint32_t t = 1000000;
+    ekf.reset(Quat::identity(), Vec3{}, Vec3{}, t);
+    const Vec3 fixed{0.1f, -0.2f, floor_down - 0.04f};
+    for (int i = 0; i < 100; ++i) {
+      still_sample(ekf, Vec3{});
+      ekf.predict(t += kStepUs, false);
+      if (i % 3 == 0) {
+        StarFix fix;
+        fix.capture_us = t;
+        fix.star_body = Vec3{} - fixed;  // level, heading north: body = NED
+        ASSERT_EQ(ekf.queue_fix(fix), quad::est::EkfFixResult::kQueued);
+      }
+    }
+    for (int i = 0; i < 20; ++i) {  // the last fixes taken (0.1 s behind), not yet still
+      still_sample(ekf, Vec3{});
+      ekf.predict(t += kStepUs, false);
+    }
+    ASSERT_TRUE(ekf.position_initialized());
+    const Vec3 rest = ekf.position();
+    ASSERT_NEAR(rest.z, fixed.z, 0.005f);
+    float horizontal = 0.0f, vertical_to_floor = 1.0f;
+    for (int i = 0; i < 3000; ++i) {
+      still_sample(ekf, accel_error);
+      ekf.predict(t += kStepUs, true, false, on_floor);
+      const Vec3 d = ekf.position() - rest;
+      horizontal = quad::maxf(horizontal, std::sqrt(d.x * d.x + d.y * d.y));
+      if (i > 100) vertical_to_floor = quad::absf(ekf.position().z - (on_floor ? floor_down : rest.z));
+      if (i == 100 || i == 2999)
+        std::printf("[figure] EKF still %s, %.1f s: horizontal move %.4f m, height %.4f m from the %s\n",
+                    on_floor ? "on the floor" : "above it", 0.01 * (i + 1), horizontal,
+                    ekf.position().z - (on_floor ? floor_down : rest.z), on_floor ? "floor" : "rest");
+    }
+    EXPECT_LT(horizontal, 0.002f) << "on floor " << on_floor;
+    EXPECT_LT(vertical_to_floor, 0.002f) << "on floor " << on_floor;
+    EXPECT_LT(quad::norm(ekf.velocity()), 0.005f);
+    // The accelerometer's error learned while standing (z only: x, y of a level vehicle are its tilt's).
+    EXPECT_NEAR(ekf.delayed_state().accel_bias.z, accel_error.z, 0.02f);
+  }
 }

@@ -7,7 +7,7 @@
 //   ekf.reset(q0, gyro_bias, accel_bias, t_us);   // after the boot calibration; position unknown
 //   every IMU sample:     ekf.imu(gyro_frd, accel_frd, dt);
 //   magnetometer sample:  ekf.mag(mag_frd);
-//   at the predict rate:  ekf.predict(t_us, on_ground_and_still, hovering_still);
+//   at the predict rate:  ekf.predict(t_us, on_ground_and_still, hovering_still, on_the_floor);
 //   a fix arrives:        ekf.queue_fix(fix);  its covariance:  ekf.attach_covariance(...)
 //   ekf.attitude(), position(), velocity(), rate()
 //
@@ -40,6 +40,7 @@ struct ImuIncrement {
   Vec3 mag;
   bool has_mag = false;
   bool still = false;
+  bool on_floor = false;  // still, standing on the floor set_floor() gives
   bool hovering = false;
 };
 
@@ -90,9 +91,13 @@ class DelayedEkfCore {
 
   void imu(const Vec3& gyro, const Vec3& accel, float dt);
   void mag(const Vec3& field);
-  // still: on the ground and still (zero velocity); hovering: hovering still in flight (the step's
-  // horizontal specific force is the accelerometer's bias).
-  void predict(uint32_t t_us, bool still, bool hovering = false);
+  // still: on the ground and still (zero velocity, and the position where it came to rest held);
+  // hovering: hovering still in flight (the step's horizontal specific force is the accelerometer's
+  // bias); on_floor: still on the floor of set_floor() (its height is the held position's down).
+  void predict(uint32_t t_us, bool still, bool hovering = false, bool on_floor = false);
+  // The down coordinate of the reference point standing on the floor (the star's floor less the
+  // vehicle's standing height), m NED.
+  void set_floor(float down) { floor_down_ = down; }
 
   EkfFixResult queue_fix(const StarFix& fix);
   // The station's covariances for the queued fix captured at capture_us (LANDING_TARGET_COVARIANCE);
@@ -132,6 +137,9 @@ class DelayedEkfCore {
   void fuse_due_fixes(const ImuIncrement& e);
   void fuse_fix(StarFix fix, const ImuIncrement& e);
   void recompute_output();
+  // Standing still: the held position (set at the first still increment; the floor's height on the
+  // floor), then zero velocity.
+  void fuse_ground(const ImuIncrement& e);
   void clear_accumulator();
 
   ErrorStateEkf filter_;
@@ -144,6 +152,8 @@ class DelayedEkfCore {
   bool position_initialized_ = false;
   bool converged_ = false;
   bool still_ = false;             // the newest increment the filter took fused zero velocity
+  Vec3 hold_;                      // the position held while still (valid while still_)
+  float floor_down_ = 0.0f;        // set_floor()
   bool fix_fused_ = false;         // a fix's position was fused (or set the position) at fix_fused_us_
   uint32_t fix_fused_us_ = 0;
   uint16_t rejections_in_a_row_ = 0;

@@ -13,7 +13,7 @@
 //   ekf.reset(q0, p0, v0, gyro_bias, accel_bias);
 //   ekf.predict(delta_angle, delta_velocity, dt);     // IMU increments over dt (body FRD, raw)
 //   ekf.fuse_star(fix);                               // the station's star fix (position, attitude)
-//   ekf.fuse_heading(mag_frd); ekf.fuse_zero_velocity();
+//   ekf.fuse_heading(mag_frd); ekf.fuse_position_hold(p); ekf.fuse_zero_velocity();
 #pragma once
 
 #include <stdint.h>
@@ -59,6 +59,7 @@ struct EkfParams {
   float attitude_sigma_floor = 0.0017f;  // rad (0.1 deg)
   float heading_sigma = 0.05f;     // rad, the magnetometer's heading
   float zero_velocity_sigma = 0.02f;  // m/s, while on the ground and still
+  float hold_position_sigma = 0.01f;  // m, the position held while on the ground and still
   // A multirotor's specific force has no body x, y component but drag: hovering still, the
   // accelerometer's x, y are its bias (per prediction step: noise, vibration and the hold's motion).
   float hover_force_sigma = 0.1f;     // m/s^2
@@ -125,6 +126,9 @@ class ErrorStateEkf {
   EkfFuse fuse_heading(const Vec3& mag_frd);
   // Zero velocity (the vehicle stands still on the ground).
   EkfFuse fuse_zero_velocity();
+  // The position held while standing still on the ground (where it came to rest; on the star's floor,
+  // the floor's height): p = p_hold with hold_position_sigma per axis, not gated.
+  EkfFuse fuse_position_hold(const Vec3& p_hold);
   // Hovering still: the mean specific force over a step (body FRD) has x, y = the accelerometer's bias.
   EkfFuse fuse_hover_force(const Vec3& specific_force);
 

@@ -49,7 +49,9 @@ namespace fw {
   X(kKfFixSigXY, "KF_FIX_SIG_XY", 0.05f, 0.001f, 10.0f)                                          \
   X(kKfFixSigZ, "KF_FIX_SIG_Z", 0.05f, 0.001f, 10.0f)                                            \
   X(kKfGateSig, "KF_GATE_SIG", 5.0f, 1.0f, 100.0f)                                               \
-  X(kKfZBias, "KF_Z_BIAS", 0.0f, 0.0f, 1.0f)                                                     \
+  /* 1: the accelerometer's vertical bias as a state on z, learned as fast as x and y's (its drift */ \
+  /* since the boot calibration is otherwise a vertical velocity error: docs/estimation.md) */     \
+  X(kKfZBias, "KF_Z_BIAS", 1.0f, 0.0f, 1.0f)                                                     \
   /* 1: the horizontal acceleration error (the observer's tilt error while it learns a gyro bias) as */ \
   /* a state on x and y, so it does not become a velocity error (docs/firmware.md) */            \
   X(kKfXYBias, "KF_XY_BIAS", 1.0f, 0.0f, 1.0f)                                                   \
