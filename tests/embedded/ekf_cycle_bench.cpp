@@ -64,6 +64,7 @@ void step(uint32_t k) {
 int main() {
   quad::est::EkfParams p;
   p.star_ned = kStar;
+  p.star_attitude = quad::est::StarAttitudeUse::kFull;  // the costlier setting (EST_STAR_ATT 2)
   g_ekf.set_params(p, 0.1f, true, true);
   g_ekf.reset(quad::Quat::identity(), Vec3{}, Vec3{}, g_now_us);
   uint32_t k = 0;

@@ -78,6 +78,7 @@ int main() {
 
   quad::est::EkfParams p;
   p.star_ned = kStar;
+  p.star_attitude = quad::est::StarAttitudeUse::kFull;  // the costlier setting (EST_STAR_ATT 2)
   g_ekf.set_params(p, 0.1f, true, true);
   g_ekf.reset(quad::Quat::identity(), Vec3{}, Vec3{}, g_now_us);
   // Warm-up: two seconds of hover with fixes (the first sets the position).
