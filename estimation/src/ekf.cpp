@@ -96,6 +96,7 @@ void ErrorStateEkf::reset(const Quat& q, const Vec3& p, const Vec3& v, const Vec
   x_.v = v;
   x_.gyro_bias = gyro_bias;
   x_.accel_bias = accel_bias;
+  x_.star_bias = Vec3{};
   for (int i = 0; i < kN; ++i)
     for (int j = 0; j < kN; ++j) P_[i][j] = 0.0f;
   const EkfParams& k = params_;
@@ -104,6 +105,7 @@ void ErrorStateEkf::reset(const Quat& q, const Vec3& p, const Vec3& v, const Vec
     for (int i = 0; i < 3; ++i) P_[3 * b + i][3 * b + i] = diag[b] * diag[b];
   // The heading's uncertainty is about NED down: at a level start, the body z axis.
   P_[2][2] = k.yaw_sigma0 * k.yaw_sigma0;
+  P_[kEkfStarBias][kEkfStarBias] = P_[kEkfStarBias + 1][kEkfStarBias + 1] = k.star_bias_sigma0 * k.star_bias_sigma0;
   ratios_ = EkfTestRatios{};
 }
 
@@ -201,7 +203,7 @@ void ErrorStateEkf::predict_covariance(const Mat3& a, const Mat3& m, const Mat3&
       P_[i][j] = v;
     }
   }
-  // Rows 9-14 (the biases) are unchanged above the diagonal; mirror everything.
+  // Rows 9-16 (the biases) are unchanged above the diagonal; mirror everything.
   for (int i = 0; i < kN; ++i)
     for (int j = i + 1; j < kN; ++j) P_[j][i] = P_[i][j];
 }
@@ -215,6 +217,9 @@ void ErrorStateEkf::add_process_noise(float dt) {
   const int offset[4] = {kEkfTheta, kEkfVel, kEkfGyroBias, kEkfAccelBias};
   for (int b = 0; b < 4; ++b)
     for (int i = 0; i < 3; ++i) P_[offset[b] + i][offset[b] + i] += q[b];
+  const float qs = k.star_bias_walk * k.star_bias_walk * dt;
+  P_[kEkfStarBias][kEkfStarBias] += qs;
+  P_[kEkfStarBias + 1][kEkfStarBias + 1] += qs;
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -227,7 +232,7 @@ struct Group {
   int rows;
   int c0;
   int width;
-  float h[3][6];
+  float h[3][kN];
   float nu[3];
   float noise[6];  // upper triangle (rows 3) or noise[0] (rows 1)
 };
@@ -322,6 +327,7 @@ void ErrorStateEkf::inject(EkfState& x, const float dx[kN]) {
   x.v += Vec3{dx[6], dx[7], dx[8]};
   x.gyro_bias += Vec3{dx[9], dx[10], dx[11]};
   x.accel_bias += Vec3{dx[12], dx[13], dx[14]};
+  x.star_bias += Vec3{dx[15], dx[16], 0.0f};
 }
 
 void ErrorStateEkf::fuse_star(const StarFix& fix, EkfFuse* position_result, EkfFuse* attitude_result) {
@@ -365,14 +371,23 @@ void ErrorStateEkf::fuse_star(const StarFix& fix, EkfFuse* position_result, EkfF
 }
 
 EkfFuse ErrorStateEkf::fuse_star_attitude(const StarFix& fix) {
+  // q_meas = q (x) exp(b_s / 2): the residual is the attitude error plus the station's tilt bias,
+  // H = (I, 0, 0, 0, 0, E) with E the body x, y columns.
   Group g;
   g.rows = 3;
   g.c0 = kEkfTheta;
-  g.width = 3;
+  g.width = kN;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
+    for (int j = 0; j < kN; ++j) g.h[i][j] = i == j ? 1.0f : 0.0f;
+  // The tilt bias belongs to the station's star; an external pose (fix.ned) carries its own attitude.
+  const bool star = !fix.ned;
+  if (star) {
+    g.h[0][kEkfStarBias] = 1.0f;
+    g.h[1][kEkfStarBias + 1] = 1.0f;
+  }
   const Quat measured = measured_attitude(fix, x_.q);
-  const Vec3 nu = to_rotation_vector(conjugate(x_.q) * measured);  // body-frame rotation to the measurement
+  Vec3 nu = to_rotation_vector(conjugate(x_.q) * measured);  // body-frame rotation to the measurement
+  if (star) nu = nu - x_.star_bias;
   g.nu[0] = nu.x;
   g.nu[1] = nu.y;
   g.nu[2] = nu.z;

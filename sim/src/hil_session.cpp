@@ -735,6 +735,7 @@ Json station_json(const StationFigures& f, const Scenario& s) {
   Json j;
   j.add("pairs_captured", static_cast<long>(f.pairs_captured)).add("pairs_lost", static_cast<long>(f.pairs_lost));
   j.add("pairs_answered", static_cast<long>(f.pairs_answered)).add("fixes", static_cast<long>(f.fixes));
+  j.add("covariances", static_cast<long>(f.covariances));
   j.add("fix_rate", f.pairs_answered ? static_cast<double>(f.fixes) / static_cast<double>(f.pairs_answered) : 0.0);
   j.add("fix_error_m", percentiles_json(f.fix_error_m));
   j.add("processing_us", percentiles_json(f.processing_us));

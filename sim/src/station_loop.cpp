@@ -83,6 +83,8 @@ StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, cons
   calib = out_dir + "/station_calib.yaml";
   const std::string settings = out_dir + "/station_settings.yaml";
   write_station_settings(settings, rig.left_mount, scenario.station_settings);
+  for (const auto& [key, value] : scenario.station_settings)
+    if (key == "send_covariance") expect_covariance_ = !(value == "0" || value == "false");
 
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_un address{};
@@ -209,7 +211,7 @@ void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
   if (answer.processing_us > s_.vision.latency_s * 1e6) ++figures_.late_answers;
   // The answer follows the station's write to its port; the pty may hand the bytes over a little later.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
-  while (frames_read_ < answer.fixes_sent) {
+  while (frames_read_ < answer.fixes_sent || (expect_covariance_ && covariances_read_ < answer.fixes_sent)) {
     if (!port_.wait_readable(100)) {
       if (std::chrono::steady_clock::now() > deadline)
         throw StationError("the vision station reported a fix that did not arrive on its radio port");
@@ -220,11 +222,26 @@ void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
       parser_.feed(buf, n, [&](const mav::Frame& f) {
         frames_.emplace_back(f.bytes, f.bytes + f.size);
         if (f.message_id == mav::LandingTarget::kId) ++frames_read_;
+        if (f.message_id == mav::LandingTargetCovariance::kId) ++covariances_read_;
       });
   }
-  // Release this pair's output only (a later pair's fix may already be in the pty).
+  // Release this pair's output only (a later pair's fix may already be in the pty): its fix and the
+  // frames that follow it up to the next fix (its LANDING_TARGET_COVARIANCE).
   const double release_t = pending.capture_t + s_.vision.latency_s;
-  while (figures_.fixes < answer.fixes_sent && !frames_.empty()) {
+  auto is_fix = [](const std::vector<uint8_t>& bytes) {
+    bool fix = false;
+    mav::Parser check;
+    check.feed(bytes.data(), bytes.size(), [&](const mav::Frame& f) { fix = f.message_id == mav::LandingTarget::kId; });
+    return fix;
+  };
+  auto is_covariance = [](const std::vector<uint8_t>& bytes) {
+    bool cov = false;
+    mav::Parser check{mav::dialect_message_info};
+    check.feed(bytes.data(), bytes.size(),
+               [&](const mav::Frame& f) { cov = f.message_id == mav::LandingTargetCovariance::kId; });
+    return cov;
+  };
+  while (!frames_.empty() && (figures_.fixes < answer.fixes_sent || !is_fix(frames_.front()))) {
     const std::vector<uint8_t> bytes = std::move(frames_.front());
     frames_.pop_front();
     mav::Parser check;
@@ -234,6 +251,7 @@ void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
       ++figures_.fixes;
       figures_.fix_error_m.push_back((Eigen::Vector3d(lt.x, lt.y, lt.z) - pending.star_body_frd).norm());
     });
+    if (is_covariance(bytes)) ++figures_.covariances;
     to_radio(release_t, bytes.data(), bytes.size());
   }
 }

@@ -5,12 +5,12 @@
 // The EKF runs as the firmware runs it (state_estimator_ekf.cpp): the IMU sample every iteration, the
 // 100 Hz predict (the increments 100 ms behind now into the filter, one covariance prediction each, the
 // fixes captured within them fused, the state carried back to now), fixes of the star's position and
-// heading queued 40 ms after their capture. The state is warmed up by two simulated seconds of hover.
+// attitude (EST_STAR_ATT 2) queued 40 ms after their capture. The state is warmed up by two simulated seconds of hover.
 //   ekf_imu                 one IMU sample into the increment (and the output carried)
 //   ekf_predict             a 100 Hz predict without a fix
-//   ekf_predict_with_fix    a 100 Hz predict whose step fuses a fix (position and the star's heading)
+//   ekf_predict_with_fix    a 100 Hz predict whose step fuses a fix (position and the star's attitude)
 //   ekf_filter_predict      the filter's own prediction alone (nominal state and covariance, eq. 3.6-3.19)
-//   ekf_fuse_star           the filter's update with a star fix alone (position group and heading)
+//   ekf_fuse_star           the filter's update with a star fix alone (position and attitude groups)
 // A failed scenario check shows as a section named "check_failed:...".
 #include "cycle_probe.h"
 #include "quad/estimation/delayed_ekf.h"
@@ -64,6 +64,7 @@ void step(uint32_t k) {
 int main() {
   quad::est::EkfParams p;
   p.star_ned = kStar;
+  p.star_attitude = quad::est::StarAttitudeUse::kFull;  // the costlier setting (EST_STAR_ATT 2)
   g_ekf.set_params(p, 0.1f, true, true);
   g_ekf.reset(quad::Quat::identity(), Vec3{}, Vec3{}, g_now_us);
   uint32_t k = 0;

@@ -32,8 +32,8 @@ using quad_test::to_eigen;
 
 constexpr int kN = quad::est::kEkfErrorStates;
 constexpr double kG = 9.80665;
-using Mat15 = Eigen::Matrix<double, kN, kN>;
-using Vec15 = Eigen::Matrix<double, kN, 1>;
+using MatN = Eigen::Matrix<double, kN, kN>;
+using VecN = Eigen::Matrix<double, kN, 1>;
 
 // ---- Independent model (double): the nominal equations, written from seed 004 eq. 3.6-3.11 with the
 // errata, exact exponential, and the error-state difference used for numeric differentiation.
@@ -41,6 +41,7 @@ struct State {
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   Eigen::Vector3d p = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
   Eigen::Vector3d bg = Eigen::Vector3d::Zero(), ba = Eigen::Vector3d::Zero();
+  Eigen::Vector2d sb = Eigen::Vector2d::Zero();  // the station's tilt bias, body x, y
 };
 
 Eigen::Quaterniond exp_q(const Eigen::Vector3d& rv) {
@@ -63,30 +64,32 @@ State propagate(State x, const Eigen::Vector3d& dtheta, const Eigen::Vector3d& d
   return x;
 }
 
-State inject(State x, const Vec15& d) {
+State inject(State x, const VecN& d) {
   x.q = (x.q * exp_q(d.segment<3>(0))).normalized();
   x.p += d.segment<3>(3);
   x.v += d.segment<3>(6);
   x.bg += d.segment<3>(9);
   x.ba += d.segment<3>(12);
+  x.sb += d.segment<2>(15);
   return x;
 }
 
-Vec15 difference(const State& a, const State& b) {  // a - b in the error state
-  Vec15 d;
+VecN difference(const State& a, const State& b) {  // a - b in the error state
+  VecN d;
   d.segment<3>(0) = log_q(b.q.conjugate() * a.q);
   d.segment<3>(3) = a.p - b.p;
   d.segment<3>(6) = a.v - b.v;
   d.segment<3>(9) = a.bg - b.bg;
   d.segment<3>(12) = a.ba - b.ba;
+  d.segment<2>(15) = a.sb - b.sb;
   return d;
 }
 
-Mat15 numeric_jacobian(const State& x, const Eigen::Vector3d& dth, const Eigen::Vector3d& dv, double dt) {
-  Mat15 f;
+MatN numeric_jacobian(const State& x, const Eigen::Vector3d& dth, const Eigen::Vector3d& dv, double dt) {
+  MatN f;
   const double eps = 1e-6;
   for (int k = 0; k < kN; ++k) {
-    Vec15 e = Vec15::Zero();
+    VecN e = VecN::Zero();
     e[k] = eps;
     f.col(k) = (difference(propagate(inject(x, e), dth, dv, dt), propagate(inject(x, -e), dth, dv, dt))) / (2 * eps);
   }
@@ -100,6 +103,7 @@ EkfState to_core(const State& x) {
   s.v = from_eigen(x.v);
   s.gyro_bias = from_eigen(x.bg);
   s.accel_bias = from_eigen(x.ba);
+  s.star_bias = Vec3{static_cast<float>(x.sb.x()), static_cast<float>(x.sb.y()), 0.0f};
   return s;
 }
 
@@ -110,6 +114,7 @@ State random_state(std::mt19937& rng) {
   x.v = quad_test::random_vector(rng, 1.0);
   x.bg = quad_test::random_vector(rng, 0.02);
   x.ba = quad_test::random_vector(rng, 0.2);
+  x.sb = quad_test::random_vector(rng, 0.003).head<2>();
   return x;
 }
 
@@ -121,7 +126,7 @@ TEST(Ekf, PredictionJacobianMatchesNumericDifferentiation) {
     const double dt = 0.01;
     const Eigen::Vector3d dth = quad_test::random_vector(rng, 2.0) * dt;
     const Eigen::Vector3d dv = (Eigen::Vector3d(0, 0, -kG) + quad_test::random_vector(rng, 3.0)) * dt;
-    const Mat15 numeric = numeric_jacobian(x, dth, dv, dt);
+    const MatN numeric = numeric_jacobian(x, dth, dv, dt);
     float f[kN][kN];
     ErrorStateEkf::transition(to_core(x), from_eigen(dth), from_eigen(dv), static_cast<float>(dt), f);
     for (int i = 0; i < kN; ++i)
@@ -139,13 +144,13 @@ TEST(Ekf, CovariancePropagationEqualsDenseDoubleProduct) {
   for (int trial = 0; trial < 20; ++trial) {
     const State x = random_state(rng);
     Eigen::Matrix<double, kN, kN> a = Eigen::Matrix<double, kN, kN>::Random() * 0.1;
-    Mat15 p0 = a * a.transpose() + Mat15::Identity() * 1e-3;
+    MatN p0 = a * a.transpose() + MatN::Identity() * 1e-3;
     ErrorStateEkf ekf;
     EkfParams params;
     ekf.set_params(params);
     ekf.reset(from_eigen(x.q), from_eigen(x.p), from_eigen(x.v), from_eigen(x.bg), from_eigen(x.ba));
     ekf.mutable_state() = to_core(x);
-    Mat15 p_float_in;
+    MatN p_float_in;
     for (int i = 0; i < kN; ++i)
       for (int j = i; j < kN; ++j) {
         ekf.set_covariance(i, j, static_cast<float>(p0(i, j)));
@@ -155,12 +160,13 @@ TEST(Ekf, CovariancePropagationEqualsDenseDoubleProduct) {
     const Eigen::Vector3d dth = quad_test::random_vector(rng, 1.0) * dt;
     const Eigen::Vector3d dv = (Eigen::Vector3d(0, 0, -kG) + quad_test::random_vector(rng, 2.0)) * dt;
     ekf.predict(from_eigen(dth), from_eigen(dv), static_cast<float>(dt));
-    const Mat15 f = numeric_jacobian(x, dth, dv, dt);
-    Vec15 q = Vec15::Zero();
+    const MatN f = numeric_jacobian(x, dth, dv, dt);
+    VecN q = VecN::Zero();
     const double qs[4] = {params.gyro_noise, params.accel_noise, params.gyro_bias_walk, params.accel_bias_walk};
     const int off[4] = {0, 6, 9, 12};
     for (int b = 0; b < 4; ++b) q.segment<3>(off[b]).setConstant(qs[b] * qs[b] * dt);
-    const Mat15 expected = f * p_float_in * f.transpose() + Mat15(q.asDiagonal());
+    q.segment<2>(15).setConstant(params.star_bias_walk * params.star_bias_walk * dt);
+    const MatN expected = f * p_float_in * f.transpose() + MatN(q.asDiagonal());
     for (int i = 0; i < kN; ++i)
       for (int j = 0; j < kN; ++j) {
         const double scale = std::sqrt(expected(i, i) * expected(j, j));
@@ -172,11 +178,88 @@ TEST(Ekf, CovariancePropagationEqualsDenseDoubleProduct) {
   EXPECT_LT(worst_relative, 1e-3);
 }
 
+// The star's attitude update (EST_STAR_ATT 2) against the Kalman update written in double from the
+// error-state definition with the station's tilt bias b_s: q_meas = q exp(b_s / 2), residual
+// log(q_hat* q_meas) - b_s, H = (I, 0, 0, 0, 0, E), K = P H^T S^-1, dx = K nu, P - K S K^T,
+// q <- q_hat exp(dtheta / 2).
+TEST(Ekf, StarAttitudeUpdateEqualsDoubleKalmanUpdate) {
+  std::mt19937 rng(23);
+  double worst_state = 0.0, worst_angle = 0.0, worst_cov = 0.0;
+  for (int trial = 0; trial < 50; ++trial) {
+    const State x = random_state(rng);
+    Eigen::Matrix<double, kN, kN> a = Eigen::Matrix<double, kN, kN>::Random() * 0.01;
+    const MatN p0 = a * a.transpose() + MatN::Identity() * 1e-5;
+    Eigen::Matrix3d b = Eigen::Matrix3d::Random() * 0.003;
+    const Eigen::Matrix3d r_att = b * b.transpose() + Eigen::Matrix3d::Identity() * 1e-6;
+    const Eigen::Quaterniond q_meas = x.q * exp_q(quad_test::random_vector(rng, 0.01));
+
+    EkfParams params;
+    params.star_attitude = quad::est::StarAttitudeUse::kFull;
+    params.attitude_sigma_floor = 0.0f;  // the noise is exactly the fix's covariance
+    ErrorStateEkf ekf;
+    ekf.set_params(params);
+    ekf.reset(from_eigen(x.q), from_eigen(x.p), from_eigen(x.v), from_eigen(x.bg), from_eigen(x.ba));
+    ekf.mutable_state() = to_core(x);
+    MatN p_in;
+    for (int i = 0; i < kN; ++i)
+      for (int j = i; j < kN; ++j) {
+        ekf.set_covariance(i, j, static_cast<float>(p0(i, j)));
+        p_in(i, j) = p_in(j, i) = ekf.covariance(i, j);
+      }
+    StarFix fix;
+    fix.star_body = Vec3{NAN, NAN, NAN};  // the attitude group alone
+    fix.q_bs = from_eigen(q_meas.conjugate());
+    fix.has_attitude = true;
+    fix.has_covariance = true;
+    const int upper[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+    for (int k = 0; k < 6; ++k) fix.att_cov[k] = static_cast<float>(r_att(upper[k][0], upper[k][1]));
+    quad::est::EkfFuse result = quad::est::EkfFuse::kRejectedInvalid;
+    ekf.fuse_star(fix, nullptr, &result);
+    ASSERT_EQ(result, quad::est::EkfFuse::kFused);
+
+    Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
+    h.leftCols<3>().setIdentity();
+    h(0, 15) = h(1, 16) = 1.0;
+    Eigen::Matrix3d r_used;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r_used(i, j) = static_cast<float>(r_att(std::min(i, j), std::max(i, j)));
+    const Eigen::Matrix3d s = h * p_in * h.transpose() + r_used;
+    const Eigen::Matrix<double, kN, 3> k = p_in * h.transpose() * s.inverse();
+    const VecN dx = k * (log_q(x.q.conjugate() * q_meas) - Eigen::Vector3d(x.sb.x(), x.sb.y(), 0.0));
+    const State expected = inject(x, dx);
+    const MatN p_expected = p_in - k * s * k.transpose();
+
+    const EkfState& got = ekf.state();
+    worst_angle = std::max(worst_angle, log_q(expected.q.conjugate() * to_eigen(got.q)).norm() / dx.head<3>().norm());
+    const Eigen::Vector3d rest[5][2] = {{to_eigen(got.p), expected.p},
+                                        {to_eigen(got.v), expected.v},
+                                        {to_eigen(got.gyro_bias), expected.bg},
+                                        {to_eigen(got.accel_bias), expected.ba},
+                                        {to_eigen(got.star_bias), Eigen::Vector3d(expected.sb.x(), expected.sb.y(), 0.0)}};
+    for (int blk = 0; blk < 5; ++blk) {
+      const double size = blk < 4 ? dx.segment<3>(3 + 3 * blk).norm() : dx.segment<2>(15).norm();
+      worst_state = std::max(worst_state, (rest[blk][0] - rest[blk][1]).norm() / size);
+    }
+    for (int i = 0; i < kN; ++i)
+      for (int j = 0; j < kN; ++j) {
+        const double scale = std::sqrt(p_in(i, i) * p_in(j, j));
+        worst_cov = std::max(worst_cov, std::abs(ekf.covariance(i, j) - p_expected(i, j)) / scale);
+      }
+  }
+  std::cout << "[figure] EKF star attitude update vs double Kalman update (50 random states): attitude "
+            << worst_angle << ", other states " << worst_state << " of the correction; covariance "
+            << worst_cov << " of sqrt(P_ii P_jj)\n";
+  EXPECT_LT(worst_angle, 1e-3);
+  EXPECT_LT(worst_state, 1e-3);
+  EXPECT_LT(worst_cov, 1e-4);
+}
+
 // ---- Simulated hover (double truth): gentle motion about (0, 0, -1.5) m, IMU at 400 Hz with white noise
 // and random-walk biases of the filter's own model, star fixes at 30 Hz captured 30-60 ms before they
 // arrive (position 2 mm, attitude 0.2 deg), the filter 100 ms behind.
 struct HoverRun {
   double pos_rms_mm = 0.0, tilt_rms_deg = 0.0, yaw_rms_deg = 0.0;
+  Eigen::Vector2d roll_pitch_mean_deg = Eigen::Vector2d::Zero();  // estimate minus truth, last 10 s
   double nees_sum = 0.0;
   int nees_count = 0;
   Eigen::Vector3d bg_error, ba_error;
@@ -185,7 +268,9 @@ struct HoverRun {
 
 // still_hover: a multirotor hovering still (level, turning slowly about down, no acceleration: its
 // specific force is thrust alone, along body z), the filter told so (predict's hovering flag).
-HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfParams& params, bool still_hover = false) {
+// star_tilt_bias: the fixes' attitude turned by this about body x, y (rad) besides their noise.
+HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfParams& params, bool still_hover = false,
+                   const Eigen::Vector2d& star_tilt_bias = Eigen::Vector2d::Zero()) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   auto nvec = [&](double s) -> Eigen::Vector3d { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)) * s; };
@@ -252,8 +337,9 @@ HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfP
           est.v = to_eigen(s.v);
           est.bg = to_eigen(s.gyro_bias);
           est.ba = to_eigen(s.accel_bias);
-          const Vec15 e = difference(it->second, est);
-          Mat15 p;
+          est.sb = to_eigen(s.star_bias).head<2>();
+          const VecN e = difference(it->second, est);
+          MatN p;
           for (int i = 0; i < kN; ++i)
             for (int j = 0; j < kN; ++j) p(i, j) = ekf.filter().covariance(i, j);
           run.nees_sum += e.dot(p.ldlt().solve(e));
@@ -266,7 +352,8 @@ HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfP
       StarFix f;
       f.capture_us = t_us;
       f.star_body = from_eigen(Eigen::Vector3d(truth.q.toRotationMatrix().transpose() * (star - truth.p) + nvec(0.002)));
-      const Eigen::Quaterniond q_meas = truth.q * exp_q(nvec(0.2 * M_PI / 180));
+      const Eigen::Quaterniond q_meas =
+          truth.q * exp_q(Eigen::Vector3d(star_tilt_bias.x(), star_tilt_bias.y(), 0.0)) * exp_q(nvec(0.2 * M_PI / 180));
       f.q_bs = from_eigen(q_meas.conjugate());
       f.has_attitude = with_attitude;
       f.has_covariance = true;
@@ -291,6 +378,7 @@ HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfP
       pos_sq += (to_eigen(ekf.position()) - truth.p).squaredNorm();
       tilt_sq += std::pow(quad_test::tilt_error(truth.q, to_eigen(ekf.attitude())), 2);
       const Eigen::Vector3d eul_t = quad_test::euler_of(truth.q), eul_e = quad_test::euler_of(to_eigen(ekf.attitude()));
+      run.roll_pitch_mean_deg += (eul_e - eul_t).head<2>();
       yaw_sq += std::pow(quad_test::wrap(eul_t.z() - eul_e.z()), 2);
       ++samples;
     }
@@ -298,6 +386,7 @@ HoverRun fly_hover(unsigned seed, double seconds, bool with_attitude, const EkfP
   run.pos_rms_mm = 1e3 * std::sqrt(pos_sq / samples);
   run.tilt_rms_deg = std::sqrt(tilt_sq / samples) * 180 / M_PI;
   run.yaw_rms_deg = std::sqrt(yaw_sq / samples) * 180 / M_PI;
+  run.roll_pitch_mean_deg *= 180 / M_PI / samples;
   run.bg_error = to_eigen(ekf.delayed_state().gyro_bias) - truth.bg;
   run.ba_error = to_eigen(ekf.delayed_state().accel_bias) - truth.ba;
   run.fused = ekf.health().positions_fused;
@@ -320,7 +409,9 @@ TEST(Ekf, ConvergesOnASimulatedHoverWithDelayedFixes) {
     EXPECT_LT(run.pos_rms_mm, with_attitude ? 8.0 : 15.0);
     EXPECT_EQ(run.rejected, 0u);
     EXPECT_LT(run.yaw_rms_deg, 0.5);
-    EXPECT_LT(run.tilt_rms_deg, with_attitude ? 0.15 : 0.4);
+    // With the attitude the star's tilt is not an absolute reference (its bias states, prior 0.2 deg):
+    // the tilt comes from the accelerometer and the motion, the star's tilt steadies it.
+    EXPECT_LT(run.tilt_rms_deg, with_attitude ? 0.2 : 0.4);
     if (with_attitude) {
       EXPECT_LT(run.yaw_rms_deg, 0.15);
       EXPECT_LT(run.bg_error.norm(), 1e-3);
@@ -352,6 +443,28 @@ TEST(Ekf, HoverForceSeparatesTiltFromAccelerometerBias) {
   EXPECT_GT(without.tilt_rms_deg, 1.4 * with_force.tilt_rms_deg);
 }
 
+// The station's tilt biased by (0.08, -0.07) deg (its stereo calibration in flight_plain.yaml): with the
+// bias states the hovering specific force holds the tilt and the star's tilt adds its short-term
+// information; without them (prior and walk 0) the tilt follows the star's bias.
+TEST(Ekf, StarTiltBiasStatesKeepTheStationsBiasOutOfTheTilt) {
+  const Eigen::Vector2d bias = Eigen::Vector2d(0.08, -0.07) * M_PI / 180;
+  EkfParams params;
+  params.star_attitude = quad::est::StarAttitudeUse::kFull;
+  EkfParams no_states = params;
+  no_states.star_bias_sigma0 = 0.0f;
+  no_states.star_bias_walk = 0.0f;
+  const HoverRun with_states = fly_hover(9, 60.0, true, params, true, bias);
+  const HoverRun without = fly_hover(9, 60.0, true, no_states, true, bias);
+  for (const HoverRun* run : {&with_states, &without}) {
+    std::cout << "[figure] EKF still hover, 60 s, star tilt biased (0.08, -0.07) deg, bias states "
+              << (run == &with_states ? "on" : "off") << ", last 10 s: roll, pitch error mean ("
+              << run->roll_pitch_mean_deg.x() << ", " << run->roll_pitch_mean_deg.y() << ") deg, tilt RMS "
+              << run->tilt_rms_deg << " deg, position RMS " << run->pos_rms_mm << " mm\n";
+  }
+  EXPECT_GT(without.roll_pitch_mean_deg.norm(), 0.07);
+  EXPECT_LT(with_states.roll_pitch_mean_deg.norm(), 0.6 * without.roll_pitch_mean_deg.norm());
+}
+
 TEST(Ekf, ConsistentOverMonteCarloRuns) {
   EkfParams params;
   params.fix_sigma_floor = 0.0f;  // the truth's noise is exactly what the filter is told
@@ -365,10 +478,10 @@ TEST(Ekf, ConsistentOverMonteCarloRuns) {
     count += run.nees_count;
   }
   const double mean = sum / count;
-  std::cout << "[figure] EKF NEES, 20 runs x 10 s at 100 Hz (15 degrees of freedom): mean " << mean << " over "
+  std::cout << "[figure] EKF NEES, 20 runs x 10 s at 100 Hz (" << kN << " degrees of freedom): mean " << mean << " over "
             << count << " steps\n";
-  EXPECT_GT(mean, 15.0 * 0.7);
-  EXPECT_LT(mean, 15.0 * 1.3);
+  EXPECT_GT(mean, kN * 0.7);
+  EXPECT_LT(mean, kN * 1.3);
 }
 
 }  // namespace

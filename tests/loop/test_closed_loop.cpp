@@ -82,6 +82,8 @@ TEST(ClosedLoop, TwentySecondHoldOnTheStationsFixes) {
   EXPECT_GE(json_number(summary, {"vision_station", "pairs_answered"}), captured - lost - 1.0);
   EXPECT_LE(json_number(summary, {"vision_station", "pairs_answered"}), captured - lost);
   EXPECT_GT(json_number(summary, {"vision_station", "fixes"}), 0.75 * (captured - lost));
+  // Each fix followed by its covariances (LANDING_TARGET_COVARIANCE) on the radio.
+  EXPECT_EQ(json_number(summary, {"vision_station", "covariances"}), json_number(summary, {"vision_station", "fixes"}));
   EXPECT_LT(json_number(summary, {"fix_error_m", "median"}), 0.005);
   EXPECT_LT(json_number(summary, {"fix_error_m", "p95"}), 0.015);
   // Landed and disarmed at the end.

@@ -6,7 +6,7 @@
 // IMU sample (and a magnetometer sample on 3 of 16); every fourth runs the 100 Hz predict, which takes the
 // increments that came of age 100 ms behind now (one covariance prediction each), fuses the fixes
 // captured within them and carries the state back to now through the younger increments. A fix (the
-// star's position and heading, as the station sends at 30 Hz) is queued 40 ms after its capture. The
+// star's position and attitude, as the station sends at 30 Hz) is queued 40 ms after its capture. The
 // figures: the mean iteration without a predict, with a predict, with a predict that fuses a fix, and
 // the largest predict-with-fix iteration seen over 4 simulated seconds. Results go to UART0 as
 // "name instructions" lines, then the image exits through semihosting.
@@ -78,6 +78,7 @@ int main() {
 
   quad::est::EkfParams p;
   p.star_ned = kStar;
+  p.star_attitude = quad::est::StarAttitudeUse::kFull;  // the costlier setting (EST_STAR_ATT 2)
   g_ekf.set_params(p, 0.1f, true, true);
   g_ekf.reset(quad::Quat::identity(), Vec3{}, Vec3{}, g_now_us);
   // Warm-up: two seconds of hover with fixes (the first sets the position).

@@ -2,7 +2,9 @@
 // position, gyro bias, accelerometer bias; eq. 3.1-3.34 with the errata), in error-state form: the
 // nominal state keeps the unit quaternion q_IB (Hamilton, w first) and the covariance is that of the
 // 15-dimensional error
-//   dx = (dtheta, dp, dv, db_g, db_a),   q = q_hat (x) exp(dtheta / 2)   (body-frame attitude error)
+//   dx = (dtheta, dp, dv, db_g, db_a, db_s),   q = q_hat (x) exp(dtheta / 2)   (body-frame attitude error)
+// with db_s the station's tilt bias about body x, y (a departure from the seed: the star's attitude is
+// fused with it, docs/estimation.md, "The star's attitude")
 // (docs/estimation.md, "The EKF", says why and where this departs from the seed). This file is the
 // filter proper, at one time; quad/estimation/delayed_ekf.h runs it behind the present so that the
 // station's delayed fixes are fused at their capture time.
@@ -23,9 +25,11 @@
 namespace quad {
 namespace est {
 
-constexpr int kEkfErrorStates = 15;
+constexpr int kEkfErrorStates = 17;
 // Offsets of the blocks of the error state.
-enum EkfBlock : uint8_t { kEkfTheta = 0, kEkfPos = 3, kEkfVel = 6, kEkfGyroBias = 9, kEkfAccelBias = 12 };
+enum EkfBlock : uint8_t {
+  kEkfTheta = 0, kEkfPos = 3, kEkfVel = 6, kEkfGyroBias = 9, kEkfAccelBias = 12, kEkfStarBias = 15
+};
 
 // The nominal state (seed 004 eq. 3.13; the quaternion first, then position before velocity).
 struct EkfState {
@@ -34,6 +38,7 @@ struct EkfState {
   Vec3 v;        // NED velocity, m/s
   Vec3 gyro_bias;   // rad/s, body FRD
   Vec3 accel_bias;  // m/s^2, body FRD
+  Vec3 star_bias;   // rad: the station's attitude turned by this about body x, y from the truth (z unused)
 };
 
 enum class StarAttitudeUse : uint8_t { kNone = 0, kHeading = 1, kFull = 2 };
@@ -51,11 +56,17 @@ struct EkfParams {
   float pos_sigma0 = 10.0f;        // m (the first fix sets the position: it is never fused against this)
   float gyro_bias_sigma0 = 5e-3f;  // rad/s (after the boot calibration)
   float accel_bias_sigma0 = 0.05f; // m/s^2
+  // The station's tilt bias (its stereo calibration and edge points: 0.1 deg in flight_plain.yaml), a
+  // slow random walk (it changes with the star's place in the images).
+  float star_bias_sigma0 = 0.0035f;  // rad (0.2 deg)
+  float star_bias_walk = 2e-5f;      // rad/sqrt(s)
   // Fixes without the station's covariance, and floors added to the station's (it reports its own
   // scatter, not the camera mount's or the star's).
   float fix_sigma = 0.01f;         // m, per axis
   float attitude_sigma = 0.0087f;  // rad, per axis (0.5 deg)
-  float fix_sigma_floor = 0.001f;  // m
+  // 5 mm: with 1 mm the interlaced, textured flight.yaml's fixes (station's sigma 0.2-0.4 mm across)
+  // pulled the tilt 1 deg off (docs/estimation.md, "The EKF in flight").
+  float fix_sigma_floor = 0.005f;  // m
   float attitude_sigma_floor = 0.0017f;  // rad (0.1 deg)
   float heading_sigma = 0.05f;     // rad, the magnetometer's heading
   float zero_velocity_sigma = 0.02f;  // m/s, while on the ground and still
@@ -70,7 +81,8 @@ struct EkfParams {
   Vec3 star_ned;                   // the star's centre in NED, m (its tips along north and east)
   // What the star's attitude corrects: its heading only, or heading and tilt. The station's tilt comes
   // from the depth gradient across the star (0.1 px of disparity per 0.6 deg at 1.5 m), which a small
-  // stereo calibration or rendering error biases; its heading does not depend on depth.
+  // stereo calibration or rendering error biases: fused with the bias states above; its heading does
+  // not depend on depth.
   StarAttitudeUse star_attitude = StarAttitudeUse::kHeading;
   Vec3 mag_ref_ned{0.42f, 0.0f, 0.91f};  // Earth field in NED, magnetometer units
 };

@@ -65,7 +65,7 @@ namespace fw {
   X(kEstType, "EST_TYPE", 0.0f, 0.0f, 1.0f)                                                      \
   X(kEstMagUse, "EST_MAG_USE", 1.0f, 0.0f, 1.0f)                                                 \
   /* what the EKF takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and tilt */  \
-  /* (docs/estimation.md, "The star's attitude") */                                              \
+  /* (the station's tilt bias estimated; docs/estimation.md, "The star's attitude") */           \
   X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
   /* ground hold (quad/estimation/ground_hold.h): still on the ground below these rates (rad/s) and */ \
   /* specific-force deviations from g (m/s^2); the reference point's height above the floor standing */ \

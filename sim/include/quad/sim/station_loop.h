@@ -23,6 +23,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
 #include "quad/sim/firmware_process.h"
 #include "quad/sim/pty.h"
@@ -39,6 +40,7 @@ struct StationError : std::runtime_error {
 // Figures of the station over a run.
 struct StationFigures {
   uint64_t pairs_captured = 0, pairs_lost = 0, pairs_answered = 0, fixes = 0;
+  uint64_t covariances = 0;            // LANDING_TARGET_COVARIANCE frames released to the radio
   std::vector<double> fix_error_m;     // |LANDING_TARGET − truth at capture|, body FRD, per fix
   std::vector<double> processing_us;   // the station's own measurement, per answered pair
   uint64_t late_answers = 0;           // processing time > the configured latency
@@ -96,9 +98,14 @@ class StationLoop {
   std::string socket_path_;
   int listen_fd_ = -1, fd_ = -1;
   std::unique_ptr<FirmwareProcess> process_;
-  quad::mavlink::Parser parser_;
+  // The dialect too: LANDING_TARGET_COVARIANCE follows each LANDING_TARGET.
+  quad::mavlink::Parser parser_{quad::mavlink::dialect_message_info};
   std::deque<std::vector<uint8_t>> frames_;  // parsed from the port, not yet released
   uint64_t frames_read_ = 0;
+  // The station follows each fix with its covariances (send_covariance, default 1): a pair's output is
+  // complete when both have been read, so that both leave at the pair's release time in every run.
+  bool expect_covariance_ = true;
+  uint64_t covariances_read_ = 0;
   double next_capture_t_ = 0.0;
   uint64_t next_sequence_ = 0;
   std::deque<Pending> pending_;
