@@ -62,7 +62,15 @@ struct GroundCameraRenderer::Primitive {
   Eigen::Vector3d half;       // box: half extents; ball: radius in x
   cv::Vec3f albedo;
   int vehicle = -1, colour = -1;  // a marker's
+  double reach = 0.0;             // radius of a sphere around `centre` holding the whole primitive
   cv::Rect bounds;
+
+  // Whether the ray (x, y, 1) passes within `reach` + `slack` · depth of the centre (cheap pre-test).
+  bool near(const Eigen::Vector3d& d, double slack) const {
+    const double along = d.dot(centre) / d.squaredNorm();
+    const double r = reach + slack * std::max(along, 0.0);
+    return (along * d - centre).squaredNorm() <= r * r;
+  }
 
   // Depth (camera z) where the ray (x, y, 1) enters, and the surface normal there; false on a miss.
   bool hit(const Eigen::Vector3d& d, double& depth, Eigen::Vector3d& normal) const {
@@ -174,12 +182,21 @@ std::vector<GroundCameraRenderer::Primitive> GroundCameraRenderer::primitives(co
                                                                              const std::vector<MarkedVehicle>& vehicles) const {
   std::vector<Primitive> out;
   const GroundCamera& cam = view.camera;
-  auto bound = [&](Primitive& p, double radius) {
-    const auto uv = project_lens(cam.lens, view.valid_radius, p.centre);
-    if (!uv || p.centre.z() < 0.05) return false;
-    const double r = 1.3 * std::max(cam.lens.fx, cam.lens.fy) * radius / p.centre.z() + 3.0;
-    p.bounds = cv::Rect(cv::Point(static_cast<int>(std::floor(uv->x() - r)), static_cast<int>(std::floor(uv->y() - r))),
-                        cv::Point(static_cast<int>(std::ceil(uv->x() + r)) + 1, static_cast<int>(std::ceil(uv->y() + r)) + 1)) &
+  // The image rectangle of the primitive: its bounding box's corners projected, with a margin.
+  auto bound = [&](Primitive& p) {
+    const Eigen::Vector3d half = p.box ? p.half : Eigen::Vector3d::Constant(p.half.x());
+    const Eigen::Matrix3d axes = p.box ? p.axes : Eigen::Matrix3d::Identity();
+    p.reach = half.norm();
+    if (p.centre.z() - p.reach < 0.05) return false;
+    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d k((corner & 1) ? 1.0 : -1.0, (corner & 2) ? 1.0 : -1.0, (corner & 4) ? 1.0 : -1.0);
+      const auto uv = project_lens(cam.lens, view.valid_radius, p.centre + axes * half.cwiseProduct(k));
+      if (!uv) return false;
+      x0 = std::min(x0, uv->x()); y0 = std::min(y0, uv->y()); x1 = std::max(x1, uv->x()); y1 = std::max(y1, uv->y());
+    }
+    p.bounds = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2),
+                        cv::Point(static_cast<int>(std::ceil(x1)) + 3, static_cast<int>(std::ceil(y1)) + 3)) &
                cv::Rect(0, 0, cam.width, cam.height);
     return !p.bounds.empty();
   };
@@ -194,7 +211,7 @@ std::vector<GroundCameraRenderer::Primitive> GroundCameraRenderer::primitives(co
       p.albedo = kMarkerAlbedo[static_cast<size_t>(c)];
       p.vehicle = static_cast<int>(i);
       p.colour = c;
-      if (bound(p, veh.marker_radius_m)) out.push_back(p);
+      if (bound(p)) out.push_back(p);
     }
     // The hub (quad_c.xml: 0.16 × 0.16 × 0.09 m) and the four arms (0.26 m, 2.4 cm thick, 2 cm above the hub's centre).
     struct Part {
@@ -210,7 +227,7 @@ std::vector<GroundCameraRenderer::Primitive> GroundCameraRenderer::primitives(co
       p.axes = R_CB;
       p.half = part.half;
       p.albedo = kFrameAlbedo;
-      if (bound(p, part.half.norm())) out.push_back(p);
+      if (bound(p)) out.push_back(p);
     }
   }
   return out;
@@ -229,6 +246,7 @@ void GroundCameraRenderer::render(size_t camera, const std::vector<MarkedVehicle
   for (auto& h : hits) h.fill(0);
   constexpr double kSub[2] = {-0.25, 0.25};
   std::vector<const Primitive*> here;
+  const double pixel_angle = 1.5 / std::min(view.camera.lens.fx, view.camera.lens.fy);
   for (const Primitive& prim : prims) {
     for (int v = prim.bounds.y; v < prim.bounds.y + prim.bounds.height; ++v) {
       uint8_t* done = view.done.ptr<uint8_t>(v);
@@ -238,9 +256,12 @@ void GroundCameraRenderer::render(size_t camera, const std::vector<MarkedVehicle
         if (done[u]) continue;
         done[u] = 1;
         if (std::isnan(ray[u][0])) continue;
+        // Only what the pixel's centre ray passes near (within about a pixel) can cover its samples.
         here.clear();
+        const Eigen::Vector3d d0(ray[u][0], ray[u][1], 1.0);
         for (const Primitive& q : prims)
-          if (q.bounds.contains(cv::Point(u, v))) here.push_back(&q);
+          if (q.bounds.contains(cv::Point(u, v)) && q.near(d0, pixel_angle)) here.push_back(&q);
+        if (here.empty()) continue;
         const cv::Vec2f dx = ray[std::min(u + 1, view.rays.cols - 1)] - ray[u], dy = ray_next[u] - ray[u];
         cv::Vec3f sum(0, 0, 0);
         int covered = 0;
