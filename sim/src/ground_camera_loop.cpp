@@ -59,9 +59,9 @@ double yaw_of(const Eigen::Quaterniond& q) {
   return std::atan2(R(1, 0), R(0, 0));
 }
 
-// The tracker's vehicles file: the marker layout (of the first vehicle: the tracker takes one layout)
-// and each vehicle's id and start pose, the positions seed 003 takes as known at the start.
-void write_vehicles_file(const std::string& path, const std::vector<MarkedVehicle>& start) {
+}  // namespace
+
+void write_ground_vehicles_file(const std::string& path, const std::vector<MarkedVehicle>& start) {
   cv::FileStorage fs(path, cv::FileStorage::WRITE);
   if (!fs.isOpened()) throw StationError(path + ": cannot write the ground station's vehicles file");
   const char* names[kMarkerColourCount] = {"marker_red", "marker_green", "marker_blue", "marker_yellow"};
@@ -75,8 +75,6 @@ void write_vehicles_file(const std::string& path, const std::vector<MarkedVehicl
        << yaw_of(v.q_ib) * 180.0 / M_PI << "}";
   fs << "]";
 }
-
-}  // namespace
 
 GroundCameraLoop::GroundCameraLoop(const GroundCameraParams& params, uint64_t seed, int radio_baud,
                                    const std::vector<MarkedVehicle>& start, const std::string& out_dir,
@@ -94,7 +92,7 @@ GroundCameraLoop::GroundCameraLoop(const GroundCameraParams& params, uint64_t se
     room = room_calibration_file(p_, station_subcommand(station_argv, "calibrate-room"), cache, options.progress);
   }
   std::filesystem::copy_file(room, out_dir + "/room_calib.yaml", std::filesystem::copy_options::overwrite_existing);
-  write_vehicles_file(out_dir + "/ground_vehicles.yaml", start);
+  write_ground_vehicles_file(out_dir + "/ground_vehicles.yaml", start);
   std::string radio;
   for (const MarkedVehicle& v : start) {
     ids_.push_back(v.id);

@@ -49,6 +49,10 @@ struct GroundCameraFigures {
   uint64_t association_errors = 0;             // ... nearer another vehicle's marker or off their own
 };
 
+// The tracker's vehicles file (`track --vehicles`): the marker layout (the first vehicle's: the tracker
+// takes one layout) and each vehicle's id and start pose, which seed 003 takes as known.
+void write_ground_vehicles_file(const std::string& path, const std::vector<MarkedVehicle>& start);
+
 struct GroundCameraLoopOptions {
   std::string room_file;    // the station's room calibration; empty: from rendered boards (cached)
   std::string room_cache;   // where those are cached; empty: station_calibration/ beside the station
