@@ -90,8 +90,20 @@ class GroundLive : public ::testing::Test {
     dir_ = new fs::path(fs::temp_directory_path() / ("ground_live_" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
     cameras_ = new std::vector<SceneCamera>(make_room_cameras(RoomSpec()));
-    write_calibration_set((*dir_ / "boards").string(), *cameras_, BoardSpec(), 12, 7);
-    run(std::string(VISION_STATION_EXE) + " calibrate-room --images " + (*dir_ / "boards").string() + " --out " + room());
+    // The room file of the generator's fixed board set, made once per build of the station (each test
+    // runs in a process of its own); calibrate-room itself is test_vision_ground_track's subject.
+    const auto stamp = fs::last_write_time(VISION_STATION_EXE).time_since_epoch().count();
+    const fs::path cached = fs::path(GROUND_LIVE_CACHE) / ("room-" + std::to_string(stamp) + "-" +
+                                                          std::to_string(fs::file_size(VISION_STATION_EXE)) + ".yaml");
+    if (!fs::exists(cached)) {
+      write_calibration_set((*dir_ / "boards").string(), *cameras_, BoardSpec(), 12, 7);
+      const std::string partial = room() + ".partial";
+      run(std::string(VISION_STATION_EXE) + " calibrate-room --images " + (*dir_ / "boards").string() + " --out " + partial);
+      fs::create_directories(cached.parent_path());
+      fs::copy_file(partial, cached.string() + "." + std::to_string(::getpid()));
+      fs::rename(cached.string() + "." + std::to_string(::getpid()), cached);  // atomic for a parallel test
+    }
+    fs::copy_file(cached, room());
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir_);
