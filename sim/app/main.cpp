@@ -2,7 +2,7 @@
 //
 //   quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD] [--viewer]
 //            [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK] [--station CMD]
-//            [--station-calib FILE] [--gcs [udp:HOST:PORT]] [--no-tlog] [--no-plots] [--quiet]
+//            [--station-calib FILE] [--room-calib FILE] [--gcs [udp:HOST:PORT]] [--no-tlog] [--no-plots] [--quiet]
 //
 // Exit status: 0 the run completed and wrote every output; 1 the run was cut short (interrupted, the
 // firmware stopped answering, ...) or could not start; 2 bad arguments; 3 the run completed and its log
@@ -38,8 +38,8 @@ int usage(const char* error) {
   std::fprintf(stderr,
                "usage: quad_sim --scenario FILE [--out DIR] [--seed N] [--set KEY=VALUE]... [--realtime] [--firmware CMD]\n"
                "                [--viewer] [--viewer-screenshot FILE.png] [--record FILE.mp4] [--ground-port LINK]\n"
-               "                [--station CMD] [--station-calib FILE] [--gcs [udp:HOST:PORT]] [--no-tlog]\n"
-               "                [--no-plots] [--quiet]\n"
+               "                [--station CMD] [--station-calib FILE] [--room-calib FILE] [--gcs [udp:HOST:PORT]]\n"
+               "                [--no-tlog] [--no-plots] [--quiet]\n"
                "  --scenario FILE   YAML scenario (sim/scenarios/*.yaml)\n"
                "  --out DIR         run folder (default runs/<scenario>-<UTC time>)\n"
                "  --seed N          override the scenario's random seed\n"
@@ -64,6 +64,11 @@ int usage(const char* error) {
                "                    chessboards rendered through the scenario's cameras, cached in\n"
                "                    station_calibration/ beside the station executable\n"
                "  --station-calib FILE  give the station this calibration instead\n"
+               "                    With ground_cameras.enabled the same command with 'run' replaced by 'track'\n"
+               "                    is the ground-camera station (--room --vehicles --source sim:SOCKET --radio\n"
+               "                    ID=PTY --baud B --message M --out RUN/ground_track.jsonl appended), calibrated\n"
+               "                    by 'calibrate-room' on boards rendered through the room cameras (cached)\n"
+               "  --room-calib FILE give the ground-camera station this room calibration instead\n"
                "  --gcs [udp:HOST:PORT]  a ground station over UDP (default udp:127.0.0.1:14550, where\n"
                "                    QGroundControl and MAVProxy listen): what comes out of the ground side of\n"
                "                    the radio is sent there, datagrams from whoever sends to the simulator's\n"
@@ -101,7 +106,7 @@ std::string utc_stamp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_path, out_dir, firmware, record, ground_port, station, station_calib, screenshot;
+  std::string scenario_path, out_dir, firmware, record, ground_port, station, station_calib, room_calib, screenshot;
   std::optional<long> seed;
   std::vector<quad::sim::ScenarioOverride> overrides;
   std::optional<quad::sim::UdpEndpoint> gcs;
@@ -123,6 +128,7 @@ int main(int argc, char** argv) {
       else if (a == "--ground-port") ground_port = value("--ground-port");
       else if (a == "--station") station = value("--station");
       else if (a == "--station-calib") station_calib = value("--station-calib");
+      else if (a == "--room-calib") room_calib = value("--room-calib");
       else if (a == "--gcs") {
         // The value is optional: the next argument is it unless it is another option.
         const bool given = i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0;
@@ -171,8 +177,9 @@ int main(int argc, char** argv) {
 
     const std::string default_station = executable_dir() + "/vision_station";
     options.station_calibration = station_calib;
+    options.room_calibration = room_calib;
     options.station_argv = station.empty() ? std::vector<std::string>{default_station, "run"} : split_words(station);
-    if (scenario.camera.enabled && station.empty() && access(default_station.c_str(), X_OK) != 0) {
+    if ((scenario.camera.enabled || scenario.ground_cameras.enabled) && station.empty() && access(default_station.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "quad_sim: the scenario renders the cameras but %s is not built "
                            "(cmake --build build/host --target vision_station), or pass --station CMD\n",
                    default_station.c_str());

@@ -26,6 +26,7 @@
 #include "quad/sim/pty.h"
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
+#include "quad/sim/ground_camera_loop.h"
 #include "quad/sim/station_loop.h"
 #include "quad/sim/udp_link.h"
 #include "quad/sim/vehicle.h"
@@ -115,7 +116,10 @@ class Session {
   void event(double t, const std::string& text);
   void write_summary(bool complete, const std::string& reason);
   void progress(double t, bool final_line);
-  uint64_t vision_sent() const { return station_ ? station_->figures().fixes : vision_.released(); }
+  uint64_t vision_sent() const {
+    return station_ ? station_->figures().fixes : ground_cams_ ? ground_cams_->figures().fixes : vision_.released();
+  }
+  std::vector<MarkedVehicle> marked_vehicles() const;
 
   const Scenario& s_;
   const SessionOptions& o_;
@@ -154,6 +158,7 @@ class Session {
   uint64_t record_epoch_us_ = 0;
   std::unique_ptr<FirmwareProcess> firmware_;
   std::unique_ptr<StationLoop> station_;  // rendered cameras and the vision station (camera.enabled)
+  std::unique_ptr<GroundCameraLoop> ground_cams_;  // room cameras and the ground-camera station (ground_cameras.enabled)
 
   // Schedules.
   size_t next_command_ = 0;
@@ -633,7 +638,20 @@ void Session::deliver_radio(double until) {
   radio_up_.deliver_until(until, [&](const uint8_t* d, size_t n) {
     uart2_.write_all(d, n);
     radio_written_ = true;
+    if (ground_cams_) ground_cams_->delivered(kVehicleSys, until, d, n);
   });
+}
+
+// The vehicle as the room cameras see it: its pose and the scenario's marker layout.
+std::vector<MarkedVehicle> Session::marked_vehicles() const {
+  const VehicleTruth truth = vehicle_.truth();
+  MarkedVehicle v;
+  v.id = kVehicleSys;
+  v.p_ned = truth.position_ned;
+  v.q_ib = truth.q_ib;
+  v.markers_frd = s_.ground_cameras.markers_frd;
+  v.marker_radius_m = s_.ground_cameras.marker_radius_m;
+  return {v};
 }
 
 void Session::physics_period(double t_end) {
@@ -657,6 +675,9 @@ void Session::physics_period(double t_end) {
       station_->update(now, truth.position_ned, truth.q_ib, faults.vision_dropout,
                        [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); },
                        decoy ? std::optional<Eigen::Vector2d>(decoy->head<2>()) : std::nullopt);
+    } else if (ground_cams_) {
+      ground_cams_->update(now, marked_vehicles(),
+                           [&](int, double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); });
     } else {
       vision_.update(now, truth.position_ned, truth.q_ib, faults.vision_dropout, faults.vision_errors);
       vision_.release_until(now, [&](double when, const uint8_t* d, size_t n) { radio_uplink(d, n, when); });
@@ -740,6 +761,20 @@ Json station_json(const StationFigures& f, const Scenario& s) {
   j.add("fix_error_m", percentiles_json(f.fix_error_m));
   j.add("processing_us", percentiles_json(f.processing_us));
   j.add("configured_latency_s", s.vision.latency_s).add("late_answers", static_cast<long>(f.late_answers));
+  return j;
+}
+
+Json ground_station_json(const GroundCameraFigures& f, const GroundCameraParams& p) {
+  Json j;
+  j.add("trigger", p.triggered ? "together" : "free").add("cameras", static_cast<long>(p.count));
+  j.add("sets_captured", static_cast<long>(f.sets_captured)).add("sets_lost", static_cast<long>(f.sets_lost));
+  j.add("sets_answered", static_cast<long>(f.sets_answered)).add("fixes", static_cast<long>(f.fixes));
+  j.add("capture_skew_us", percentiles_json(f.capture_skew_us));
+  j.add("fix_error_m", percentiles_json(f.fix_error_m));
+  j.add("fix_latency_s", percentiles_json(f.fix_latency_s));
+  j.add("processing_us", percentiles_json(f.processing_us)).add("cpu_us", percentiles_json(f.cpu_us));
+  j.add("configured_latency_s", p.latency_s).add("late_answers", static_cast<long>(f.late_answers));
+  j.add("pixels_checked", static_cast<long>(f.pixels_checked)).add("association_errors", static_cast<long>(f.association_errors));
   return j;
 }
 
@@ -873,6 +908,7 @@ void Session::write_summary(bool complete, const std::string& reason) {
     j.add("log_download", ld);
   }
   if (station_) j.add("vision_station", station_json(station_->figures(), s_));
+  if (ground_cams_) j.add("ground_station", ground_station_json(ground_cams_->figures(), s_.ground_cameras));
   write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
 }
 
@@ -935,6 +971,19 @@ void Session::start_processes() {
     station_ = std::make_unique<StationLoop>(s_, stereo_rig_from_model(vehicle_.model(), s_.camera, s_.model_path), o_.out_dir,
                                              o_.station_argv, station);
     event(0.0, "vision station: rendered cameras in the loop (station.log)");
+  }
+  if (s_.ground_cameras.enabled) {
+    if (o_.station_argv.empty()) throw std::runtime_error(s_.path + ": ground_cameras.enabled needs the vision station command");
+    GroundCameraLoopOptions ground;
+    ground.room_file = o_.room_calibration;
+    ground.room_cache = o_.station_calibration_cache;
+    ground.progress = [this](const std::string& line) {
+      event(0.0, line);
+      if (o_.progress) std::fprintf(stderr, "%s\n", line.c_str());
+    };
+    ground_cams_ = std::make_unique<GroundCameraLoop>(s_.ground_cameras, s_.seed, s_.radio_baud, marked_vehicles(), o_.out_dir,
+                                                      o_.station_argv, ground);
+    event(0.0, "ground station: room cameras in the loop (ground_station.log)");
   }
   firmware_ = std::make_unique<FirmwareProcess>(argv, o_.out_dir + "/firmware.log");
 }
@@ -1056,6 +1105,7 @@ SessionResult Session::run() {
   if (!reason.empty()) event(vehicle_.time(), "cut short: " + reason);
   firmware_.reset();
   if (station_) station_->finish();
+  if (ground_cams_) ground_cams_->finish();
   return result;
 }
 

@@ -209,6 +209,67 @@ void parse_camera(const Field& f, const std::string& base_dir, CameraParams& c) 
   }
 }
 
+// The room cameras (quad/sim/ground_camera_params.h; docs/simulator.md "Ground cameras").
+void parse_ground_cameras(const Field& f, GroundCameraParams& g) {
+  f.expect_map({"enabled", "count", "image_size", "hfov_deg", "rate_hz", "height_m", "distance_m", "aim_height_m",
+                "first_azimuth_deg", "spacing_deg", "centre_ne_m", "distortion", "trigger", "phase_s", "latency_s",
+                "frame_loss", "marker_radius_m", "markers_frd_m", "light", "noise_grey", "message"});
+  f["enabled"].get(g.enabled);
+  if (f["count"].defined()) g.count = f["count"].integer(2, 8);
+  if (const Field size = f["image_size"]; size.defined()) {
+    if (size.size() != 2) size.fail("must be [width, height] in pixels");
+    g.image_width = size.at(0).integer(64, 4096);
+    g.image_height = size.at(1).integer(64, 4096);
+  }
+  f["hfov_deg"].get(g.hfov_deg, 10.0, 120.0);
+  f["rate_hz"].get(g.rate_hz, 1.0, 240.0);
+  f["height_m"].get(g.height_m, 0.1, 20.0);
+  f["distance_m"].get(g.distance_m, 0.5, 50.0);
+  f["aim_height_m"].get(g.aim_height_m, -5.0, 20.0);
+  f["first_azimuth_deg"].get(g.first_azimuth_deg, -360.0, 360.0);
+  f["spacing_deg"].get(g.spacing_deg, 10.0, 180.0);
+  if (f["centre_ne_m"].defined()) g.centre_ne = f["centre_ne_m"].vec2();
+  if (const Field d = f["distortion"]; d.defined()) {
+    if (d.size() != 5) d.fail("must be a list of five numbers (k1, k2, p1, p2, k3)");
+    for (size_t i = 0; i < 5; ++i) g.distortion[i] = d.at(i).number(-2.0, 2.0);
+  }
+  if (const Field t = f["trigger"]; t.defined()) {
+    const std::string mode = t.text();
+    if (mode != "together" && mode != "free") t.fail("must be together or free, not '" + mode + "'");
+    g.triggered = mode == "together";
+  }
+  if (const Field ph = f["phase_s"]; ph.defined()) {
+    g.phase_s.clear();
+    for (size_t i = 0; i < ph.size(); ++i) g.phase_s.push_back(ph.at(i).number(0.0, 1.0 / g.rate_hz - 1e-6));
+    if (g.triggered) ph.fail("needs trigger: free (triggered cameras capture together)");
+    if (static_cast<int>(g.phase_s.size()) != g.count) ph.fail("must give one phase per camera (" + std::to_string(g.count) + ")");
+  }
+  f["latency_s"].get(g.latency_s, 0.0, 1.0);
+  f["frame_loss"].get(g.frame_loss, 0.0, 1.0);
+  f["marker_radius_m"].get(g.marker_radius_m, 0.003, 0.2);
+  if (const Field m = f["markers_frd_m"]; m.defined()) {
+    m.expect_map({"red", "green", "blue", "yellow"});
+    const char* names[] = {"red", "green", "blue", "yellow"};
+    for (size_t k = 0; k < 4; ++k)
+      if (m[names[k]].defined()) g.markers_frd[k] = m[names[k]].vec3();
+  }
+  if (const Field l = f["light"]; l.defined()) {
+    l.expect_map({"min", "max", "ramp", "white_balance"});
+    l["min"].get(g.light_min, 0.05, 3.0);
+    l["max"].get(g.light_max, 0.05, 3.0);
+    l["ramp"].get(g.light_ramp, 0.0, 0.9);
+    l["white_balance"].get(g.white_balance, 0.0, 0.5);
+    if (g.light_max < g.light_min) l["max"].fail("must not be below light.min");
+  }
+  f["noise_grey"].get(g.noise_grey, 0.0, 40.0);
+  if (const Field m = f["message"]; m.defined()) {
+    const std::string word = m.text();
+    if (word != ground_fix_message_name(GroundFixMessage::kVisionPositionEstimate))
+      m.fail("must be vision_position_estimate (the external-position message the firmware accepts), not '" + word + "'");
+    g.message = GroundFixMessage::kVisionPositionEstimate;
+  }
+}
+
 void parse_radio(const Field& f, RadioConditions& r) {
   f["latency_s"].get(r.latency_s, 0.0, 10.0);
   f["jitter_s"].get(r.jitter_s, 0.0, 10.0);
@@ -448,6 +509,11 @@ void parse_vision(const Field& top, const std::string& base_dir, Scenario& s) {
     f["clock_offset_s"].get(s.external_pose.clock_offset_s, 0.0, 1e10);
   }
   if (const Field f = top["camera"]; f.defined()) parse_camera(f, base_dir, s.camera);
+  if (const Field f = top["ground_cameras"]; f.defined()) {
+    parse_ground_cameras(f, s.ground_cameras);
+    if (s.ground_cameras.enabled && s.camera.enabled)
+      f["enabled"].fail("and camera.enabled exclude each other: one station at a time sends the vehicle's fixes");
+  }
   if (const Field f = top["station_settings"]; f.defined()) {
     for (const std::string& k : f.keys()) {
       const Field v = f[k.c_str()];
@@ -638,7 +704,7 @@ Scenario scenario_from(const YAML::Node& root, const std::string& name, const st
   s.path = name;
   const Field top(root, "", &name);
   top.expect_map({"name", "description", "duration_s", "seed", "model", "initial", "hil", "radio", "gcs", "rc_rate_hz",
-                  "vision", "external_pose", "camera", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
+                  "vision", "external_pose", "camera", "ground_cameras", "station_settings", "motors", "imu", "magnetometer", "magnetic_field_ned_gauss", "drag", "wind", "commands",
                   "rc", "faults", "metrics", "firmware_params", "vehicles"});
   s.name = top["name"].text();
   s.duration_s = top["duration_s"].number(0.01, 86400.0);

@@ -70,6 +70,31 @@ std::string fnv1a_hex(const std::string& text) {
 
 }  // namespace
 
+std::string calibration_cache_key(const std::string& images_text, const std::string& tool_path) {
+  // The calibrating executable is part of the key: a rebuilt station calibrates again.
+  std::string tool;
+  std::error_code error;
+  const auto tool_time = fs::last_write_time(tool_path, error);
+  if (!error) tool = tool_path + " " + std::to_string(tool_time.time_since_epoch().count()) + " " +
+                     std::to_string(fs::file_size(tool_path, error));
+  return fnv1a_hex(images_text + " " + tool);
+}
+
+void run_calibration_command(const std::vector<std::string>& argv, const std::string& log, const std::string& partial,
+                             const std::string& file) {
+  std::string status;
+  try {
+    FirmwareProcess calibrate(argv, log);
+    while (calibrate.running()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    status = calibrate.status();
+  } catch (const std::runtime_error& e) {
+    throw CalibrationError(std::string("vision station calibration: ") + e.what());
+  }
+  if (status != "exited with status 0" || !fs::exists(partial))
+    throw CalibrationError("vision station calibration " + status + " (see " + log + ")");
+  fs::rename(partial, file);  // atomic: a parallel run sees the whole file or none
+}
+
 std::vector<FloorShape> chessboard_shapes(const ChessboardTarget& board) {
   const double s = board.square_m;
   auto rect = [](double x0, double y0, double x1, double y1, double grey) {
@@ -131,13 +156,7 @@ std::vector<std::string> calibrate_command_for(const std::vector<std::string>& s
 std::string station_calibration_file(const SimStereoRig& rig, const CameraParams& params, const std::vector<std::string>& calibrate_argv,
                                      const std::string& cache_dir, const std::function<void(const std::string&)>& progress) {
   const ChessboardTarget board;
-  // The calibrating executable is part of the key: a rebuilt station calibrates again.
-  std::string tool;
-  std::error_code error;
-  const auto tool_time = fs::last_write_time(calibrate_argv.at(0), error);
-  if (!error) tool = calibrate_argv[0] + " " + std::to_string(tool_time.time_since_epoch().count()) + " " +
-                     std::to_string(fs::file_size(calibrate_argv[0], error));
-  const std::string key = fnv1a_hex(key_text(rig, params, board) + " " + tool);
+  const std::string key = calibration_cache_key(key_text(rig, params, board), calibrate_argv.at(0));
   const std::string file = cache_dir + "/station_calib-" + key + ".yaml";
   if (fs::exists(file)) {
     progress("station calibration: " + file + " (cached)");
@@ -166,17 +185,7 @@ std::string station_calibration_file(const SimStereoRig& rig, const CameraParams
     argv.push_back(a);
   const std::string log = cache_dir + "/station_calib-" + key + ".log";
   progress("station calibration: " + argv[0] + " calibrate (output in " + log + ")");
-  std::string status;
-  try {
-    FirmwareProcess calibrate(argv, log);
-    while (calibrate.running()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    status = calibrate.status();
-  } catch (const std::runtime_error& e) {
-    throw CalibrationError(std::string("vision station calibration: ") + e.what());
-  }
-  if (status != "exited with status 0" || !fs::exists(partial))
-    throw CalibrationError("vision station calibration " + status + " (see " + log + ")");
-  fs::rename(partial, file);  // atomic: a parallel run sees the whole file or none
+  run_calibration_command(argv, log, partial, file);
   fs::remove_all(work);
   return file;
 }

@@ -14,33 +14,12 @@
 #include <sstream>
 #include <string>
 
+#include "loop_summary.h"
 #include "quad/sim/hil_session.h"
 #include "quad/sim/scenario.h"
 
 namespace quad::sim {
 namespace {
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// The number at a path of keys in summary.json: each key is searched after the previous one.
-double json_number(const std::string& json, std::initializer_list<const char*> keys) {
-  size_t at = 0;
-  std::string last;
-  for (const char* key : keys) {
-    at = json.find(std::string("\"") + key + "\"", at);
-    if (at == std::string::npos) return NAN;
-    last = key;
-  }
-  std::smatch m;
-  const std::string rest = json.substr(at);
-  if (!std::regex_search(rest, m, std::regex("^\"" + last + "\": (-?[0-9.eE+-]+)"))) return NAN;
-  return std::stod(m[1]);
-}
 
 SessionResult fly(const std::string& scenario, const std::string& out) {
   const Scenario s = load_scenario(std::string(QUAD_LOOP_TEST_DIR) + "/" + scenario);

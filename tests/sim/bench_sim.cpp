@@ -8,6 +8,7 @@
 
 #include <string>
 
+#include "quad/sim/ground_camera.h"
 #include "quad/sim/hil_session.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/scenario.h"
@@ -86,6 +87,30 @@ void BM_RenderStereoPair(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_RenderStereoPair)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// One frame set of the room cameras (seed 003 table 6.1: two 1024 x 768 colour views) seeing
+// `range(0)` vehicles 0.6 m apart at 1 m, with light, colour cast and noise.
+void BM_RenderGroundCameras(benchmark::State& state) {
+  GroundCameraParams params;
+  GroundCameraRenderer renderer(params, ground_cameras_from(params), Rng(1, "ground_cameras"));
+  std::vector<MarkedVehicle> vehicles;
+  for (int i = 0; i < state.range(0); ++i) {
+    MarkedVehicle v;
+    v.id = i + 1;
+    v.p_ned = Eigen::Vector3d(0.6 * (i % 2) - 0.3, 0.6 * (i / 2) - 0.3, -1.0);
+    v.markers_frd = params.markers_frd;
+    vehicles.push_back(v);
+  }
+  cv::Mat image;
+  double t = 0.0;
+  for (auto _ : state) {
+    for (size_t k = 0; k < renderer.cameras().size(); ++k) renderer.render(k, vehicles, t, image);
+    t += 1.0 / 30.0;
+    benchmark::DoNotOptimize(image.data);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_RenderGroundCameras)->Arg(1)->Arg(4)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LockstepHoverWithFirmware)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
 
 // The same loop against the stand-in firmware (answers at once): the simulator's own share.

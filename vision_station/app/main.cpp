@@ -48,6 +48,9 @@ const char* kUsage =
     "  vision_station calibrate-room --images DIR [--board 8x6] [--square 0.10] --out room.yaml\n"
     "  vision_station track --room room.yaml --vehicles vehicles.yaml --frames frames.csv [--out FILE.jsonl]\n"
     "                       [--no-epipolar] [--no-roi]\n"
+    "  vision_station track --room room.yaml --vehicles vehicles.yaml --source sim:SOCKET [--radio ID=PATH[,...]]\n"
+    "                       [--baud 57600] [--message vision_position_estimate] [--out FILE.jsonl] [--status-s 1]\n"
+    "                       [--timeout-ms 5000] [--no-epipolar] [--no-roi]\n"
     "  --calib takes the station's calibration file, or OpenCV's sample pair INTRINSICS.yml,EXTRINSICS.yml\n";
 
 // --key value options; flags listed in `flags` take no value.

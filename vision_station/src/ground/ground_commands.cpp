@@ -1,7 +1,10 @@
 #include "quad/vision/ground/ground_commands.h"
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -10,7 +13,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "quad/vision/ground/csv_table.h"
+#include "quad/vision/ground/ground_sim_source.h"
 #include "quad/vision/ground/ground_tracker.h"
+#include "quad/vision/ground/pose_output.h"
 #include "quad/vision/ground/room_calibration.h"
 
 namespace quad::vision::ground {
@@ -104,6 +109,95 @@ std::string fix_json(const VehicleFix& fix, const FrameSetResult& frame) {
   return s + tail;
 }
 
+
+namespace wire = ground_sim_protocol;
+
+wire::VehicleReport vehicle_report(const VehicleFix& fix) {
+  wire::VehicleReport r;
+  r.id = fix.id;
+  r.found = fix.pose ? 1u : 0u;
+  if (fix.pose)
+    for (int i = 0; i < 3; ++i) r.ned[i] = fix.pose->position_ned[i];
+  for (int k = 0; k < kMarkerColours; ++k)
+    for (size_t c = 0; c < wire::kMaxCameras; ++c) {
+      const bool has = c < fix.pixels[k].size() && fix.pixels[k][c];
+      r.pixels[k][c][0] = has ? static_cast<float>(fix.pixels[k][c]->x) : std::numeric_limits<float>::quiet_NaN();
+      r.pixels[k][c][1] = has ? static_cast<float>(fix.pixels[k][c]->y) : std::numeric_limits<float>::quiet_NaN();
+    }
+  return r;
+}
+
+int parse_int(const std::map<std::string, std::string>& options, const std::string& key, int fallback) {
+  if (!options.count(key)) return fallback;
+  try {
+    return std::stoi(options.at(key));
+  } catch (const std::exception&) {
+    throw CommandUsageError(key + " '" + options.at(key) + "' is not a whole number");
+  }
+}
+
+// `track --source sim:SOCKET`: frame sets from the simulator, each vehicle's fix to its radio port,
+// an answer per set (ground_sim_protocol.h).
+int track_live(const std::map<std::string, std::string>& options, GroundTracker& tracker, const TrackerConfig& config,
+               std::ostream* jsonl) {
+  const std::string& source = options.at("--source");
+  if (source.rfind("sim:", 0) != 0 || source.size() <= 4)
+    throw CommandUsageError("--source '" + source + "': the live source of track is sim:SOCKET");
+  std::vector<int> ids;
+  for (const VehicleStart& v : config.vehicles) ids.push_back(v.id);
+  std::unique_ptr<PoseLinks> links;
+  if (options.count("--radio")) {
+    links = std::make_unique<PoseLinks>(options.at("--radio"), parse_int(options, "--baud", 57600), ids,
+                                        parse_pose_message(options.count("--message") ? options.at("--message")
+                                                                                       : "vision_position_estimate"));
+  }
+  GroundSimSource sim(source.substr(4), std::chrono::milliseconds(parse_int(options, "--timeout-ms", 5000)));
+  const double status_s = parse_int(options, "--status-s", 1);
+  GroundFrameSet set;
+  int sets = 0, sets_since = 0;
+  double ms_since = 0.0;
+  auto last_status = std::chrono::steady_clock::now();
+  while (sim.read(set)) {
+    const auto start = std::chrono::steady_clock::now();
+    // Frames of free-running cameras differ in capture time: the set stands for their mean time.
+    double mean_us = 0.0;
+    for (int64_t t : set.capture_time_us) mean_us += static_cast<double>(t) / set.capture_time_us.size();
+    const int64_t time_us = std::llround(mean_us);
+    const FrameSetResult result = tracker.process(set.images, time_us);
+    std::vector<wire::VehicleReport> reports;
+    for (const VehicleFix& fix : result.vehicles) {
+      if (fix.pose && links) links->send(fix.id, *fix.pose, time_us);
+      reports.push_back(vehicle_report(fix));
+      if (jsonl) *jsonl << fix_json(fix, result) << "\n";
+    }
+    wire::SetAnswer answer;
+    answer.vehicles = static_cast<uint32_t>(reports.size());
+    answer.sequence = set.sequence;
+    answer.fixes_sent = links ? links->frames_sent() : 0;
+    answer.processing_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
+    answer.cpu_us = result.cpu_ms * 1000.0;
+    answer.fix_time_us = time_us;
+    sim.answer(answer, reports);
+    ++sets;
+    ++sets_since;
+    ms_since += answer.processing_us / 1000.0;
+    if (std::chrono::steady_clock::now() - last_status > std::chrono::duration<double>(status_s)) {
+      last_status = std::chrono::steady_clock::now();
+      std::fprintf(stderr, "track: %d frame sets, %.2f ms per set, fixes sent %llu dropped %llu\n", sets,
+                   sets_since ? ms_since / sets_since : 0.0, static_cast<unsigned long long>(links ? links->frames_sent() : 0),
+                   static_cast<unsigned long long>(links ? links->frames_dropped() : 0));
+      sets_since = 0;
+      ms_since = 0.0;
+    }
+  }
+  const AssociationStats& t = tracker.totals();
+  std::fprintf(stderr,
+               "track: end of the simulator's stream after %d frame sets; detections %d, assigned %d, ambiguous gates %d, "
+               "epipolar resolutions %d (nearest neighbour alone would differ in %d)\n",
+               sets, t.detections, t.assigned, t.ambiguous_gates, t.epipolar_resolutions, t.nn_disagreements);
+  return 0;
+}
+
 }  // namespace
 
 int calibrate_room_command(const std::map<std::string, std::string>& options) {
@@ -176,6 +270,16 @@ int track_command(const std::map<std::string, std::string>& options) {
   GroundTrackerSettings settings;
   settings.use_epipolar = !options.count("--no-epipolar");
   settings.use_roi = !options.count("--no-roi");
+  if (options.count("--source")) {
+    if (options.count("--frames")) throw CommandUsageError("--frames and --source exclude each other");
+    std::unique_ptr<std::ofstream> jsonl;
+    if (options.count("--out")) {
+      jsonl = std::make_unique<std::ofstream>(options.at("--out"));
+      if (!*jsonl) throw std::runtime_error(options.at("--out") + ": cannot write");
+    }
+    GroundTracker live(rig, config, settings);
+    return track_live(options, live, config, jsonl.get());
+  }
   const CsvTable frames = read_csv(require(options, "--frames"), {"time_us"});
   std::vector<std::string> columns;
   for (size_t c = 0; c < rig.cameras.size(); ++c) {

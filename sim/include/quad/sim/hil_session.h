@@ -45,6 +45,9 @@ struct SessionOptions {
   // The station's calibration file; empty: `vision_station calibrate` on chessboards the simulator
   // renders, cached in station_calibration_cache (empty: station_calibration/ beside the station).
   std::string station_calibration, station_calibration_cache;
+  // The ground-camera station's room calibration (ground_cameras.enabled); empty: `vision_station
+  // calibrate-room` on boards the simulator renders, cached in station_calibration_cache.
+  std::string room_calibration;
   const std::atomic<bool>* stop = nullptr; // set (e.g. by SIGINT) to end the run early
 };
 

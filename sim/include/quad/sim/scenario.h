@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "quad/sim/ground_camera_params.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/log_download.h"
 #include "quad/sim/magnetometer.h"
@@ -192,6 +193,7 @@ struct Scenario {
   VisionParams vision;
   ExternalPoseParams external_pose;
   CameraParams camera;
+  GroundCameraParams ground_cameras;  // fixed room cameras and the ground-camera station (`ground_cameras:`)
   // Extra keys for the vision station's settings file (name -> number or word), written beside the
   // camera mount the simulator puts there (quad/sim/station_loop.h).
   std::vector<std::pair<std::string, std::string>> station_settings;

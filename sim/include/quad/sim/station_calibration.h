@@ -52,6 +52,16 @@ std::string station_calibration_file(const SimStereoRig& rig, const CameraParams
                                      const std::vector<std::string>& calibrate_argv, const std::string& cache_dir,
                                      const std::function<void(const std::string&)>& progress);
 
+// The cache key of a calibration: a hash of the text describing its images and of the calibrating
+// executable's path, time and size (a rebuilt station calibrates again).
+std::string calibration_cache_key(const std::string& images_text, const std::string& tool_path);
+
+// Runs a calibrating command (its output in `log`) that writes `partial`, then renames `partial` to
+// `file` (atomically: a parallel run sees the whole file or none). Throws CalibrationError when the
+// command fails or writes nothing.
+void run_calibration_command(const std::vector<std::string>& argv, const std::string& log, const std::string& partial,
+                             const std::string& file);
+
 // The calibration command for a station command: `X... run` becomes `X... calibrate`. Throws
 // CalibrationError when the station command does not end in `run`.
 std::vector<std::string> calibrate_command_for(const std::vector<std::string>& station_argv);

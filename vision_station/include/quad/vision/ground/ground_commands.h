@@ -2,6 +2,8 @@
 //   calibrate-room --images DIR [--board 8x6] [--square 0.10] --out room.yaml
 //   track --room room.yaml --vehicles vehicles.yaml --frames frames.csv [--out FILE.jsonl]
 //         [--no-epipolar] [--no-roi]
+//   track --room room.yaml --vehicles vehicles.yaml --source sim:SOCKET [--radio ID=PATH[,...]] [--baud B]
+//         [--message vision_position_estimate] [--out FILE.jsonl] [--status-s S] [--timeout-ms MS]
 #pragma once
 
 #include <map>
