@@ -58,8 +58,11 @@ struct StarFix {
   double row_difference_px = 0.0;
   std::vector<cv::Point> left_contour;   // raw image pixels, for display
   std::vector<cv::Point> right_contour;
+  StarCandidate left_candidate, right_candidate;  // the paired candidates (areas, shape distances)
   bool used_roi = false;
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
+  cv::Vec3d p_centroids;              // the triangulated centroids (p_left unless from the pose)
+  double pose_offset = 0.0;           // |pose centre − triangulated centroids| / range (valid pose)
   StageTimes times;
 };
 
@@ -106,7 +109,6 @@ class StereoStarLocator {
   cv::Rect last_left_box_;
   cv::Rect last_right_box_;
   NearRectifier left_near_, right_near_;
-  StarCandidate best_left_, best_right_;  // the paired candidates of the last frame, for the pose
 };
 
 }  // namespace quad::vision
