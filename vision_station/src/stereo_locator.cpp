@@ -192,9 +192,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     add_pose(left_gray, right_gray, fix);
     // No eight-vertex fit far off the axis, where the lens model is extrapolated and the star is most
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
-    // the range off).
+    // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
-    if (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) {
+    const bool contradicted = fix.pose.valid && std::fabs(fix.pose.size_ratio - 1.0) > settings_.max_pose_size_error;
+    if (contradicted || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad)) {
       fix.found = false;
       reset_tracking();
     }
