@@ -33,6 +33,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
       {"position_from_pose", &l.position_from_pose}, {"require_pose_beyond_rad", &l.require_pose_beyond_rad}, {"max_pose_offset", &l.max_pose_offset},
       {"max_pose_size_error", &l.max_pose_size_error},
+      {"attitude_max_rms_px", &l.attitude_max_rms_px},
       {"star_tip_radius_m", &l.pose.tip_radius_m},
       {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
       {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms},

@@ -199,6 +199,8 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.found = false;
       reset_tracking();
     }
+    // A fit good enough for the position and the checks above may still be too coarse for the attitude.
+    if (fix.pose.rms_px > settings_.attitude_max_rms_px) fix.pose.valid = false;
   }
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;

@@ -38,6 +38,9 @@ struct LocatorSettings {
   // contradicts the fix (no fix then): the fit's size scales with its depth, so a size 7 % off is a range
   // 7 % off (the outline of one view cut into or grown by a shadow, a merge or a fault).
   double max_pose_size_error = 0.07;
+  // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
+  // pose.max_rms_px still gives the position and the checks above.
+  double attitude_max_rms_px = 1.5;
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
