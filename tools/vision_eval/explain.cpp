@@ -11,6 +11,7 @@
 // three of its view), lost_to_false (another pair won), range, inaccurate (found beyond 5 % of range).
 //   vision_eval_explain --sets DIR --calib calib.yaml [--settings S.yaml] [--conditions a,b] [--list]
 //                       [--crops DIR]   (both views around each lost star, enlarged, for looking at)
+//                       [--features F.csv]  (one line per fix: what the station measured, and its error)
 // Use on the tuning split only: the held-out split is for the final measurement.
 #include <algorithm>
 #include <cmath>
@@ -27,6 +28,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "quad/vision/ideal_star.h"
 #include "quad/vision/settings_file.h"
 #include "quad/vision/stereo_locator.h"
 
@@ -123,6 +125,10 @@ class Explainer {
  public:
   Explainer(const StereoCalibration& calibration, const LocatorSettings& settings)
       : calibration_(calibration), settings_(settings), locator_(calibration, no_tracking(settings)) {
+    std::vector<cv::Point2f> ideal;
+    for (const cv::Point2d& p : star_vertices(StarShape{})) ideal.emplace_back(p * 1000.0);
+    const cv::Moments m = cv::moments(ideal);
+    ideal_sigma_ = std::sqrt(m.mu20 / m.m00) / 1000.0;
     for (int camera = 0; camera < 2; ++camera) {
       detectors_.emplace_back(settings.detector, PointRectifier(calibration, camera, settings.undistort_iterations));
     }
@@ -133,9 +139,11 @@ class Explainer {
   std::string details;  // shape scores of the last explain()'s lost views
 
   // The pair's outcome: "found", "no_star" (nothing expected, nothing fixed), "false_fix", or why missed.
-  std::string explain(const Truth& t, const cv::Mat& left, const cv::Mat& right) {
+  std::string explain(const Truth& t, const cv::Mat& left, const cv::Mat& right, std::FILE* features = nullptr,
+                      const std::string& condition = "") {
     details.clear();
     const StarFix fix = locator_.locate(left, right);
+    if (features != nullptr && fix.found) write_features(features, condition, t, fix);
     const bool hit = fix.found && t.in_view && cv::norm(fix.p_left - t.p) <= kMatchFraction * t.range;
     if (hit) {
       centroid_errors.push_back(100.0 * cv::norm(fix.p_left - t.p) / t.range);
@@ -165,6 +173,33 @@ class Explainer {
   }
 
  private:
+  // One line of --features: what the station knows about a fix, and the truth's verdict.
+  void write_features(std::FILE* out, const std::string& condition, const Truth& t, const StarFix& fix) const {
+    const double range = cv::norm(fix.p_left);
+    const double error = t.in_view ? 100.0 * cv::norm(fix.p_left - t.p) / t.range : -1.0;
+    const double centroid_error = t.in_view ? 100.0 * cv::norm(fix.p_centroids - t.p) / t.range : -1.0;
+    const double pose_error = t.in_view && fix.pose.valid ? 100.0 * cv::norm(fix.pose.t_C - t.p) / t.range : -1.0;
+    const double off_axis = std::acos(std::clamp(fix.p_left[2] / range, -1.0, 1.0)) * 180.0 / CV_PI;
+    const double f = calibration_.rectified_focal();
+    const double expected = f * f * kStarAreaM2 / (range * range);
+    const StarCandidate& l = fix.left_candidate;
+    const StarCandidate& r = fix.right_candidate;
+    // Depth from the outline's size: the larger second-moment axis of the rectified outline against the
+    // ideal star's (tilt shortens the other axis only), over the fix's own depth.
+    auto size_depth = [&](const StarCandidate& c) {
+      const cv::Moments m = cv::moments(c.rectified);
+      const double a = m.mu20 / m.m00, b = m.mu11 / m.m00, cc = m.mu02 / m.m00;
+      const double l1 = 0.5 * (a + cc) + std::sqrt(0.25 * (a - cc) * (a - cc) + b * b);
+      return f * ideal_sigma_ / std::sqrt(l1) / (calibration_.R1 * fix.p_left)[2];
+    };
+    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f\n",
+                 condition.c_str(), fs::path(t.left).filename().c_str(), t.in_view ? 1 : 0, error, range, off_axis,
+                 fix.row_difference_px, fix.disparity_px, l.area / expected, r.area / expected, l.hu_distance,
+                 r.hu_distance, l.solidity, r.solidity, l.refined ? 1 : 0, r.refined ? 1 : 0, fix.pose.valid ? 1 : 0,
+                 fix.pose.rms_px, fix.pose_offset, fix.pose.size_ratio, fix.position_from_pose ? 1 : 0,
+                 size_depth(l), size_depth(r), centroid_error, pose_error);
+  }
+
   static LocatorSettings no_tracking(LocatorSettings s) {
     s.track_roi = false;  // independent pairs
     return s;
@@ -193,6 +228,7 @@ class Explainer {
   LocatorSettings settings_;
   StereoStarLocator locator_;
   std::vector<StarDetector> detectors_;
+  double ideal_sigma_ = 0.0;  // the ideal star's second-moment radius, metres
 };
 
 std::map<std::string, std::string> options(int argc, char** argv) {
@@ -205,7 +241,7 @@ std::map<std::string, std::string> options(int argc, char** argv) {
   }
   if (!o.count("--sets") || !o.count("--calib")) {
     throw std::runtime_error("usage: vision_eval_explain --sets DIR --calib calib.yaml [--settings S.yaml] "
-                             "[--conditions a,b] [--list] [--crops DIR]");
+                             "[--conditions a,b] [--list] [--crops DIR] [--features F.csv]");
   }
   return o;
 }
@@ -255,6 +291,14 @@ int main(int argc, char** argv) {
     Explainer explainer(calibration, settings.locator);
     std::map<std::string, int> total;
     int total_stars = 0;
+    std::FILE* features = nullptr;
+    if (o.count("--features")) {
+      features = std::fopen(o.at("--features").c_str(), "w");
+      if (features == nullptr) throw std::runtime_error(o.at("--features") + ": cannot write");
+      std::fprintf(features, "condition,left,in_view,error_percent,range_m,off_axis_deg,row_difference_px,disparity_px,"
+                             "area_left,area_right,profile_left,profile_right,solidity_left,solidity_right,"
+                             "refined_left,refined_right,pose_valid,pose_rms_px,pose_offset,size_ratio,from_pose,size_depth_left,size_depth_right,centroid_error,pose_error\n");
+    }
     std::vector<fs::path> dirs;
     for (const fs::directory_entry& d : fs::directory_iterator(o.at("--sets"))) {
       if (fs::exists(d.path() / "truth.csv")) dirs.push_back(d.path());
@@ -267,7 +311,7 @@ int main(int argc, char** argv) {
       int stars = 0;
       for (const Truth& t : read_truth(dir)) {
         const std::string outcome = explainer.explain(t, cv::imread(t.left, cv::IMREAD_GRAYSCALE),
-                                                      cv::imread(t.right, cv::IMREAD_GRAYSCALE));
+                                                      cv::imread(t.right, cv::IMREAD_GRAYSCALE), features, condition);
         stars += t.in_view ? 1 : 0;
         if (outcome == "found" || outcome == "no_star") continue;
         ++counts[outcome];
@@ -281,6 +325,7 @@ int main(int argc, char** argv) {
       total_stars += stars;
       print_counts(condition, counts, stars);
     }
+    if (features != nullptr) std::fclose(features);
     print_counts("all", total, total_stars);
     std::printf("found stars: median error of the fix %.3f %% (p95 %.3f %%), of the pose centre %.3f %% (p95 %.3f %%)\n",
                 percentile(explainer.centroid_errors, 0.5), percentile(explainer.centroid_errors, 0.95),

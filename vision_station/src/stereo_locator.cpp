@@ -61,14 +61,15 @@ void StereoStarLocator::add_pose(const cv::Mat& left_gray, const cv::Mat& right_
   StarPoseSettings pose_settings = settings_.pose;
   pose_settings.inner_ratio = settings_.detector.inner_ratio;
   const Clock::time_point t0 = Clock::now();
-  const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, best_left_, left_near_);
-  const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, best_right_, right_near_);
+  const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);
+  const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, fix.right_candidate, right_near_);
   fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
   fix.times.pose_us = microseconds(t0, Clock::now());
   // The fitted star's centre is the better position: it uses every sub-pixel edge point of both views
   // and the star's true (perspective) shape, where the area centroid of a tilted star's image is not the
   // image of its centre. A fit that disagrees with the centroids is not trusted.
   const double offset = cv::norm(fix.pose.t_C - fix.p_left);
+  fix.pose_offset = offset / cv::norm(fix.p_left);
   if (settings_.position_from_pose && fix.pose.valid && offset <= settings_.max_pose_offset * cv::norm(fix.p_left)) {
     fix.p_left = fix.pose.t_C;
     fix.position_from_pose = true;
@@ -153,6 +154,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       // The triangulated point is in the rectified left frame; R1 rotated the left camera into it.
       const cv::Matx33d R1t = calibration_.R1.t();
       fix.p_left = R1t * cv::Vec3d(x, y, z);
+      fix.p_centroids = fix.p_left;
       // Uncertainty: first-order propagation of independent centroid noise on u_l, v_l, u_r.
       const cv::Matx33d J(-x / d + z / f, 0.0, x / d,   // ∂X/∂(u_l, v_l, u_r)
                           -y / d, z / fy, y / d,        // ∂Y/∂(...)
@@ -167,12 +169,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.row_difference_px = std::fabs(pl.y - pr.y);
       fix.left_contour = l.candidates[best_i].contour;
       fix.right_contour = r.candidates[best_j].contour;
+      fix.left_candidate = l.candidates[best_i];
+      fix.right_candidate = r.candidates[best_j];
       fix.used_roi = l.used_roi && r.used_roi;
       fix.found = true;
-      if (settings_.estimate_pose) {
-        best_left_ = l.candidates[best_i];
-        best_right_ = r.candidates[best_j];
-      }
       last_left_box_ = l.candidates[best_i].box;
       last_right_box_ = r.candidates[best_j].box;
     }
@@ -192,12 +192,15 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     add_pose(left_gray, right_gray, fix);
     // No eight-vertex fit far off the axis, where the lens model is extrapolated and the star is most
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
-    // the range off).
+    // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
-    if (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) {
+    const bool contradicted = fix.pose.valid && std::fabs(fix.pose.size_ratio - 1.0) > settings_.max_pose_size_error;
+    if (contradicted || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad)) {
       fix.found = false;
       reset_tracking();
     }
+    // A fit good enough for the position and the checks above may still be too coarse for the attitude.
+    if (fix.pose.rms_px > settings_.attitude_max_rms_px) fix.pose.valid = false;
   }
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;

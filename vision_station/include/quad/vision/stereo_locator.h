@@ -27,11 +27,20 @@ struct LocatorSettings {
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
   // The fix's position is the fitted pose's centre when the fit is valid and within this fraction of the
   // range of the centroids' triangulation (else the triangulated centroids). sigma and the covariance
-  // stay those of the centroid model (conservative for the pose centre).
+  // stay those of the centroid model (conservative for the pose centre). A valid fit of the right size
+  // is the better position even several per cent from the centroids: there a merge, a shadow edge or a
+  // fault displaced one view's centroid, not the eight edges of both.
   bool position_from_pose = true;
   // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
   double require_pose_beyond_rad = 0.70;
-  double max_pose_offset = 0.03;
+  double max_pose_offset = 0.2;
+  // A valid pose whose fitted size differs from the star's (pose.tip_radius_m) by more than this fraction
+  // contradicts the fix (no fix then): the fit's size scales with its depth, so a size 7 % off is a range
+  // 7 % off (the outline of one view cut into or grown by a shadow, a merge or a fault).
+  double max_pose_size_error = 0.07;
+  // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
+  // pose.max_rms_px still gives the position and the checks above.
+  double attitude_max_rms_px = 1.5;
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
@@ -58,8 +67,11 @@ struct StarFix {
   double row_difference_px = 0.0;
   std::vector<cv::Point> left_contour;   // raw image pixels, for display
   std::vector<cv::Point> right_contour;
+  StarCandidate left_candidate, right_candidate;  // the paired candidates (areas, shape distances)
   bool used_roi = false;
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
+  cv::Vec3d p_centroids;              // the triangulated centroids (p_left unless from the pose)
+  double pose_offset = 0.0;           // |pose centre − triangulated centroids| / range (valid pose)
   StageTimes times;
 };
 
@@ -106,7 +118,6 @@ class StereoStarLocator {
   cv::Rect last_left_box_;
   cv::Rect last_right_box_;
   NearRectifier left_near_, right_near_;
-  StarCandidate best_left_, best_right_;  // the paired candidates of the last frame, for the pose
 };
 
 }  // namespace quad::vision
