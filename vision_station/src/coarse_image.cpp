@@ -1,0 +1,118 @@
+#include "quad/vision/coarse_image.h"
+
+#include <algorithm>
+
+#include <opencv2/imgproc.hpp>
+
+namespace quad::vision {
+
+void half_resolution(const cv::Mat& view, bool rows_too, cv::Mat& out) {
+  // cv::resize takes a general path for the column-only case and costs several times more.
+  const int cols = std::max(1, view.cols / 2), rows = std::max(1, rows_too ? view.rows / 2 : view.rows);
+  out.create(rows, cols, CV_8UC1);
+  for (int r = 0; r < rows; ++r) {
+    uchar* o = out.ptr<uchar>(r);
+    const uchar* a = view.ptr<uchar>(rows_too ? 2 * r : r);
+    if (rows_too) {
+      const uchar* b = view.ptr<uchar>(std::min(2 * r + 1, view.rows - 1));
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + b[2 * x] + b[2 * x + 1] + 2) >> 2);
+    } else {
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + 1) >> 1);
+    }
+  }
+}
+
+void quarter_area(const cv::Mat& src, cv::Mat& dst) {
+  CV_Assert(src.type() == CV_8UC1);
+  if (src.cols % 4 != 0 || src.rows % 4 != 0 || src.empty()) {
+    cv::resize(src, dst, cv::Size(std::max(1, src.cols / 4), std::max(1, src.rows / 4)), 0, 0, cv::INTER_AREA);
+    return;
+  }
+  dst.create(src.rows / 4, src.cols / 4, CV_8UC1);
+  const int cols = dst.cols;  // locals: a uchar store may alias a Mat's members, which stops vectorising
+  for (int r = 0; r < dst.rows; ++r) {
+    const uchar* s[4] = {src.ptr<uchar>(4 * r), src.ptr<uchar>(4 * r + 1), src.ptr<uchar>(4 * r + 2), src.ptr<uchar>(4 * r + 3)};
+    uchar* o = dst.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const unsigned sum = s[0][4 * x] + s[0][4 * x + 1] + s[0][4 * x + 2] + s[0][4 * x + 3] + s[1][4 * x] +
+                           s[1][4 * x + 1] + s[1][4 * x + 2] + s[1][4 * x + 3] + s[2][4 * x] + s[2][4 * x + 1] +
+                           s[2][4 * x + 2] + s[2][4 * x + 3] + s[3][4 * x] + s[3][4 * x + 1] + s[3][4 * x + 2] +
+                           s[3][4 * x + 3];
+      // OpenCV's sum · (1/16) rounded to nearest, ties to even.
+      const unsigned q = sum >> 4, rest = sum & 15u;
+      o[x] = static_cast<uchar>(q + ((rest > 8u || (rest == 8u && (q & 1u))) ? 1u : 0u));
+    }
+  }
+}
+
+namespace {
+
+// One 3 × 3 erosion (min) or dilation (max) of a whole image. Outside the image counts as 255 for the
+// erosion and 0 for the dilation (OpenCV's default morphology border), which is the same as taking the
+// extremum over the pixels inside only.
+template <bool kMin>
+void extremum_3x3(const cv::Mat& src, cv::Mat& dst, cv::Mat& column) {
+  const int rows = src.rows, cols = src.cols;
+  dst.create(rows, cols, CV_8UC1);
+  column.create(1, cols + 2, CV_8UC1);
+  uchar* c = column.ptr<uchar>(0) + 1;  // c[-1] and c[cols] pad the row
+  const auto pick = [](uchar a, uchar b) { return kMin ? std::min(a, b) : std::max(a, b); };
+  for (int r = 0; r < rows; ++r) {
+    const uchar* a = src.ptr<uchar>(std::max(r - 1, 0));
+    const uchar* b = src.ptr<uchar>(r);
+    const uchar* d = src.ptr<uchar>(std::min(r + 1, rows - 1));
+    for (int x = 0; x < cols; ++x) c[x] = pick(pick(a[x], b[x]), d[x]);
+    c[-1] = c[0];
+    c[cols] = c[cols - 1];
+    uchar* o = dst.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) o[x] = pick(pick(c[x - 1], c[x]), c[x + 1]);
+  }
+}
+
+}  // namespace
+
+void open_3x3(const cv::Mat& src, cv::Mat& dst, cv::Mat& scratch) {
+  CV_Assert(src.type() == CV_8UC1 && src.data != dst.data && !src.empty());
+  cv::Mat column;
+  extremum_3x3<true>(src, scratch, column);
+  extremum_3x3<false>(scratch, dst, column);
+}
+
+void vertical_median_3(cv::Mat& image, cv::Mat& scratch) {
+  // median(a, b, c) = max(min(a, b), min(max(a, b), c)), on the original rows: each output row is kept
+  // in `scratch` until the row below it no longer needs the original.
+  if (image.rows < 3) return;
+  scratch.create(2, image.cols, CV_8UC1);
+  const int cols = image.cols;
+  uchar* previous = scratch.ptr<uchar>(0);  // original row r − 1
+  uchar* current = scratch.ptr<uchar>(1);
+  std::copy(image.ptr<uchar>(0), image.ptr<uchar>(0) + cols, previous);
+  for (int r = 1; r + 1 < image.rows; ++r) {
+    uchar* b = image.ptr<uchar>(r);
+    const uchar* c = image.ptr<uchar>(r + 1);
+    std::copy(b, b + cols, current);
+    for (int x = 0; x < cols; ++x) {
+      const uchar lo = std::min(previous[x], current[x]), hi = std::max(previous[x], current[x]);
+      b[x] = std::max(lo, std::min(hi, c[x]));
+    }
+    std::swap(previous, current);
+  }
+}
+
+void below_level(const cv::Mat& image, const cv::Mat& floor, uint16_t q, cv::Mat& out) {
+  // image · 256 < floor · q  ⇔  image < ⌈floor · q / 256⌉ for an integer image: one 16-bit multiply.
+  CV_Assert(image.size() == floor.size() && q <= 256);
+  out.create(image.size(), CV_8UC1);
+  const int cols = image.cols;
+  for (int r = 0; r < image.rows; ++r) {
+    const uchar* im = image.ptr<uchar>(r);
+    const uchar* fl = floor.ptr<uchar>(r);
+    uchar* o = out.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const uint16_t level = static_cast<uint16_t>(static_cast<uint16_t>(fl[x] * q + 255u) >> 8);
+      o[x] = static_cast<uint16_t>(im[x]) < level ? 255 : 0;
+    }
+  }
+}
+
+}  // namespace quad::vision
