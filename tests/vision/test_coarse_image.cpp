@@ -37,17 +37,25 @@ TEST(CoarseImage, QuarterAreaIsOpenCvsAreaResize) {
   }
 }
 
-TEST(CoarseImage, OpeningIsOpenCvsErodeThenDilate) {
+TEST(CoarseImage, RectangleMorphologyIsOpenCvs) {
   cv::RNG rng(4);
-  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
-  for (const cv::Size size : kSizes) {
-    for (int kind = 0; kind < 3; ++kind) {
-      const cv::Mat image = random_image(rng, size, kind);
-      cv::Mat eroded, expected, got, scratch;
-      cv::erode(image, eroded, kernel);
-      cv::dilate(eroded, expected, kernel);
-      open_3x3(image, got, scratch);
-      EXPECT_EQ(differing(expected, got), 0) << size << " kind " << kind;
+  for (const cv::Size window : {cv::Size(3, 3), cv::Size(2, 2), cv::Size(4, 3), cv::Size(21, 21), cv::Size(1, 5)}) {
+    const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, window);
+    for (const cv::Size size : kSizes) {
+      for (int kind = 0; kind < 3; ++kind) {
+        const cv::Mat image = random_image(rng, size, kind);
+        cv::Mat eroded, dilated, opened, got, scratch;
+        cv::erode(image, eroded, kernel);
+        cv::dilate(image, dilated, kernel);
+        erode_rect(image, got, window.width, window.height);
+        EXPECT_EQ(differing(eroded, got), 0) << "erode " << window << " " << size << " kind " << kind;
+        dilate_rect(image, got, window.width, window.height);
+        EXPECT_EQ(differing(dilated, got), 0) << "dilate " << window << " " << size << " kind " << kind;
+        if (window.width != window.height) continue;
+        cv::dilate(eroded, opened, kernel);
+        open_rect(image, window.width, got, scratch);
+        EXPECT_EQ(differing(opened, got), 0) << "open " << window << " " << size << " kind " << kind;
+      }
     }
   }
 }

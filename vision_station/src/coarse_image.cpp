@@ -1,6 +1,7 @@
 #include "quad/vision/coarse_image.h"
 
 #include <algorithm>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -47,35 +48,47 @@ void quarter_area(const cv::Mat& src, cv::Mat& dst) {
 
 namespace {
 
-// One 3 × 3 erosion (min) or dilation (max) of a whole image. Outside the image counts as 255 for the
-// erosion and 0 for the dilation (OpenCV's default morphology border), which is the same as taking the
-// extremum over the pixels inside only.
+// The minimum (erosion) or maximum (dilation) over a width × height rectangle centred on each pixel, of
+// the pixels inside the image only: OpenCV's default morphology border (255 outside for the erosion, 0
+// for the dilation) changes no extremum. Separable: rows first, then along each row (padded by its end
+// values, which leaves the extremum unchanged too).
 template <bool kMin>
-void extremum_3x3(const cv::Mat& src, cv::Mat& dst, cv::Mat& column) {
-  const int rows = src.rows, cols = src.cols;
+void extremum_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) {
+  CV_Assert(src.type() == CV_8UC1 && src.data != dst.data && !src.empty() && width > 0 && height > 0);
+  // OpenCV's default anchor: the window spans [x − w/2, x + w − 1 − w/2].
+  const int rows = src.rows, cols = src.cols, rx = width / 2, rx_after = width - 1 - rx;
+  const int ry = height / 2, ry_after = height - 1 - ry;
   dst.create(rows, cols, CV_8UC1);
-  column.create(1, cols + 2, CV_8UC1);
-  uchar* c = column.ptr<uchar>(0) + 1;  // c[-1] and c[cols] pad the row
+  std::vector<uchar> padded(static_cast<size_t>(cols + rx + rx_after));
+  uchar* c = padded.data() + rx;
   const auto pick = [](uchar a, uchar b) { return kMin ? std::min(a, b) : std::max(a, b); };
   for (int r = 0; r < rows; ++r) {
-    const uchar* a = src.ptr<uchar>(std::max(r - 1, 0));
-    const uchar* b = src.ptr<uchar>(r);
-    const uchar* d = src.ptr<uchar>(std::min(r + 1, rows - 1));
-    for (int x = 0; x < cols; ++x) c[x] = pick(pick(a[x], b[x]), d[x]);
-    c[-1] = c[0];
-    c[cols] = c[cols - 1];
+    const int first = std::max(r - ry, 0), last = std::min(r + ry_after, rows - 1);
+    std::copy(src.ptr<uchar>(first), src.ptr<uchar>(first) + cols, c);
+    for (int k = first + 1; k <= last; ++k) {
+      const uchar* s = src.ptr<uchar>(k);
+      for (int x = 0; x < cols; ++x) c[x] = pick(c[x], s[x]);
+    }
+    std::fill(c - rx, c, c[0]);
+    std::fill(c + cols, c + cols + rx_after, c[cols - 1]);
     uchar* o = dst.ptr<uchar>(r);
-    for (int x = 0; x < cols; ++x) o[x] = pick(pick(c[x - 1], c[x]), c[x + 1]);
+    std::copy(c - rx, c - rx + cols, o);
+    for (int k = -rx + 1; k <= rx_after; ++k) {
+      const uchar* shifted = c + k;
+      for (int x = 0; x < cols; ++x) o[x] = pick(o[x], shifted[x]);
+    }
   }
 }
 
 }  // namespace
 
-void open_3x3(const cv::Mat& src, cv::Mat& dst, cv::Mat& scratch) {
-  CV_Assert(src.type() == CV_8UC1 && src.data != dst.data && !src.empty());
-  cv::Mat column;
-  extremum_3x3<true>(src, scratch, column);
-  extremum_3x3<false>(scratch, dst, column);
+void erode_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) { extremum_rect<true>(src, dst, width, height); }
+
+void dilate_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) { extremum_rect<false>(src, dst, width, height); }
+
+void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch) {
+  erode_rect(src, scratch, k, k);
+  dilate_rect(scratch, dst, k, k);
 }
 
 void vertical_median_3(cv::Mat& image, cv::Mat& scratch) {

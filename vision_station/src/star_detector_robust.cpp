@@ -41,9 +41,8 @@ void StarDetector::robust_floor() {
   // A closing (local maximum, then local minimum over the same window): the dilation fills every dark
   // shape narrower than the window with the floor around it, the erosion brings a shadow or a dark floor
   // region wider than the window back to its own level, so the floor follows a shadow's edge.
-  const cv::Mat window_kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window));
-  cv::dilate(small_, scratch_, window_kernel);
-  if (s.robust_floor_closing) cv::erode(scratch_, background_, window_kernel);
+  dilate_rect(small_, scratch_, window, window);
+  if (s.robust_floor_closing) erode_rect(scratch_, background_, window, window);
   else std::swap(scratch_, background_);
   cv::blur(background_, background_, cv::Size(3, 3));
   cv::divide(small_, background_, ratio_, 255.0);
@@ -57,7 +56,7 @@ void StarDetector::robust_threshold(double ratio) {
   // compiler vectorises; inverted: dark becomes 255); then an opening against salt, snow and thin texture.
   const uint16_t q = static_cast<uint16_t>(std::clamp(std::lround(ratio * 256.0), 0L, 256L));
   below_level(coarse_, coarse_floor_, q, scratch_);
-  open_3x3(scratch_, binary_, median_hi_);
+  open_rect(scratch_, settings_.morphology_kernel_px, binary_, median_hi_);
 }
 
 bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& region) {

@@ -18,9 +18,14 @@ void half_resolution(const cv::Mat& view, bool rows_too, cv::Mat& out);
 // multiples of 4 (any other size goes to cv::resize).
 void quarter_area(const cv::Mat& src, cv::Mat& dst);
 
-// cv::erode then cv::dilate with a 3 × 3 rectangle and the default borders (an opening) of a whole
+// cv::erode / cv::dilate of a whole CV_8UC1 image with a width × height rectangle, default anchor,
+// iterations and borders; dst must not be src.
+void erode_rect(const cv::Mat& src, cv::Mat& dst, int width, int height);
+void dilate_rect(const cv::Mat& src, cv::Mat& dst, int width, int height);
+
+// cv::erode then cv::dilate with a k × k rectangle and the default borders (an opening) of a whole
 // CV_8UC1 image; dst must not be src.
-void open_3x3(const cv::Mat& src, cv::Mat& dst, cv::Mat& scratch);
+void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch);
 
 // Rows 1 … n−2 of `image` replaced by the median of themselves and their two neighbours (the image's
 // first and last rows kept): cv::min/cv::max on row blocks.
