@@ -24,7 +24,7 @@ int differing(const cv::Mat& a, const cv::Mat& b) {
 
 const cv::Size kSizes[] = {{360, 240}, {360, 120}, {90, 60}, {37, 11}, {3, 3}, {1, 5}};
 
-TEST(CoarseImage, QuarterAreaIsOpenCvsAreaResize) {
+TEST(VisionCoarseImage, QuarterAreaIsOpenCvsAreaResize) {
   cv::RNG rng(3);
   for (const cv::Size size : {cv::Size(360, 240), cv::Size(360, 120), cv::Size(8, 4), cv::Size(38, 13)}) {
     for (int kind = 0; kind < 2; ++kind) {
@@ -37,7 +37,7 @@ TEST(CoarseImage, QuarterAreaIsOpenCvsAreaResize) {
   }
 }
 
-TEST(CoarseImage, RectangleMorphologyIsOpenCvs) {
+TEST(VisionCoarseImage, RectangleMorphologyIsOpenCvs) {
   cv::RNG rng(4);
   for (const cv::Size window : {cv::Size(3, 3), cv::Size(2, 2), cv::Size(4, 3), cv::Size(21, 21), cv::Size(1, 5)}) {
     const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, window);
@@ -60,7 +60,35 @@ TEST(CoarseImage, RectangleMorphologyIsOpenCvs) {
   }
 }
 
-TEST(CoarseImage, VerticalMedianIsMinMaxOnRowBlocks) {
+TEST(VisionCoarseImage, RegionMorphologyReadsAroundTheRegionLikeOpenCv) {
+  cv::RNG rng(7);
+  const cv::Mat image = random_image(rng, cv::Size(90, 60), 2);
+  for (const cv::Rect roi : {cv::Rect(10, 10, 20, 15), cv::Rect(0, 0, 12, 9), cv::Rect(70, 45, 20, 15), cv::Rect(1, 50, 88, 10)}) {
+    for (const int k : {3, 5}) {
+      const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
+      cv::Mat expected, got, scratch;
+      if (k == 3) cv::erode(image(roi), expected, kernel);
+      else cv::dilate(image(roi), expected, kernel, cv::Point(-1, -1), 2);  // two 3 × 3 are one 5 × 5
+      extremum_in(image, roi, k, k, k == 3, got, scratch);
+      EXPECT_EQ(differing(expected, got), 0) << roi << " k " << k;
+    }
+  }
+}
+
+TEST(VisionCoarseImage, MaskedMeanIsOpenCvsMean) {
+  cv::RNG rng(8);
+  for (const cv::Size size : kSizes) {
+    const cv::Mat values = random_image(rng, size, 0), mask = random_image(rng, size, 2);
+    double mean = -1.0;
+    EXPECT_EQ(masked_mean(values, mask, mean), cv::countNonZero(mask));
+    EXPECT_EQ(mean, cv::mean(values, mask)[0]) << size;  // bit for bit
+  }
+  double mean = -1.0;
+  EXPECT_EQ(masked_mean(cv::Mat::ones(4, 4, CV_8UC1), cv::Mat::zeros(4, 4, CV_8UC1), mean), 0);
+  EXPECT_EQ(mean, 0.0);
+}
+
+TEST(VisionCoarseImage, VerticalMedianIsMinMaxOnRowBlocks) {
   cv::RNG rng(5);
   for (const cv::Size size : kSizes) {
     const cv::Mat image = random_image(rng, size, 0);
@@ -80,7 +108,7 @@ TEST(CoarseImage, VerticalMedianIsMinMaxOnRowBlocks) {
   }
 }
 
-TEST(CoarseImage, BelowLevelIsTheRatioTestInDoubles) {
+TEST(VisionCoarseImage, BelowLevelIsTheRatioTestInDoubles) {
   cv::RNG rng(6);
   const cv::Mat image = random_image(rng, cv::Size(360, 240), 0), floor = random_image(rng, cv::Size(360, 240), 0);
   for (const int q : {0, 1, 64, 141, 205, 255, 256}) {

@@ -91,6 +91,37 @@ void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch) {
   dilate_rect(scratch, dst, k, k);
 }
 
+void extremum_in(const cv::Mat& image, const cv::Rect& roi, int width, int height, bool minimum, cv::Mat& out,
+                 cv::Mat& scratch) {
+  // Grown by the window on every side (within the image): inside that, the window of every pixel of `roi`
+  // holds the same pixels as in the whole image; at the grown region's edges the clamped window drops
+  // only pixels no `roi` pixel reaches.
+  const int rx = width / 2, ry = height / 2;
+  const cv::Rect grown = cv::Rect(roi.x - rx, roi.y - ry, roi.width + width - 1, roi.height + height - 1) &
+                         cv::Rect(0, 0, image.cols, image.rows);
+  if (minimum) erode_rect(image(grown), scratch, width, height);
+  else dilate_rect(image(grown), scratch, width, height);
+  scratch(roi - grown.tl()).copyTo(out);
+}
+
+int masked_mean(const cv::Mat& values, const cv::Mat& mask, double& mean) {
+  CV_Assert(values.type() == CV_8UC1 && mask.type() == CV_8UC1 && values.size() == mask.size());
+  uint64_t sum = 0;
+  int count = 0;
+  const int cols = values.cols;
+  for (int r = 0; r < values.rows; ++r) {
+    const uchar* v = values.ptr<uchar>(r);
+    const uchar* m = mask.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const bool in = m[x] != 0;
+      sum += in ? v[x] : 0u;
+      count += in ? 1 : 0;
+    }
+  }
+  mean = static_cast<double>(sum) * (count != 0 ? 1.0 / count : 0.0);  // OpenCV's s · (1/n)
+  return count;
+}
+
 void vertical_median_3(cv::Mat& image, cv::Mat& scratch) {
   // median(a, b, c) = max(min(a, b), min(max(a, b), c)), on the original rows: each output row is kept
   // in `scratch` until the row below it no longer needs the original.

@@ -65,13 +65,20 @@ bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& re
   // when that leaves enough) and the floor's (the region's ring outside the star, dilated twice; ≈ 1),
   // taken around this star only, so a full-frame and an ROI search measure the same level.
   cv::divide(coarse_(grown), coarse_floor_(grown), refine_ratio_, 128.0);
-  cv::erode(binary_(grown), interior_, kernel_);
-  if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
-  const double star_ratio = cv::mean(refine_ratio_, interior_)[0] / 128.0;
-  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  const int k = settings_.morphology_kernel_px;
+  double star_ratio = 0.0, floor_ratio = 0.0;
+  extremum_in(binary_, grown, k, k, true, interior_, refine_scratch_);
+  if (masked_mean(refine_ratio_, interior_, star_ratio) < 6) masked_mean(refine_ratio_, binary_(grown), star_ratio);
+  star_ratio /= 128.0;
+  // Two dilations by k × k are one by (2k − 1) × (2k − 1) (odd k: both centred).
+  if (k % 2 == 1) {
+    extremum_in(binary_, grown, 2 * k - 1, 2 * k - 1, false, refine_scratch_, refine_floor_);
+  } else {
+    cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  }
   cv::bitwise_not(refine_scratch_, refine_scratch_);
-  if (cv::countNonZero(refine_scratch_) < 8) return false;
-  const double floor_ratio = cv::mean(refine_ratio_, refine_scratch_)[0] / 128.0;
+  if (masked_mean(refine_ratio_, refine_scratch_, floor_ratio) < 8) return false;
+  floor_ratio /= 128.0;
   // The floor at full resolution over the region (its top-left is the grown box's), scaled to the level.
   const cv::Point2f scale = coarse_scale();
   cv::resize(coarse_floor_(grown), refine_floor_, cv::Size(grown.width * static_cast<int>(scale.x),

@@ -23,6 +23,14 @@ void quarter_area(const cv::Mat& src, cv::Mat& dst);
 void erode_rect(const cv::Mat& src, cv::Mat& dst, int width, int height);
 void dilate_rect(const cv::Mat& src, cv::Mat& dst, int width, int height);
 
+// cv::erode (minimum) or cv::dilate of image(roi) with a width × height rectangle into `out` (roi's size):
+// like OpenCV on a sub-matrix, the window reads the image's pixels around the roi.
+void extremum_in(const cv::Mat& image, const cv::Rect& roi, int width, int height, bool minimum, cv::Mat& out,
+                 cv::Mat& scratch);
+
+// cv::mean(values, mask)[0] (0 for an empty mask) in `mean`; returns cv::countNonZero(mask). CV_8UC1 both.
+int masked_mean(const cv::Mat& values, const cv::Mat& mask, double& mean);
+
 // cv::erode then cv::dilate with a k × k rectangle and the default borders (an opening) of a whole
 // CV_8UC1 image; dst must not be src.
 void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch);
