@@ -64,16 +64,21 @@ void extremum_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) {
   const auto pick = [](uchar a, uchar b) { return kMin ? std::min(a, b) : std::max(a, b); };
   for (int r = 0; r < rows; ++r) {
     const int first = std::max(r - ry, 0), last = std::min(r + ry_after, rows - 1);
-    std::copy(src.ptr<uchar>(first), src.ptr<uchar>(first) + cols, c);
-    for (int k = first + 1; k <= last; ++k) {
+    // The first pass of each direction takes two rows (columns) at once: no separate copy.
+    const uchar* s0 = src.ptr<uchar>(first);
+    const uchar* s1 = src.ptr<uchar>(std::min(first + 1, last));
+    for (int x = 0; x < cols; ++x) c[x] = pick(s0[x], s1[x]);
+    for (int k = first + 2; k <= last; ++k) {
       const uchar* s = src.ptr<uchar>(k);
       for (int x = 0; x < cols; ++x) c[x] = pick(c[x], s[x]);
     }
     std::fill(c - rx, c, c[0]);
     std::fill(c + cols, c + cols + rx_after, c[cols - 1]);
     uchar* o = dst.ptr<uchar>(r);
-    std::copy(c - rx, c - rx + cols, o);
-    for (int k = -rx + 1; k <= rx_after; ++k) {
+    const uchar* c0 = c - rx;
+    const uchar* c1 = c - rx + (width > 1 ? 1 : 0);
+    for (int x = 0; x < cols; ++x) o[x] = pick(c0[x], c1[x]);
+    for (int k = -rx + 2; k <= rx_after; ++k) {
       const uchar* shifted = c + k;
       for (int x = 0; x < cols; ++x) o[x] = pick(o[x], shifted[x]);
     }
