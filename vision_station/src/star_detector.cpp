@@ -6,6 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "quad/vision/coarse_image.h"
 #include "quad/vision/ideal_star.h"
 
 namespace quad::vision {
@@ -128,9 +129,12 @@ void StarDetector::threshold(const cv::Mat& gray) {
 const std::vector<cv::Point>* StarDetector::mid_level_outline(const cv::Rect& region) {
   // One opening and one closing of the pixels below the mid-level (refine_binary_), then the largest
   // outline in the region.
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
-  cv::dilate(refine_scratch_, refine_binary_, kernel_, cv::Point(-1, -1), 2);
-  cv::erode(refine_binary_, refine_scratch_, kernel_);
+  const int k = settings_.morphology_kernel_px;
+  erode_rect(refine_binary_, refine_scratch_, k, k);
+  dilate_rect(refine_scratch_, refine_binary_, k, k);
+  dilate_rect(refine_binary_, refine_scratch_, k, k);
+  erode_rect(refine_scratch_, refine_binary_, k, k);
+  std::swap(refine_binary_, refine_scratch_);
   cv::findContours(refine_scratch_, refine_contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, region.tl());
   return largest_contour(refine_contours_);
 }

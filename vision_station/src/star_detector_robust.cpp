@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "quad/vision/coarse_image.h"
 #include "quad/vision/star_detector.h"
 
 namespace quad::vision {
@@ -18,24 +19,6 @@ double microseconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::micro>(b - a).count();
 }
 
-// The half-resolution copy: the mean of each pixel pair of a row (rows_too false: a field view, whose
-// rows are already two frame lines apart) or of each 2 × 2 block, rounded. Plain loops that the compiler
-// vectorises; cv::resize takes a general path for the column-only case and costs several times more.
-void half_resolution(const cv::Mat& view, bool rows_too, cv::Mat& out) {
-  const int cols = std::max(1, view.cols / 2), rows = std::max(1, rows_too ? view.rows / 2 : view.rows);
-  out.create(rows, cols, CV_8UC1);
-  for (int r = 0; r < rows; ++r) {
-    uchar* o = out.ptr<uchar>(r);
-    const uchar* a = view.ptr<uchar>(rows_too ? 2 * r : r);
-    if (rows_too) {
-      const uchar* b = view.ptr<uchar>(std::min(2 * r + 1, view.rows - 1));
-      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + b[2 * x] + b[2 * x + 1] + 2) >> 2);
-    } else {
-      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + 1) >> 1);
-    }
-  }
-}
-
 }  // namespace
 
 cv::Point2f StarDetector::coarse_scale() const {
@@ -43,17 +26,7 @@ cv::Point2f StarDetector::coarse_scale() const {
   return cv::Point2f(2.0f, view_row_scale_ > 1.0f ? 1.0f : 2.0f);
 }
 
-void StarDetector::row_median() {
-  // median(a, b, c) = max(min(a, b), min(max(a, b), c)) over rows r−1, r, r+1, on whole row blocks.
-  if (coarse_.rows < 3) return;
-  const int n = coarse_.rows - 2;
-  const cv::Mat a = coarse_.rowRange(0, n), b = coarse_.rowRange(1, n + 1), c = coarse_.rowRange(2, n + 2);
-  cv::min(a, b, median_lo_);
-  cv::max(a, b, median_hi_);
-  cv::min(median_hi_, c, median_hi_);
-  cv::max(median_lo_, median_hi_, median_lo_);
-  median_lo_.copyTo(coarse_.rowRange(1, n + 1));
-}
+void StarDetector::row_median() { vertical_median_3(coarse_, median_lo_); }
 
 void StarDetector::robust_floor() {
   // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
@@ -63,14 +36,13 @@ void StarDetector::robust_floor() {
   const cv::Point2f scale = coarse_scale();
   half_resolution(view_, scale.y > 1.0f, coarse_);
   if (s.robust_row_median) row_median();
-  cv::resize(coarse_, small_, cv::Size(std::max(1, coarse_.cols / 4), std::max(1, coarse_.rows / 4)), 0, 0, cv::INTER_AREA);
+  quarter_area(coarse_, small_);
   const int window = std::max(1, s.robust_window_px / 8) | 1;
   // A closing (local maximum, then local minimum over the same window): the dilation fills every dark
   // shape narrower than the window with the floor around it, the erosion brings a shadow or a dark floor
   // region wider than the window back to its own level, so the floor follows a shadow's edge.
-  const cv::Mat window_kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window));
-  cv::dilate(small_, scratch_, window_kernel);
-  if (s.robust_floor_closing) cv::erode(scratch_, background_, window_kernel);
+  dilate_rect(small_, scratch_, window, window);
+  if (s.robust_floor_closing) erode_rect(scratch_, background_, window, window);
   else std::swap(scratch_, background_);
   cv::blur(background_, background_, cv::Size(3, 3));
   cv::divide(small_, background_, ratio_, 255.0);
@@ -83,19 +55,8 @@ void StarDetector::robust_threshold(double ratio) {
   // Star-coloured: darker than ratio × the local floor, in 16-bit fixed point (ρ to 1/256; one pass the
   // compiler vectorises; inverted: dark becomes 255); then an opening against salt, snow and thin texture.
   const uint16_t q = static_cast<uint16_t>(std::clamp(std::lround(ratio * 256.0), 0L, 256L));
-  scratch_.create(coarse_.size(), CV_8UC1);
-  for (int r = 0; r < coarse_.rows; ++r) {
-    const uchar* image = coarse_.ptr<uchar>(r);
-    const uchar* floor = coarse_floor_.ptr<uchar>(r);
-    uchar* out = scratch_.ptr<uchar>(r);
-    for (int x = 0; x < coarse_.cols; ++x) {
-      const uint16_t lhs = static_cast<uint16_t>(image[x] << 8), rhs = static_cast<uint16_t>(floor[x] * q);
-      out[x] = lhs < rhs ? 255 : 0;
-    }
-  }
-  cv::erode(scratch_, binary_, kernel_);
-  cv::dilate(binary_, scratch_, kernel_);
-  std::swap(binary_, scratch_);
+  below_level(coarse_, coarse_floor_, q, scratch_);
+  open_rect(scratch_, settings_.morphology_kernel_px, binary_, median_hi_);
 }
 
 bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& region) {
@@ -104,13 +65,20 @@ bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& re
   // when that leaves enough) and the floor's (the region's ring outside the star, dilated twice; ≈ 1),
   // taken around this star only, so a full-frame and an ROI search measure the same level.
   cv::divide(coarse_(grown), coarse_floor_(grown), refine_ratio_, 128.0);
-  cv::erode(binary_(grown), interior_, kernel_);
-  if (cv::countNonZero(interior_) < 6) interior_ = binary_(grown);
-  const double star_ratio = cv::mean(refine_ratio_, interior_)[0] / 128.0;
-  cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  const int k = settings_.morphology_kernel_px;
+  double star_ratio = 0.0, floor_ratio = 0.0;
+  extremum_in(binary_, grown, k, k, true, interior_, refine_scratch_);
+  if (masked_mean(refine_ratio_, interior_, star_ratio) < 6) masked_mean(refine_ratio_, binary_(grown), star_ratio);
+  star_ratio /= 128.0;
+  // Two dilations by k × k are one by (2k − 1) × (2k − 1) (odd k: both centred).
+  if (k % 2 == 1) {
+    extremum_in(binary_, grown, 2 * k - 1, 2 * k - 1, false, refine_scratch_, refine_floor_);
+  } else {
+    cv::dilate(binary_(grown), refine_scratch_, kernel_, cv::Point(-1, -1), 2);
+  }
   cv::bitwise_not(refine_scratch_, refine_scratch_);
-  if (cv::countNonZero(refine_scratch_) < 8) return false;
-  const double floor_ratio = cv::mean(refine_ratio_, refine_scratch_)[0] / 128.0;
+  if (masked_mean(refine_ratio_, refine_scratch_, floor_ratio) < 8) return false;
+  floor_ratio /= 128.0;
   // The floor at full resolution over the region (its top-left is the grown box's), scaled to the level.
   const cv::Point2f scale = coarse_scale();
   cv::resize(coarse_floor_(grown), refine_floor_, cv::Size(grown.width * static_cast<int>(scale.x),

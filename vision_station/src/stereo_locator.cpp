@@ -106,7 +106,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   StarFix fix;
   DetectorTimes left_times, right_times;
   ViewResult left = detect_view(left_detector_, left_gray, last_left_box_, &left_times);
-  ViewResult right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+  // Nothing in the whole left image (detect_view falls back to it): no pair can form, so the right
+  // image is not searched; the outcome (no fix, tracking reset) is the same.
+  ViewResult right;
+  if (!left.candidates.empty()) right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
 
   const cv::Matx34d& P1 = calibration_.P1;
   const cv::Matx34d& P2 = calibration_.P2;

@@ -5,6 +5,10 @@
 #include <cmath>
 #include <cstdlib>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <opencv2/core.hpp>
 
 #include "quad/vision/star_detector.h"
@@ -12,14 +16,26 @@
 namespace quad::vision {
 namespace {
 
-// Mean absolute difference of two rows of an 8-bit image (a plain loop: the compiler vectorises it, and
-// it avoids two header copies and a dispatch per row).
+// Mean absolute difference of two rows of an 8-bit image: SSE2's sum of absolute differences 16 pixels
+// at a time where the compiler targets it (it does not find that instruction in the plain loop), the
+// plain loop elsewhere and for the row's tail. Integer sums: both give the same value.
 double row_difference(const cv::Mat& image, int a, int b) {
   const uchar* pa = image.ptr<uchar>(a);
   const uchar* pb = image.ptr<uchar>(b);
+  const int cols = image.cols;
   unsigned sum = 0;
-  for (int x = 0; x < image.cols; ++x) sum += static_cast<unsigned>(std::abs(pa[x] - pb[x]));
-  return static_cast<double>(sum) / image.cols;
+  int x = 0;
+#if defined(__SSE2__)
+  __m128i total = _mm_setzero_si128();
+  for (; x + 16 <= cols; x += 16) {
+    const __m128i va = _mm_loadu_si128(reinterpret_cast<const __m128i*>(pa + x));
+    const __m128i vb = _mm_loadu_si128(reinterpret_cast<const __m128i*>(pb + x));
+    total = _mm_add_epi64(total, _mm_sad_epu8(va, vb));
+  }
+  sum = static_cast<unsigned>(_mm_cvtsi128_si32(total)) + static_cast<unsigned>(_mm_cvtsi128_si32(_mm_srli_si128(total, 8)));
+#endif
+  for (; x < cols; ++x) sum += static_cast<unsigned>(std::abs(pa[x] - pb[x]));
+  return static_cast<double>(sum) / cols;
 }
 
 // A line the receiver blanked: one grey level across the whole row (noise aside).

@@ -1,0 +1,167 @@
+#include "quad/vision/coarse_image.h"
+
+#include <algorithm>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace quad::vision {
+
+void half_resolution(const cv::Mat& view, bool rows_too, cv::Mat& out) {
+  // cv::resize takes a general path for the column-only case and costs several times more.
+  const int cols = std::max(1, view.cols / 2), rows = std::max(1, rows_too ? view.rows / 2 : view.rows);
+  out.create(rows, cols, CV_8UC1);
+  for (int r = 0; r < rows; ++r) {
+    uchar* o = out.ptr<uchar>(r);
+    const uchar* a = view.ptr<uchar>(rows_too ? 2 * r : r);
+    if (rows_too) {
+      const uchar* b = view.ptr<uchar>(std::min(2 * r + 1, view.rows - 1));
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + b[2 * x] + b[2 * x + 1] + 2) >> 2);
+    } else {
+      for (int x = 0; x < cols; ++x) o[x] = static_cast<uchar>((a[2 * x] + a[2 * x + 1] + 1) >> 1);
+    }
+  }
+}
+
+void quarter_area(const cv::Mat& src, cv::Mat& dst) {
+  CV_Assert(src.type() == CV_8UC1);
+  if (src.cols % 4 != 0 || src.rows % 4 != 0 || src.empty()) {
+    cv::resize(src, dst, cv::Size(std::max(1, src.cols / 4), std::max(1, src.rows / 4)), 0, 0, cv::INTER_AREA);
+    return;
+  }
+  dst.create(src.rows / 4, src.cols / 4, CV_8UC1);
+  const int cols = dst.cols;  // locals: a uchar store may alias a Mat's members, which stops vectorising
+  for (int r = 0; r < dst.rows; ++r) {
+    const uchar* s[4] = {src.ptr<uchar>(4 * r), src.ptr<uchar>(4 * r + 1), src.ptr<uchar>(4 * r + 2), src.ptr<uchar>(4 * r + 3)};
+    uchar* o = dst.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const unsigned sum = s[0][4 * x] + s[0][4 * x + 1] + s[0][4 * x + 2] + s[0][4 * x + 3] + s[1][4 * x] +
+                           s[1][4 * x + 1] + s[1][4 * x + 2] + s[1][4 * x + 3] + s[2][4 * x] + s[2][4 * x + 1] +
+                           s[2][4 * x + 2] + s[2][4 * x + 3] + s[3][4 * x] + s[3][4 * x + 1] + s[3][4 * x + 2] +
+                           s[3][4 * x + 3];
+      // OpenCV's sum · (1/16) rounded to nearest, ties to even.
+      const unsigned q = sum >> 4, rest = sum & 15u;
+      o[x] = static_cast<uchar>(q + ((rest > 8u || (rest == 8u && (q & 1u))) ? 1u : 0u));
+    }
+  }
+}
+
+namespace {
+
+// The minimum (erosion) or maximum (dilation) over a width × height rectangle centred on each pixel, of
+// the pixels inside the image only: OpenCV's default morphology border (255 outside for the erosion, 0
+// for the dilation) changes no extremum. Separable: rows first, then along each row (padded by its end
+// values, which leaves the extremum unchanged too).
+template <bool kMin>
+void extremum_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) {
+  CV_Assert(src.type() == CV_8UC1 && src.data != dst.data && !src.empty() && width > 0 && height > 0);
+  // OpenCV's default anchor: the window spans [x − w/2, x + w − 1 − w/2].
+  const int rows = src.rows, cols = src.cols, rx = width / 2, rx_after = width - 1 - rx;
+  const int ry = height / 2, ry_after = height - 1 - ry;
+  dst.create(rows, cols, CV_8UC1);
+  std::vector<uchar> padded(static_cast<size_t>(cols + rx + rx_after));
+  uchar* c = padded.data() + rx;
+  const auto pick = [](uchar a, uchar b) { return kMin ? std::min(a, b) : std::max(a, b); };
+  for (int r = 0; r < rows; ++r) {
+    const int first = std::max(r - ry, 0), last = std::min(r + ry_after, rows - 1);
+    // The first pass of each direction takes two rows (columns) at once: no separate copy.
+    const uchar* s0 = src.ptr<uchar>(first);
+    const uchar* s1 = src.ptr<uchar>(std::min(first + 1, last));
+    for (int x = 0; x < cols; ++x) c[x] = pick(s0[x], s1[x]);
+    for (int k = first + 2; k <= last; ++k) {
+      const uchar* s = src.ptr<uchar>(k);
+      for (int x = 0; x < cols; ++x) c[x] = pick(c[x], s[x]);
+    }
+    std::fill(c - rx, c, c[0]);
+    std::fill(c + cols, c + cols + rx_after, c[cols - 1]);
+    uchar* o = dst.ptr<uchar>(r);
+    const uchar* c0 = c - rx;
+    const uchar* c1 = c - rx + (width > 1 ? 1 : 0);
+    for (int x = 0; x < cols; ++x) o[x] = pick(c0[x], c1[x]);
+    for (int k = -rx + 2; k <= rx_after; ++k) {
+      const uchar* shifted = c + k;
+      for (int x = 0; x < cols; ++x) o[x] = pick(o[x], shifted[x]);
+    }
+  }
+}
+
+}  // namespace
+
+void erode_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) { extremum_rect<true>(src, dst, width, height); }
+
+void dilate_rect(const cv::Mat& src, cv::Mat& dst, int width, int height) { extremum_rect<false>(src, dst, width, height); }
+
+void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch) {
+  erode_rect(src, scratch, k, k);
+  dilate_rect(scratch, dst, k, k);
+}
+
+void extremum_in(const cv::Mat& image, const cv::Rect& roi, int width, int height, bool minimum, cv::Mat& out,
+                 cv::Mat& scratch) {
+  // Grown by the window on every side (within the image): inside that, the window of every pixel of `roi`
+  // holds the same pixels as in the whole image; at the grown region's edges the clamped window drops
+  // only pixels no `roi` pixel reaches.
+  const int rx = width / 2, ry = height / 2;
+  const cv::Rect grown = cv::Rect(roi.x - rx, roi.y - ry, roi.width + width - 1, roi.height + height - 1) &
+                         cv::Rect(0, 0, image.cols, image.rows);
+  if (minimum) erode_rect(image(grown), scratch, width, height);
+  else dilate_rect(image(grown), scratch, width, height);
+  scratch(roi - grown.tl()).copyTo(out);
+}
+
+int masked_mean(const cv::Mat& values, const cv::Mat& mask, double& mean) {
+  CV_Assert(values.type() == CV_8UC1 && mask.type() == CV_8UC1 && values.size() == mask.size());
+  uint64_t sum = 0;
+  int count = 0;
+  const int cols = values.cols;
+  for (int r = 0; r < values.rows; ++r) {
+    const uchar* v = values.ptr<uchar>(r);
+    const uchar* m = mask.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const bool in = m[x] != 0;
+      sum += in ? v[x] : 0u;
+      count += in ? 1 : 0;
+    }
+  }
+  mean = static_cast<double>(sum) * (count != 0 ? 1.0 / count : 0.0);  // OpenCV's s · (1/n)
+  return count;
+}
+
+void vertical_median_3(cv::Mat& image, cv::Mat& scratch) {
+  // median(a, b, c) = max(min(a, b), min(max(a, b), c)), on the original rows: each output row is kept
+  // in `scratch` until the row below it no longer needs the original.
+  if (image.rows < 3) return;
+  scratch.create(2, image.cols, CV_8UC1);
+  const int cols = image.cols;
+  uchar* previous = scratch.ptr<uchar>(0);  // original row r − 1
+  uchar* current = scratch.ptr<uchar>(1);
+  std::copy(image.ptr<uchar>(0), image.ptr<uchar>(0) + cols, previous);
+  for (int r = 1; r + 1 < image.rows; ++r) {
+    uchar* b = image.ptr<uchar>(r);
+    const uchar* c = image.ptr<uchar>(r + 1);
+    std::copy(b, b + cols, current);
+    for (int x = 0; x < cols; ++x) {
+      const uchar lo = std::min(previous[x], current[x]), hi = std::max(previous[x], current[x]);
+      b[x] = std::max(lo, std::min(hi, c[x]));
+    }
+    std::swap(previous, current);
+  }
+}
+
+void below_level(const cv::Mat& image, const cv::Mat& floor, uint16_t q, cv::Mat& out) {
+  // image · 256 < floor · q  ⇔  image < ⌈floor · q / 256⌉ for an integer image: one 16-bit multiply.
+  CV_Assert(image.size() == floor.size() && q <= 256);
+  out.create(image.size(), CV_8UC1);
+  const int cols = image.cols;
+  for (int r = 0; r < image.rows; ++r) {
+    const uchar* im = image.ptr<uchar>(r);
+    const uchar* fl = floor.ptr<uchar>(r);
+    uchar* o = out.ptr<uchar>(r);
+    for (int x = 0; x < cols; ++x) {
+      const uint16_t level = static_cast<uint16_t>(static_cast<uint16_t>(fl[x] * q + 255u) >> 8);
+      o[x] = static_cast<uint16_t>(im[x]) < level ? 255 : 0;
+    }
+  }
+}
+
+}  // namespace quad::vision
