@@ -1,6 +1,7 @@
 #include "quad/control/attitude_controller.h"
 
 #include "quad/control/approx.h"
+#include "quad/math/float_bits.h"
 
 namespace quad {
 namespace ctrl {
