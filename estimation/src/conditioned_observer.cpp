@@ -93,7 +93,9 @@ void ConditionedObserver::cache_propagation(float dt) {
   half_dt_sq_ = 0.25f * dt * dt;
 }
 
-// 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise.
+// 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise. The observer's per-step tests
+// (the dt checks, the caches keyed on dt's bits, the accelerometer gate, the magnetometer's, the bias
+// cube) are on the bit patterns (float_bits.h: 700 cycles off the median 200 Hz PIL iteration).
 bool ConditionedObserver::step_ok(const Vec3& gyro, float dt) {
   if (!is_finite(gyro) || !positive_at_most(dt, kMaxDt)) {
     ++health_.skipped;

@@ -53,7 +53,7 @@ class GroundHold {
   bool still() const { return still_for_s_ >= still_time_s_; }
   // On the ground and still in this step, the still time not yet passed: the vehicle has come to rest
   // (touched down) and its velocity is zero; the position is held once the still time has passed.
-  bool at_rest() const { return positive(still_for_s_) && !holding_; }  // (every prediction: float_bits.h)
+  bool at_rest() const { return positive(still_for_s_) && !holding_; }  // (every prediction: on the bits)
 
   void set_reference(const Vec3& p) { reference_ = p; }
   const Vec3& reference() const { return reference_; }
