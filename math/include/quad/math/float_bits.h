@@ -83,7 +83,11 @@ inline bool same_bits(float a, float b) { return float_bits(a) == float_bits(b);
 
 // The bit pattern read as a signed integer: it orders like the float whenever one of the two compared
 // is positive and neither is NaN (every negative float, -0 included, reads as a negative integer).
-inline int32_t float_order(float x) { return static_cast<int32_t>(float_bits(x)); }
+inline int32_t float_order(float x) {
+  int32_t i;
+  memcpy(&i, &x, sizeof i);
+  return i;
+}
 
 // x < limit, for limit > +0 and x not NaN.
 inline bool below_positive(float x, float limit) { return float_order(x) < float_order(limit); }
