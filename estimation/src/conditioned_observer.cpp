@@ -93,13 +93,15 @@ void ConditionedObserver::cache_propagation(float dt) {
   half_dt_sq_ = 0.25f * dt * dt;
 }
 
-// 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise.
+// 0 < dt <= kMaxDt and a finite gyro; counts the skipped sample otherwise. The observer's per-step tests
+// (the dt checks, the caches keyed on dt's bits, the accelerometer gate, the magnetometer's, the bias
+// cube) are on the bit patterns (float_bits.h: 700 cycles off the median 200 Hz PIL iteration).
 bool ConditionedObserver::step_ok(const Vec3& gyro, float dt) {
-  if (!is_finite(gyro) || !(dt > 0.0f && dt <= kMaxDt)) {
+  if (!is_finite(gyro) || !positive_at_most(dt, kMaxDt)) {
     ++health_.skipped;
     return false;
   }
-  if (dt != prop_dt_) cache_propagation(dt);
+  if (!same_bits(dt, prop_dt_)) cache_propagation(dt);
   return true;
 }
 
@@ -162,7 +164,7 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
 // (and counted) otherwise.
 QUAD_STEP bool ConditionedObserver::gravity_direction(const Vec3& accel, Vec3& u_meas) {
   const float a2 = dot(accel, accel);  // (norm_sq, without its extra call level)
-  if (!(a2 > accel_lo2_ && a2 < accel_hi2_)) {
+  if (!in_open_range(a2, accel_lo2_, accel_hi2_)) {
     ++health_.accel_rejected;
     return false;
   }
@@ -205,7 +207,8 @@ QUAD_STEP void ConditionedObserver::add_heading_innovation(const Vec3& mag, cons
 QUAD_STEP void ConditionedObserver::add_bias_pullback(Vec3& db) const {
   const ObserverParams& k = params_;
   if (k.innovation != Innovation::kConditioned ||
-      (absf(bias_.x) <= inner_delta_ && absf(bias_.y) <= inner_delta_ && absf(bias_.z) <= inner_delta_)) {
+      (abs_at_most(bias_.x, inner_delta_) && abs_at_most(bias_.y, inner_delta_) &&
+       abs_at_most(bias_.z, inner_delta_))) {
     return;
   }
   const float b2 = norm_sq(bias_);
@@ -217,7 +220,7 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   if (!step_ok(gyro, dt)) return;
   // A correction step the dt check would refuse (a multi-rate caller's bookkeeping gone wrong) corrects
   // over the attitude step instead.
-  if (!(correction_dt > 0.0f && correction_dt <= kMaxDt)) correction_dt = dt;
+  if (!positive_at_most(correction_dt, kMaxDt)) correction_dt = dt;
   if (r_stale_) {
     r_ = to_dcm(q_);
     r_stale_ = false;
@@ -231,10 +234,10 @@ void ConditionedObserver::step(const Vec3& gyro, const Vec3& accel, const Vec3& 
   const bool use_accel = gravity_direction(accel, u_meas);
   bool use_mag = false;
   if (mag_valid) {
-    use_mag = is_finite(mag) && inv_mag_h_ > 0.0f;
+    use_mag = is_finite(mag) && positive(inv_mag_h_);
     if (!use_mag) ++health_.mag_rejected;
   }
-  if (correction_dt != step_dt_) cache_step(correction_dt);
+  if (!same_bits(correction_dt, step_dt_)) cache_step(correction_dt);
 
   // Innovations of the attitude and the bias, eq. 4.9 (or 4.4); assigned by their first term. The bias
   // innovation is kept as its step T sigma_b (eq. 4.17), T folded into the cached gains.

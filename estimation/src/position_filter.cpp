@@ -1,5 +1,7 @@
 #include "quad/estimation/position_filter.h"
 
+#include "quad/math/float_bits.h"
+
 #include <string.h>  // memcmp
 
 namespace quad {
@@ -299,7 +301,7 @@ void PositionFilterCore::predict(const Vec3& u, uint32_t t_us) {
   t_us_ = t_us;
   if (!initialized_) return;
   propagate(u, step_us);
-  if (q_dt_ > kMaxStep) {
+  if (above_nonnegative(q_dt_, kMaxStep)) {  // (every prediction: float_bits.h; q_dt_ > 0)
     // A gap: earlier fixes can no longer be brought forward through a history that does not exist.
     for (int i = 0; i < 3; ++i) correction_[i] = Correction{};
     have_fix_ = false;
@@ -621,8 +623,9 @@ bool PositionFilterCore::correct_axis(int i, const float k[3], float nu) {
     c.b += db;
   }
   // |c.p| <= 1/2 and |c.v| <= 2 keep the sum at or below 1 (0.25 |c.v| is exact, rounding is
-  // monotonic and 1 is a float): two comparisons decide the usual case exactly.
-  return !(absf(c.p) <= 0.5f * kFoldThreshold && absf(c.v) <= 2.0f * kFoldThreshold) &&
+  // monotonic and 1 is a float): two comparisons decide the usual case exactly (on the bit patterns,
+  // float_bits.h: every fix's three axes).
+  return !(abs_at_most(c.p, 0.5f * kFoldThreshold) && abs_at_most(c.v, 2.0f * kFoldThreshold)) &&
          absf(c.p) + 0.25f * absf(c.v) > kFoldThreshold;
 }
 

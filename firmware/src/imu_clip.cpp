@@ -49,7 +49,7 @@ Vec3 ImuClipGuard::update(const hal::ImuSample& raw, float dt) {
     clipping_for_s_ = 0.0f;
     // Only quiet_for_s_ >= kBurstGapS is ever read: once there (dt > 0 adds to it) it stays, so the sum
     // stops growing (one float addition saved per sample in the common, quiet case).
-    if (quiet_for_s_ < kBurstGapS) quiet_for_s_ += dt;
+    if (below_positive(quiet_for_s_, kBurstGapS)) quiet_for_s_ += dt;  // (a sum of periods: not NaN)
     return gyro;
   }
   ++clipped_samples_;

@@ -3,12 +3,17 @@
 
     pc_profile.py ELF PROFILE [--per N] [--top K]
     pc_profile.py --diff ELF_A PROFILE_A ELF_B PROFILE_B [--per-a N] [--per-b N] [--top K]
+    pc_profile.py --calls ELF PROFILE [--per N] [--to NAMES] [--top K]
 
 The functions come from the image's symbol table (avr-nm), the cycles from PROFILE ("address cycles" in
 hex and decimal per line). --per divides by a count (the flown iterations) to give cycles per iteration;
---diff lists the functions whose cycles per iteration differ most between two images.
+--diff lists the functions whose cycles per iteration differ most between two images. --calls counts the
+calls to the functions NAMES (comma-separated; default avr-libc's float comparisons) by caller: a call
+site's cycles divided by the cycles of its CALL instruction (5 on the ATmega2560, RCALL 4) are the times
+it ran.
 """
 import bisect
+import re
 import subprocess
 import sys
 
@@ -18,7 +23,8 @@ def symbols(elf):
     table = []
     for line in out.splitlines():
         parts = line.split(None, 2)
-        if len(parts) == 3 and parts[1] in "tTwW":
+        # (__stack is the top of RAM, not code, whatever its address reads as in program space.)
+        if len(parts) == 3 and parts[1] in "tTwW" and parts[2] != "__stack":
             table.append((int(parts[0], 16), parts[2]))
     table.sort()
     return table
@@ -37,6 +43,33 @@ def by_function(elf, profile):
     return sums
 
 
+FLOAT_COMPARISONS = "__cmpsf2,__eqsf2,__nesf2,__ltsf2,__lesf2,__gtsf2,__gesf2,__unordsf2"
+
+
+def calls_by_caller(elf, profile, targets):
+    """{(caller, callee): times run} for the CALL/RCALL sites of the image whose target is in targets."""
+    cycles = {}
+    with open(profile) as f:
+        for line in f:
+            address, c = line.split()
+            cycles[int(address, 16)] = int(c)
+    out = subprocess.run(["avr-objdump", "-d", "-C", elf], capture_output=True, text=True, check=True).stdout
+    site = re.compile(r"^\s+([0-9a-f]+):\s+(?:[0-9a-f]{2} )+\s*(r?call)\s+.*<([^>+]+)>")
+    counts = {}
+    caller = "?"
+    for line in out.splitlines():
+        m = re.match(r"^[0-9a-f]+ <(.*)>:", line)
+        if m:
+            caller = m.group(1)
+            continue
+        m = site.match(line)
+        if m and m.group(3) in targets:
+            ran = cycles.get(int(m.group(1), 16), 0) / (5 if m.group(2) == "call" else 4)
+            key = (caller, m.group(3))
+            counts[key] = counts.get(key, 0) + ran
+    return counts
+
+
 def option(args, name, default):
     if name in args:
         i = args.index(name)
@@ -48,6 +81,15 @@ def option(args, name, default):
 
 def main(args):
     top = int(option(args, "--top", "40"))
+    if args and args[0] == "--calls":
+        per = float(option(args, "--per", "1"))
+        targets = set(option(args, "--to", FLOAT_COMPARISONS).split(","))
+        counts = calls_by_caller(args[1], args[2], targets)
+        print(f"calls per iteration: {sum(counts.values()) / per:.2f}")
+        for (caller, callee), n in sorted(counts.items(), key=lambda r: -r[1])[:top]:
+            if n > 0:
+                print(f"{n / per:8.2f}  {callee:10s} {caller}")
+        return 0
     if args and args[0] == "--diff":
         per_a = float(option(args, "--per-a", "1"))
         per_b = float(option(args, "--per-b", "1"))

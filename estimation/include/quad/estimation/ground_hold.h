@@ -25,6 +25,7 @@
 // accelerating downwards, |a| < g, so it is not still; one that is carried or bumped is not still either.
 #pragma once
 
+#include "quad/math/float_bits.h"
 #include "quad/math/math.h"
 
 namespace quad {
@@ -52,7 +53,7 @@ class GroundHold {
   bool still() const { return still_for_s_ >= still_time_s_; }
   // On the ground and still in this step, the still time not yet passed: the vehicle has come to rest
   // (touched down) and its velocity is zero; the position is held once the still time has passed.
-  bool at_rest() const { return still_for_s_ > 0.0f && !holding_; }
+  bool at_rest() const { return positive(still_for_s_) && !holding_; }  // (every prediction: on the bits)
 
   void set_reference(const Vec3& p) { reference_ = p; }
   const Vec3& reference() const { return reference_; }
