@@ -87,6 +87,7 @@ struct Board {
   mav::Sender gcs{255, 190};
   mav::Sender vision{1, 197};
   uint16_t lowest_sp = 0xFFFF;
+  bool star_next = false;  // the next vision fix is a LANDING_TARGET
   // What the vehicle said on UART0.
   bool armed_seen = false, auto_seen = false;
   int param_values = 0;
@@ -172,7 +173,8 @@ struct Board {
   uint32_t now_us() const { return static_cast<uint32_t>(avr->cycle / kCyclesPerUs); }
 
   // Runs to `until_us` of AVR time; vision fixes (20 ms old, at the origin 1.5 m up) every 33 ms from
-  // `fixes_from_us` on.
+  // `fixes_from_us` on, in turn an external pose and the star seen below with its attitude (0.6 deg of
+  // roll: the thesis pair's star-attitude correction, EST_STAR_ATT, on the stack too).
   void run_to(uint32_t until_us, uint32_t fixes_from_us, uint32_t* next_fix_us) {
     while (now_us() < until_us) {
       for (int i = 0; i < 1000; ++i) {
@@ -182,10 +184,22 @@ struct Board {
         if (sp < lowest_sp) lowest_sp = sp;
       }
       if (now_us() >= fixes_from_us && now_us() >= *next_fix_us) {
-        mav::VisionPositionEstimate v;
-        v.usec = now_us() - 20000u;
-        v.z = -1.5f;
-        send(uart2, vision, v);
+        if (star_next) {
+          mav::LandingTarget t;
+          t.time_usec = now_us() - 20000u;
+          t.frame = mav::kFrameBodyFrd;
+          t.position_valid = 1;
+          t.z = 1.5f;
+          t.q[0] = 0.99998629f;  // q_BS = q_IB*, q_IB 0.6 deg about x
+          t.q[1] = -0.00523596f;
+          send(uart2, vision, t);
+        } else {
+          mav::VisionPositionEstimate v;
+          v.usec = now_us() - 20000u;
+          v.z = -1.5f;
+          send(uart2, vision, v);
+        }
+        star_next = !star_next;
         *next_fix_us = now_us() + 33333u;
       }
       uart0.pump();
