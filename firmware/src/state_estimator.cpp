@@ -1,7 +1,7 @@
 #include "quad/firmware/state_estimator.h"
 
-#include "quad/firmware/app_checks.h"
 #include "quad/estimation/vector_attitude.h"
+#include "quad/firmware/app_checks.h"
 #include "quad/firmware/param_fields.h"
 
 namespace quad {
