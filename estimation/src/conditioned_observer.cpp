@@ -159,6 +159,45 @@ void ConditionedObserver::propagate(const Vec3& gyro, float dt) {
   ++health_.propagations;
 }
 
+// The star's attitude as a third innovation beside eq. 4.9's two: Mahony's direct complementary filter
+// takes omega = vex(P_a(R~)), R~ = R_hat^T R_y, from a measured rotation R_y, which for q~ = q_hat* (x) q_y
+// is 2 q~_0 q~_v (the Mahony baseline's form): sin of the error angle about its axis, no trigonometry.
+// Per axis times the gain, it is applied at once rather than held over the fix period (the integral of
+// the term over one period, the same to first order, and no state for the AVR), in NED: R_then d, the
+// error at the capture time, is the error propagation leaves unchanged.
+bool ConditionedObserver::correct_attitude(const Quat& q_meas, const Quat& q_then, const Vec3& gain) {
+  if (!is_finite(q_meas)) return false;
+  const Quat q_err = conjugate(q_then) * q_meas;
+  // vex(P_a(R~)) in the body frame at the capture time (q~ and -q~ give the same: the short way).
+  const float two_w = 2.0f * q_err.w;
+  const Vec3 xi{two_w * q_err.x, two_w * q_err.y, two_w * q_err.z};
+  if (!(xi.x * xi.x + xi.y * xi.y <= kMaxAttitudeFixTilt * kMaxAttitudeFixTilt)) return false;
+  const Vec3 d = rotate(q_then, Vec3{gain.x * xi.x, gain.y * xi.y, gain.z * xi.z});  // in NED
+  // exp(d / 2) (x) q to second order, then one Newton step of 1/sqrt on the norm (as the propagator).
+  const Quat n = Quat{1.0f, 0.5f * d.x, 0.5f * d.y, 0.5f * d.z} * q_;
+  if (!commit(n * (1.5f - 0.5f * dot(n, n)), bias_, rate_)) return false;
+  r_stale_ = true;
+  return true;
+}
+
+Vec3 attitude_fix_gain(const float* att_cov, AttitudeFixWeights w) {
+  const float floor_var = w.floor_sigma * w.floor_sigma;
+  const float default_var = w.fix_sigma * w.fix_sigma;
+  const float p_tilt = w.tilt_sigma * w.tilt_sigma;
+  const float p_heading = w.heading_sigma * w.heading_sigma;
+  const float c[3] = {att_cov != nullptr ? att_cov[0] + floor_var : default_var,
+                      att_cov != nullptr ? att_cov[3] + floor_var : default_var,
+                      att_cov != nullptr ? att_cov[5] + floor_var : default_var};
+  const float p[3] = {p_tilt, p_tilt, p_heading};
+  float g[3];
+  for (int i = 0; i < 3; ++i) {
+    const float s = p[i] + c[i];
+    // (a non-finite or negative covariance gives no correction rather than a wild one)
+    g[i] = s > 0.0f && c[i] >= 0.0f ? minf(p[i] / s, w.max_gain) : 0.0f;
+  }
+  return Vec3{g[0], g[1], g[2]};
+}
+
 // Gravity direction from the accelerometer (eq. 4.3b / 4.8: u_B = -a_B / g, here normalised so that
 // pi_{u_B} is an exact projector). Only used while the specific force is close to g in norm; false
 // (and counted) otherwise.

@@ -1,5 +1,7 @@
 #include "quad/estimation/ekf.h"
 
+#include "quad/estimation/vector_attitude.h"
+
 namespace quad {
 namespace est {
 
@@ -33,26 +35,6 @@ void fix_noise(const float* cov, bool have, float sigma, float floor_sigma, floa
   out[0] += diag;
   out[3] += diag;
   out[5] += diag;
-}
-
-// q_IB measured from the star's attitude in the body, q_BS: q_SB = q_BS*, with the star's axes along NED
-// up to its quarter-turn symmetry, resolved by taking the quarter turn nearest the estimate.
-Quat attitude_from_star(const Quat& q_bs, const Quat& estimate) {
-  const Quat q_sb = conjugate(normalized(q_bs));
-  const float c = 0.70710678f;
-  const Quat turns[4] = {Quat{1.0f, 0.0f, 0.0f, 0.0f}, Quat{c, 0.0f, 0.0f, c}, Quat{0.0f, 0.0f, 0.0f, 1.0f},
-                         Quat{c, 0.0f, 0.0f, -c}};
-  Quat best = q_sb;
-  float best_dot = -1.0f;
-  for (int k = 0; k < 4; ++k) {
-    const Quat candidate = turns[k] * q_sb;
-    const float d = absf(dot(candidate, estimate));
-    if (d > best_dot) {
-      best_dot = d;
-      best = candidate;
-    }
-  }
-  return best;
 }
 
 // q_IB measured by a fix: an external pose's own, or the star's.

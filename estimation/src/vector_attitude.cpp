@@ -53,5 +53,33 @@ bool magnetic_reference_from_sample(const Vec3& accel_frd, const Vec3& mag_frd, 
   return true;
 }
 
+Quat attitude_from_star(const Quat& q_bs, const Quat& estimate) {
+  const Quat q_bs_unit = normalized(q_bs);
+  const Quat q_sb = conjugate(q_bs_unit);
+  // The candidates are t_k (x) q_sb with t_k the quarter turns about down, (cos, 0, 0, sin) of 0, 90,
+  // 180, -90 deg; <t_k (x) q_sb, q> = <t_k, q (x) q_sb*> (unit q_sb), so one product m = q (x) q_bs and
+  // four dot products with the sparse t_k pick the nearest: m.w, c (m.w + m.z), m.z, c (m.w - m.z).
+  const Quat m = estimate * q_bs_unit;
+  const float c = 0.70710678f;
+  // (No tables of the t_k: on the AVR a constant array is copied into RAM.)
+  float w = 1.0f, z = 0.0f, best = absf(m.w);
+  if (absf(c * (m.w + m.z)) > best) {
+    best = absf(c * (m.w + m.z));
+    w = c;
+    z = c;
+  }
+  if (absf(m.z) > best) {
+    best = absf(m.z);
+    w = 0.0f;
+    z = 1.0f;
+  }
+  if (absf(c * (m.w - m.z)) > best) {
+    w = c;
+    z = -c;
+  }
+  // (w, 0, 0, z) (x) q_sb
+  return Quat{w * q_sb.w - z * q_sb.z, w * q_sb.x - z * q_sb.y, w * q_sb.y + z * q_sb.x, w * q_sb.z + z * q_sb.w};
+}
+
 }  // namespace est
 }  // namespace quad

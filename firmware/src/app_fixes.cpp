@@ -34,6 +34,7 @@ void FlightApp::star_fix(const mav::LandingTarget& received) {
     return;
   }
   position_fix_at(p_ned, capture_us, msg.q);
+  estimator_.star_attitude(msg.q, capture_us);
 }
 
 void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us) {

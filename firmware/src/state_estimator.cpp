@@ -1,5 +1,6 @@
 #include "quad/firmware/state_estimator.h"
 
+#include "quad/estimation/vector_attitude.h"
 #include "quad/firmware/app_checks.h"
 #include "quad/firmware/param_fields.h"
 
@@ -17,6 +18,12 @@ constexpr float kMinSoftIronDeterminant = 0.05f;
 constexpr float kStillVelocitySigma = 0.01f;  // m/s
 constexpr float kStillPositionSigma = 0.01f;  // m
 constexpr float kStillTime = 0.5f;            // s
+
+// The star's attitude in the thesis pair (docs/estimation.md, "The star's attitude in the thesis pair"):
+// the observer's error assumed at a fix, tilt 0.03 deg and heading 0.06 deg (chosen by the hold's
+// standard deviation on flight_plain.yaml), against the station's: the EKF's 0.5 deg without a
+// covariance, a 0.1 deg floor under one; at most a fifth of the error per fix.
+constexpr est::AttitudeFixWeights kStarAttitudeWeights{0.0005f, 0.001f, 0.0087f, 0.0017f, 0.2f};
 
 // The Earth field with magnetic north along x, expressed in true NED: turned about down by the
 // declination (east positive). Out of line: two callers, and two inlined copies of sinf, cosf and six
@@ -79,6 +86,26 @@ void StateEstimator::configure(const Params& p, float loop_hz) {
   // The attitude history reaches back 0.3 s at any loop rate, beyond the position filter's 0.25 s.
   history_.set_decimation(AttitudeHistory::decimation_for(loop_hz, 0.3f));
   configure_ekf(p);
+  const float star_att = p.get(kEstStarAtt);
+  star_attitude_use_ = star_att >= 1.5f ? 2u : star_att >= 0.5f ? 1u : 0u;
+  weigh_star_attitude(nullptr);
+}
+
+void StateEstimator::weigh_star_attitude(const float* att_cov) {
+  star_attitude_gain_ = est::attitude_fix_gain(att_cov, kStarAttitudeWeights);
+  if (star_attitude_use_ < 2u) star_attitude_gain_.x = star_attitude_gain_.y = 0.0f;  // the heading alone
+}
+
+void StateEstimator::star_attitude(const float q_bs[4], uint32_t capture_us) {
+  if (star_attitude_use_ == 0u || ekf_selected()) return;
+  // q = 1 0 0 0: the station fitted no attitude (LANDING_TARGET's convention); nor is a q far from unit
+  // norm (or not finite) one.
+  const Quat q{q_bs[0], q_bs[1], q_bs[2], q_bs[3]};
+  if ((q.w == 1.0f && q.x == 0.0f && q.y == 0.0f && q.z == 0.0f) || !is_finite(q) || !(norm_sq(q) > 0.5f)) return;
+  Quat q_then;
+  if (!history_.lookup(capture_us, q_then)) return;
+  const Quat q_meas = est::attitude_from_star(q, q_then);
+  observer_.correct_attitude(q_meas, q_then, star_attitude_gain_);
 }
 
 EstimatorEvent StateEstimator::step(uint32_t t_us, const hal::ImuSample& imu, const hal::MagSample* mag, float dt,

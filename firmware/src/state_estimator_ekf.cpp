@@ -15,7 +15,9 @@ void StateEstimator::configure_ekf(const Params&) { type_ = EstimatorType::kThes
 void StateEstimator::start_ekf(uint32_t) {}
 void StateEstimator::step_ekf(uint32_t, const Vec3&, const Vec3&, const hal::MagSample*, float, const IterationPlan&, bool) {}
 est::FixResult StateEstimator::queue_star(const est::StarFix&) { return est::FixResult::kRejectedInvalid; }
-void StateEstimator::attach_covariance(uint32_t, const float*, const float*, bool) {}
+void StateEstimator::attach_covariance(uint32_t, const float*, const float att_cov[6], bool attitude_valid) {
+  weigh_star_attitude(attitude_valid ? att_cov : nullptr);
+}
 bool StateEstimator::converged() const { return calibration_.done() && observer_.initialized(); }
 Preflight StateEstimator::preflight() const { return thesis_preflight(); }
 EstimatorReport StateEstimator::report() const { return thesis_report(); }
@@ -88,7 +90,11 @@ est::FixResult StateEstimator::queue_star(const est::StarFix& fix) {
 
 void StateEstimator::attach_covariance(uint32_t capture_us, const float pos_cov[6], const float att_cov[6],
                                        bool attitude_valid) {
-  if (ekf_selected()) ekf_.attach_covariance(capture_us, pos_cov, att_cov, attitude_valid);
+  if (ekf_selected()) {
+    ekf_.attach_covariance(capture_us, pos_cov, att_cov, attitude_valid);
+    return;
+  }
+  weigh_star_attitude(attitude_valid ? att_cov : nullptr);
 }
 
 bool StateEstimator::converged() const {

@@ -124,6 +124,62 @@ TEST(StateEstimator, CalibratesConvergesAndTakesAFix) {
   EXPECT_NEAR(est.position().z, -1.5f, 0.01f);
 }
 
+// The star's attitude into the thesis pair's observer (EST_STAR_ATT, docs/estimation.md, "The star's
+// attitude in the thesis pair"): a level vehicle, calibrated, and a fix captured 30 ms ago that says it is
+// rolled 2 deg and turned 5 deg.
+struct StarAttitudeCase {
+  quad::Euler before, after;
+};
+
+StarAttitudeCase star_attitude_case(float est_star_att, const float q_bs[4], const float* att_cov) {
+  quad::fw::Params params;
+  EXPECT_EQ(params.set(quad::fw::kEstStarAtt, est_star_att), quad::fw::ParamError::kNone);
+  quad::fw::StateEstimator est;
+  est.configure(params, 100.0f);
+  est.restart_calibration();
+  FrameSchedule schedule;
+  schedule.configure(100.0f);
+  quad::hal::ImuSample imu;
+  imu.accel = Vec3{0.0f, 0.0f, -kG};
+  quad::hal::MagSample mag;
+  mag.field = Vec3{0.2f, 0.0f, 0.45f};
+  uint32_t t_us = 0;
+  for (int i = 0; i < 420; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
+  EXPECT_TRUE(est.converged());
+  if (att_cov != nullptr) est.attach_covariance(t_us - 30000, att_cov, att_cov, true);
+  StarAttitudeCase c;
+  c.before = quad::to_euler(est.attitude());
+  est.star_attitude(q_bs, t_us - 30000);
+  c.after = quad::to_euler(est.attitude());
+  return c;
+}
+
+TEST(StateEstimator, TakesTheStarsAttitudeAsEstStarAttSays) {
+  const quad::Quat q_ib = quad::from_euler(quad::Euler{0.0349f, 0.0f, 0.0873f});  // roll 2 deg, yaw 5 deg
+  const float q_bs[4] = {q_ib.w, -q_ib.x, -q_ib.y, -q_ib.z};                     // q_BS = q_IB*
+  const float no_attitude[4] = {1.0f, 0.0f, 0.0f, 0.0f};
+  for (float use : {0.0f, 1.0f, 2.0f}) {
+    const StarAttitudeCase c = star_attitude_case(use, no_attitude, nullptr);
+    EXPECT_EQ(c.after.roll, c.before.roll) << "q = 1 0 0 0 is no attitude, EST_STAR_ATT " << use;
+    EXPECT_EQ(c.after.yaw, c.before.yaw) << use;
+  }
+  const StarAttitudeCase off = star_attitude_case(0.0f, q_bs, nullptr);
+  EXPECT_EQ(off.after.roll, off.before.roll);
+  EXPECT_EQ(off.after.yaw, off.before.yaw);
+  const StarAttitudeCase heading = star_attitude_case(1.0f, q_bs, nullptr);
+  EXPECT_NEAR(heading.after.roll, heading.before.roll, 1e-6f) << "the heading alone";
+  EXPECT_GT(heading.after.yaw - heading.before.yaw, 0.0f);
+  EXPECT_LT(heading.after.yaw - heading.before.yaw, 0.2f * 0.0873f + 1e-5f) << "at most max_gain of the error";
+  const StarAttitudeCase full = star_attitude_case(2.0f, q_bs, nullptr);
+  EXPECT_GT(full.after.roll - full.before.roll, 0.0f);
+  EXPECT_LT(full.after.roll - full.before.roll, 0.2f * 0.0349f);
+  // A fix whose covariance says 1 rad about every axis barely counts.
+  const float wide[6] = {1.0f, 0.0f, 0.0f, 1.0f, 0.0f, 1.0f};
+  const StarAttitudeCase doubtful = star_attitude_case(2.0f, q_bs, wide);
+  EXPECT_LT(doubtful.after.roll - doubtful.before.roll, 1e-3f * (full.after.roll - full.before.roll) + 1e-7f);
+  EXPECT_LT(doubtful.after.yaw - doubtful.before.yaw, 1e-3f * (full.after.yaw - full.before.yaw) + 1e-7f);
+}
+
 // Flight control from its parameters: arming is refused until the estimate has converged, MANUAL spins
 // the motors with the throttle, and an armed vehicle that sits still on the ground is detected landed.
 TEST(FlightControl, ArmsFliesTheSticksAndDetectsTheGround) {

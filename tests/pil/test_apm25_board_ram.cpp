@@ -55,6 +55,25 @@ long symbol_address(const std::string& elf, const std::string& name) {
   return address;
 }
 
+// The flash byte address of the first text symbol whose (mangled) name contains `part`, or -1.
+long code_address(const std::string& elf, const std::string& part) {
+  const std::string command = "avr-nm " + elf;
+  FILE* p = popen(command.c_str(), "r");
+  if (p == nullptr) return -1;
+  char line[256];
+  long address = -1;
+  while (address < 0 && std::fgets(line, sizeof line, p) != nullptr) {
+    char sym[200];
+    unsigned long value = 0;
+    char type = 0;
+    if (std::sscanf(line, "%lx %c %199s", &value, &type, sym) == 3 && (type == 't' || type == 'T') &&
+        std::strstr(sym, part.c_str()) != nullptr)
+      address = static_cast<long>(value);
+  }
+  pclose(p);
+  return address;
+}
+
 // A byte stream into one of the AVR's UARTs, fed only while its receive FIFO signals XON.
 struct UartIn {
   avr_irq_t* input = nullptr;
@@ -87,6 +106,9 @@ struct Board {
   mav::Sender gcs{255, 190};
   mav::Sender vision{1, 197};
   uint16_t lowest_sp = 0xFFFF;
+  bool star_next = false;  // the next vision fix is a LANDING_TARGET
+  long star_correction_pc = -1;  // the observer's star-attitude correction, entered this often
+  int star_corrections = 0;
   // What the vehicle said on UART0.
   bool armed_seen = false, auto_seen = false;
   int param_values = 0;
@@ -172,7 +194,8 @@ struct Board {
   uint32_t now_us() const { return static_cast<uint32_t>(avr->cycle / kCyclesPerUs); }
 
   // Runs to `until_us` of AVR time; vision fixes (20 ms old, at the origin 1.5 m up) every 33 ms from
-  // `fixes_from_us` on.
+  // `fixes_from_us` on, in turn an external pose and the star seen below with its attitude (0.6 deg of
+  // roll: the thesis pair's star-attitude correction, EST_STAR_ATT, on the stack too).
   void run_to(uint32_t until_us, uint32_t fixes_from_us, uint32_t* next_fix_us) {
     while (now_us() < until_us) {
       for (int i = 0; i < 1000; ++i) {
@@ -180,12 +203,25 @@ struct Board {
         ASSERT_NE(state, cpu_Crashed) << "at pc 0x" << std::hex << avr->pc;
         const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
         if (sp < lowest_sp) lowest_sp = sp;
+        if (static_cast<long>(avr->pc) == star_correction_pc) ++star_corrections;
       }
       if (now_us() >= fixes_from_us && now_us() >= *next_fix_us) {
-        mav::VisionPositionEstimate v;
-        v.usec = now_us() - 20000u;
-        v.z = -1.5f;
-        send(uart2, vision, v);
+        if (star_next) {
+          mav::LandingTarget t;
+          t.time_usec = now_us() - 20000u;
+          t.frame = mav::kFrameBodyFrd;
+          t.position_valid = 1;
+          t.z = 1.5f;
+          t.q[0] = 0.99998629f;  // q_BS = q_IB*, q_IB 0.6 deg about x
+          t.q[1] = -0.00523596f;
+          send(uart2, vision, t);
+        } else {
+          mav::VisionPositionEstimate v;
+          v.usec = now_us() - 20000u;
+          v.z = -1.5f;
+          send(uart2, vision, v);
+        }
+        star_next = !star_next;
         *next_fix_us = now_us() + 33333u;
       }
       uart0.pump();
@@ -200,6 +236,8 @@ TEST(Apm25BoardRam, DataBssAndPaintedPeakStackWithinTheBudget) {
   const long bss_end = symbol_address(BOARD_ELF, "__bss_end");
   ASSERT_GT(bss_end, kRamStart) << "no __bss_end in " << BOARD_ELF << " (avr-nm)";
   b.start_sources();
+  b.star_correction_pc = code_address(BOARD_ELF, "ConditionedObserver16correct_attitude");
+  ASSERT_GT(b.star_correction_pc, 0) << "no ConditionedObserver::correct_attitude in " << BOARD_ELF << " (avr-nm)";
 
   uint32_t next_fix_us = 0;
   const uint32_t kFixesFrom = 2500000, kNoFixes = 0xFFFFFFFFu;
@@ -232,6 +270,7 @@ TEST(Apm25BoardRam, DataBssAndPaintedPeakStackWithinTheBudget) {
   EXPECT_TRUE(b.armed_seen) << "never armed; the vehicle said:" << said;
   EXPECT_TRUE(b.auto_seen) << "never in AUTO (vision fixes fused); the vehicle said:" << said;
   EXPECT_GE(b.param_values, 60) << "no parameter list in flight";
+  EXPECT_GT(b.star_corrections, 10) << "the star's attitude never reached the observer";
 
   // The deepest byte that lost its paint, from the end of bss up.
   uint32_t lowest_touched = b.avr->ramend + 1;
@@ -249,8 +288,8 @@ TEST(Apm25BoardRam, DataBssAndPaintedPeakStackWithinTheBudget) {
   const long peak_stack = painted_stack > sp_stack ? painted_stack : sp_stack;
   const long total = data_bss + peak_stack;
   std::printf("apm25_board.elf: data + bss %ld + peak stack %ld = %ld bytes (budget %d); stack written (paint "
-              "lost) %ld bytes deep, stack pointer %ld bytes deep\n",
-              data_bss, peak_stack, total, RAM_BUDGET, painted_stack, sp_stack);
+              "lost) %ld bytes deep, stack pointer %ld bytes deep; star-attitude corrections %d\n",
+              data_bss, peak_stack, total, RAM_BUDGET, painted_stack, sp_stack, b.star_corrections);
   EXPECT_GT(lowest_touched, static_cast<uint32_t>(bss_end)) << "the stack reached bss: no paint left above it";
   EXPECT_GT(painted_stack, 256) << "the paint hardly changed: was it there when the image ran?";
   EXPECT_LE(painted_stack, sp_stack + 32) << "bytes written far below the deepest stack pointer";

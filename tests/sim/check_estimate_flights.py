@@ -11,7 +11,8 @@ heading: the EKF with the magnetometer off (EST_MAG_USE 0) and the star's attitu
 the mag_disturbance fault (sim/scenarios/faults/mag_disturbance.yaml) and without a magnetometer at all
 (hover.yaml, magnetometer.present false, booted 30 degrees off north): the heading error stays below
 2 degrees and the hold within 10 cm of the setpoint; the thesis pair without a magnetometer (booted
-facing north, which it takes for its heading) holds within 10 cm.
+facing north, which it takes for its heading) holds within 10 cm, and with the star's attitude in the
+fix (EST_STAR_ATT 1), booted 30 degrees off north, its heading error stays below 2 degrees too.
 Each line [figure] is a measured value. Exit 0: all hold; 1: one does not (or a run failed).
 """
 import csv
@@ -74,6 +75,9 @@ def heading(sim, scenarios, out):
         ("ekf-mag-disturbance", "faults/mag_disturbance.yaml", ekf_vision, 2.0),
         ("ekf-no-magnetometer", "hover.yaml", ekf_vision + ["magnetometer.present=false", "initial.yaw_deg=30"], 2.0),
         ("thesis-no-magnetometer", "hover.yaml", ["magnetometer.present=false"], None),
+        ("thesis-star-heading", "hover.yaml", ["firmware_params.EST_TYPE=0", "firmware_params.EST_STAR_ATT=1",
+                                               "vision.attitude_sigma_deg=0.1", "magnetometer.present=false",
+                                               "initial.yaw_deg=30"], 2.0),
     ]
     ok = True
     for name, scenario, sets, max_heading_deg in cases:

@@ -70,6 +70,26 @@ struct ObserverHealth {
   uint32_t state_restored = 0;   // steps whose result was non-finite and was discarded
 };
 
+// A measured attitude whose tilt is further than this from the estimate's is refused (rad, 5.7 deg: the
+// observer's tilt error in flight is a tenth of a degree; a heading error is taken up to the star's
+// quarter-turn ambiguity, 45 deg).
+constexpr float kMaxAttitudeFixTilt = 0.1f;
+
+// What weighs a measured attitude against the observer's estimate (attitude_fix_gain()).
+struct AttitudeFixWeights {
+  float tilt_sigma;     // rad: the observer's tilt error assumed at a fix (about body x, y)
+  float heading_sigma;  // rad: its heading error (about body z)
+  float fix_sigma;      // rad, per axis: a fix without a covariance
+  float floor_sigma;    // rad, per axis: added to a fix's covariance (it describes one fix's scatter only)
+  float max_gain;       // per fix: the correction acts on a delayed error, so it stays well below one
+};
+
+// Per-axis gains for correct_attitude(): alpha_i = P_i / (P_i + C_ii + floor^2), at most max_gain, with P
+// the observer's assumed error variance (tilt on x, y; heading on z) and C the fix's attitude covariance
+// (rad^2, body axes, upper triangle xx xy xz yy yz zz), or fix_sigma^2 without one (att_cov null).
+// (w by value: on the AVR a constant passed by reference is kept in RAM.)
+Vec3 attitude_fix_gain(const float* att_cov, AttitudeFixWeights w);
+
 class ConditionedObserver {
  public:
   ConditionedObserver() : ConditionedObserver(ObserverParams{}) {}
@@ -106,6 +126,15 @@ class ConditionedObserver {
   // renormalises the attitude on the third propagation after a correction (and on every fourth step in
   // a row without one): |q| stays within ~1e-6 of one.
   void propagate(const Vec3& gyro_frd, float dt);
+
+  // A measured attitude, the star's from a vision fix (the extension of eq. 4.9 in docs/estimation.md,
+  // "The star's attitude in the thesis pair"): q_meas measures q_IB at a past time, when the estimate
+  // was q_then (the attitude history at the fix's capture time). The estimate turns by gain.x, .y, .z
+  // times the body-frame error vex(P_a(R_then^T R_meas)) (sin of the error angle about its axis) about
+  // the body x, y, z axes, applied in NED (the error there is what propagation keeps) to the present.
+  // The bias is left alone. False, and nothing changed, for a tilt error above kMaxAttitudeFixTilt (not
+  // a fix of this attitude) or a result that is not finite (counted in health()).
+  bool correct_attitude(const Quat& q_meas, const Quat& q_then, const Vec3& gain);
 
   const Quat& attitude() const { return q_; }           // q_IB
   // R_IB = R(attitude()) of eq. 3.18, computed once per update() and shared: the observer reads the

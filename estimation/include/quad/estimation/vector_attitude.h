@@ -22,5 +22,10 @@ bool attitude_from_vectors(const Vec3& accel_frd, const Vec3& mag_frd, const Vec
 // (|m_horizontal|, 0, m_down), in the magnetometer's own units. Returns false for degenerate input.
 bool magnetic_reference_from_sample(const Vec3& accel_frd, const Vec3& mag_frd, Vec3& mag_ref_ned);
 
+// q_IB measured from the star's attitude in the body, q_BS (LANDING_TARGET q): q_SB = q_BS*, with the
+// star's axes along NED up to its quarter-turn symmetry about down (its tips along north and east),
+// resolved by taking the quarter turn nearest `estimate`.
+Quat attitude_from_star(const Quat& q_bs, const Quat& estimate);
+
 }  // namespace est
 }  // namespace quad

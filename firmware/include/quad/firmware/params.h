@@ -64,8 +64,9 @@ namespace fw {
   /* in the EKF (heading from the star's attitude alone) */                                     \
   X(kEstType, "EST_TYPE", 0.0f, 0.0f, 1.0f)                                                      \
   X(kEstMagUse, "EST_MAG_USE", 1.0f, 0.0f, 1.0f)                                                 \
-  /* what the EKF takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and tilt */  \
-  /* (the station's tilt bias estimated; docs/estimation.md, "The star's attitude") */           \
+  /* what the estimator takes from the star's attitude: 0 nothing, 1 its heading, 2 heading and */ \
+  /* tilt (the EKF: with the station's tilt bias estimated, docs/estimation.md, "The star's */      \
+  /* attitude"; the thesis pair: "The star's attitude in the thesis pair") */                      \
   X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
   /* ground hold (quad/estimation/ground_hold.h): still on the ground below these rates (rad/s) and */ \
   /* specific-force deviations from g (m/s^2); the reference point's height above the floor standing */ \

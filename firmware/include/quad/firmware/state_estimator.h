@@ -100,6 +100,12 @@ class StateEstimator {
   // Vision fixes (thesis eq. 8.5 with the errata sign): the vehicle's NED position from the star seen in
   // body FRD at capture_us; false when the attitude at that time is no longer (or not yet) recorded.
   bool position_from_star(const Vec3& star_body, uint32_t capture_us, Vec3* p_ned) const;
+  // The star's attitude (LANDING_TARGET q, q_BS in the IMU's body frame) into the thesis pair's observer
+  // at the capture time (EST_STAR_ATT 1: heading, 2: heading and tilt; docs/estimation.md, "The star's
+  // attitude in the thesis pair"), weighed by the last attitude covariance attach_covariance() gave.
+  // Nothing with the EKF selected (it takes the attitude with the fix), EST_STAR_ATT 0, q = 1 0 0 0 (no
+  // attitude in the fix), or no attitude recorded at the capture time.
+  void star_attitude(const float q_bs[4], uint32_t capture_us);
   // The fusion at the capture time, all at once or (queue, then two advance steps) over two frames.
   est::FixResult fuse_fix(const Vec3& p_ned, uint32_t capture_us) { return filter_.fuse_position(p_ned, capture_us); }
   est::FixResult queue_fix(const Vec3& p_ned, uint32_t capture_us) { return filter_.queue_fix(p_ned, capture_us); }
@@ -160,6 +166,8 @@ class StateEstimator {
                 const IterationPlan& plan, bool hovering);
   void start_ekf(uint32_t t_us);
   void configure_ekf(const Params& p);
+  // The star attitude's gains from a fix's attitude covariance (null: none came with it).
+  void weigh_star_attitude(const float* att_cov);
   Preflight thesis_preflight() const;
   EstimatorReport thesis_report() const;
 
@@ -186,6 +194,10 @@ class StateEstimator {
   float mag_declination_ = 0.0f;    // MAG_DECL
   Vec3 mag_ref_magnetic_;           // Earth field learned at boot, magnetic north along x
   bool mag_ref_learned_ = false;
+  // The thesis pair's gains for the star's attitude per body axis (x, y zero for the heading alone),
+  // from the last LANDING_TARGET_COVARIANCE (the station sends it after its LANDING_TARGET).
+  Vec3 star_attitude_gain_;
+  uint8_t star_attitude_use_ = 0;   // EST_STAR_ATT
   EstimatorType type_ = EstimatorType::kThesisPair;
   bool armed_ = false;
   bool ekf_mag_use_ = true;
