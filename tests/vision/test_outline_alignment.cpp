@@ -50,7 +50,7 @@ TEST(OutlineAlignment, RecoversTheShiftDespiteADefectOnOneView) {
     if (d < 14.0) p = cv::Point2f(cv::Point2d(p) + out * (6.0 * (14.0 - d) / 14.0));
   }
   const cv::Point2d centroid_shift = centroid(left) - centroid(right);
-  ASSERT_GT(std::fabs(centroid_shift.x - shift.x), 0.4) << "the defect must move the centroid for the test to mean anything";
+  ASSERT_GT(std::fabs(centroid_shift.x - shift.x), 0.4) << "the defect must move the centroid";
   const OutlineAlignment a = align_outlines(left, right, centroid_shift);
   ASSERT_TRUE(a.valid);
   EXPECT_NEAR(a.shift.x, shift.x, 0.05);

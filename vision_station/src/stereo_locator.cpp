@@ -83,8 +83,8 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   const double z_rectified = (calibration_.R1 * fix.pose.t_C)[2];
   fix.pose_disparity_px = calibration_.P1(0, 0) * calibration_.baseline() / z_rectified;
   const bool coarse = fix.pose.rms_px > settings_.attitude_max_rms_px;
-  const bool disagrees = fix.outline.valid &&
-                         std::fabs(fix.pose_disparity_px - fix.outline_disparity_px) > settings_.coarse_pose_max_disparity_px;
+  const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
+  const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
   if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
       !(coarse && disagrees)) {
     fix.p_left = fix.pose.t_C;

@@ -44,7 +44,7 @@ struct LocatorSettings {
   double attitude_max_rms_px = 1.5;
   // The centroids' disparity is replaced by the one that lays the right outline onto the left
   // (outline_alignment.h): a local defect of one view moves that view's centroid, not the whole
-  // outline's fit. The fix's position without a pose comes from it.
+  // outline's fit. The fix's position without a pose comes from it. Needs estimate_pose (its edge points).
   bool outline_disparity = true;
   // A coarse pose (vertex RMS above attitude_max_rms_px) whose centre's disparity differs from the
   // outline's by more than this (pixels) is not used for the position: the outline's is.
