@@ -178,6 +178,7 @@ class Explainer {
     const double range = cv::norm(fix.p_left);
     const double error = t.in_view ? 100.0 * cv::norm(fix.p_left - t.p) / t.range : -1.0;
     const double centroid_error = t.in_view ? 100.0 * cv::norm(fix.p_centroids - t.p) / t.range : -1.0;
+    const double outline_error = t.in_view ? 100.0 * cv::norm(fix.p_outline - t.p) / t.range : -1.0;
     const double pose_error = t.in_view && fix.pose.valid ? 100.0 * cv::norm(fix.pose.t_C - t.p) / t.range : -1.0;
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / range, -1.0, 1.0)) * 180.0 / CV_PI;
     const double f = calibration_.rectified_focal();
@@ -192,12 +193,17 @@ class Explainer {
       const double l1 = 0.5 * (a + cc) + std::sqrt(0.25 * (a - cc) * (a - cc) + b * b);
       return f * ideal_sigma_ / std::sqrt(l1) / (calibration_.R1 * fix.p_left)[2];
     };
-    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f\n",
+    const double outline_dd = fix.outline.valid ? fix.outline_disparity_px - fix.disparity_px : 0.0;
+    const double outline_dy = fix.outline.valid ? fix.outline.shift.y - (fix.left_rectified.y - fix.right_rectified.y) : 0.0;
+    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%d,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.5f,%.4f,%.3f\n",
                  condition.c_str(), fs::path(t.left).filename().c_str(), t.in_view ? 1 : 0, error, range, off_axis,
                  fix.row_difference_px, fix.disparity_px, l.area / expected, r.area / expected, l.hu_distance,
                  r.hu_distance, l.solidity, r.solidity, l.refined ? 1 : 0, r.refined ? 1 : 0, fix.pose.valid ? 1 : 0,
                  fix.pose.rms_px, fix.pose_offset, fix.pose.size_ratio, fix.position_from_pose ? 1 : 0,
-                 size_depth(l), size_depth(r), centroid_error, pose_error);
+                 size_depth(l), size_depth(r), centroid_error, pose_error, fix.outline.valid ? 1 : 0, outline_dd,
+                 outline_dy, fix.outline.residual_px, fix.outline.inlier_fraction, cv::norm(fix.p_centroids),
+                 cv::norm(fix.pose.t_C), cv::norm(fix.p_outline), fix.pose_disparity_px - fix.outline_disparity_px,
+                 outline_error);
   }
 
   static LocatorSettings no_tracking(LocatorSettings s) {
@@ -297,7 +303,8 @@ int main(int argc, char** argv) {
       if (features == nullptr) throw std::runtime_error(o.at("--features") + ": cannot write");
       std::fprintf(features, "condition,left,in_view,error_percent,range_m,off_axis_deg,row_difference_px,disparity_px,"
                              "area_left,area_right,profile_left,profile_right,solidity_left,solidity_right,"
-                             "refined_left,refined_right,pose_valid,pose_rms_px,pose_offset,size_ratio,from_pose,size_depth_left,size_depth_right,centroid_error,pose_error\n");
+                             "refined_left,refined_right,pose_valid,pose_rms_px,pose_offset,size_ratio,from_pose,size_depth_left,size_depth_right,centroid_error,pose_error,"
+                             "outline_valid,outline_dd,outline_dy,outline_residual,outline_inliers,range_centroids,range_pose,range_outline,pose_outline_dd,outline_error\n");
     }
     std::vector<fs::path> dirs;
     for (const fs::directory_entry& d : fs::directory_iterator(o.at("--sets"))) {

@@ -57,20 +57,36 @@ std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray,
   return rectified;
 }
 
-void StereoStarLocator::add_pose(const cv::Mat& left_gray, const cv::Mat& right_gray, StarFix& fix) {
+cv::Vec3d StereoStarLocator::triangulate(const cv::Point2d& left, double disparity) const {
+  const cv::Matx34d& P1 = calibration_.P1;
+  const double z = P1(0, 0) * calibration_.baseline() / disparity;  // thesis eq. 8.3
+  const double x = z * (left.x - P1(0, 2)) / P1(0, 0);              // thesis eq. 8.4a
+  const double y = z * (left.y - P1(1, 2)) / P1(1, 1);              // thesis eq. 8.4b
+  return calibration_.R1.t() * cv::Vec3d(x, y, z);  // rectified left frame back to the left camera
+}
+
+void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
+                                 const std::vector<cv::Point2f>& right_edges, StarFix& fix) {
   StarPoseSettings pose_settings = settings_.pose;
   pose_settings.inner_ratio = settings_.detector.inner_ratio;
   const Clock::time_point t0 = Clock::now();
-  const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);
-  const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, fix.right_candidate, right_near_);
   fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
-  fix.times.pose_us = microseconds(t0, Clock::now());
+  fix.times.pose_us += microseconds(t0, Clock::now());
   // The fitted star's centre is the better position: it uses every sub-pixel edge point of both views
   // and the star's true (perspective) shape, where the area centroid of a tilted star's image is not the
-  // image of its centre. A fit that disagrees with the centroids is not trusted.
+  // image of its centre. A fit that disagrees with the triangulated outline is not trusted: by more
+  // than max_pose_offset of the range, or, for a coarse fit, by more than a fraction of a pixel of
+  // disparity (its vertices then fit badly, and its depth is the first to go).
   const double offset = cv::norm(fix.pose.t_C - fix.p_left);
   fix.pose_offset = offset / cv::norm(fix.p_left);
-  if (settings_.position_from_pose && fix.pose.valid && offset <= settings_.max_pose_offset * cv::norm(fix.p_left)) {
+  if (!fix.pose.valid) return;
+  const double z_rectified = (calibration_.R1 * fix.pose.t_C)[2];
+  fix.pose_disparity_px = calibration_.P1(0, 0) * calibration_.baseline() / z_rectified;
+  const bool coarse = fix.pose.rms_px > settings_.attitude_max_rms_px;
+  const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
+  const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
+  if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
+      !(coarse && disagrees)) {
     fix.p_left = fix.pose.t_C;
     fix.position_from_pose = true;
   }
@@ -192,13 +208,27 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   }
   if (!fix.found) reset_tracking();
   if (fix.found && settings_.estimate_pose) {
-    add_pose(left_gray, right_gray, fix);
+    const Clock::time_point t0 = Clock::now();
+    const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);
+    const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, fix.right_candidate, right_near_);
+    fix.outline = align_outlines(left_edges, right_edges, fix.left_rectified - fix.right_rectified);
+    fix.p_outline = fix.p_centroids;
+    if (fix.outline.valid) {
+      fix.outline_disparity_px = fix.outline.shift.x - P1(0, 2) + P2(0, 2);
+      if (settings_.outline_disparity && fix.outline_disparity_px > 0.0) {
+        fix.p_outline = triangulate(fix.left_rectified, fix.outline_disparity_px);
+        fix.p_left = fix.p_outline;
+      }
+    }
+    fix.times.pose_us += microseconds(t0, Clock::now());
+    add_pose(left_edges, right_edges, fix);
     // No eight-vertex fit far off the axis, where the lens model is extrapolated and the star is most
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
     const bool contradicted = fix.pose.valid && std::fabs(fix.pose.size_ratio - 1.0) > settings_.max_pose_size_error;
-    if (contradicted || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad)) {
+    if (contradicted || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) ||
+        off_axis > settings_.max_off_axis_rad) {
       fix.found = false;
       reset_tracking();
     }

@@ -7,6 +7,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "quad/vision/outline_alignment.h"
 #include "quad/vision/star_detector.h"
 #include "quad/vision/star_pose.h"
 #include "quad/vision/stereo_calibration.h"
@@ -32,7 +33,7 @@ struct LocatorSettings {
   // fault displaced one view's centroid, not the eight edges of both.
   bool position_from_pose = true;
   // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
-  double require_pose_beyond_rad = 0.70;
+  double require_pose_beyond_rad = 0.785;
   double max_pose_offset = 0.2;
   // A valid pose whose fitted size differs from the star's (pose.tip_radius_m) by more than this fraction
   // contradicts the fix (no fix then): the fit's size scales with its depth, so a size 7 % off is a range
@@ -41,6 +42,16 @@ struct LocatorSettings {
   // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
   // pose.max_rms_px still gives the position and the checks above.
   double attitude_max_rms_px = 1.5;
+  // The centroids' disparity is replaced by the one that lays the right outline onto the left
+  // (outline_alignment.h): a local defect of one view moves that view's centroid, not the whole
+  // outline's fit. The fix's position without a pose comes from it. Needs estimate_pose (its edge points).
+  bool outline_disparity = true;
+  // A coarse pose (vertex RMS above attitude_max_rms_px) whose centre's disparity differs from the
+  // outline's by more than this (pixels) is not used for the position: the outline's is.
+  double coarse_pose_max_disparity_px = 0.6;
+  // No fix beyond this angle off the left camera's axis: there the calibrated lens model is extrapolated
+  // beyond the chessboard corners it was estimated from, and every position is off alike.
+  double max_off_axis_rad = 0.785;
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
@@ -72,6 +83,10 @@ struct StarFix {
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
   cv::Vec3d p_centroids;              // the triangulated centroids (p_left unless from the pose)
   double pose_offset = 0.0;           // |pose centre − triangulated centroids| / range (valid pose)
+  OutlineAlignment outline;           // the right outline laid onto the left (sub-pixel edges, rectified)
+  double outline_disparity_px = 0.0;  // the disparity that alignment gives (valid outline only)
+  cv::Vec3d p_outline;                // the star triangulated with it (p_centroids without it)
+  double pose_disparity_px = 0.0;     // the pose centre's disparity (valid pose only)
   StageTimes times;
 };
 
@@ -105,7 +120,11 @@ class StereoStarLocator {
                          DetectorTimes* times);
 
   // The star's pose from the paired candidates, and the fix's position from it (LocatorSettings).
-  void add_pose(const cv::Mat& left_gray, const cv::Mat& right_gray, StarFix& fix);
+  void add_pose(const std::vector<cv::Point2f>& left_edges, const std::vector<cv::Point2f>& right_edges,
+                StarFix& fix);
+
+  // The point in the left camera frame at rectified left pixel `left` with disparity `disparity`.
+  cv::Vec3d triangulate(const cv::Point2d& left, double disparity) const;
 
   // A candidate's sub-pixel edge points, rectified.
   std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,
