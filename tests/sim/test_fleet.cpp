@@ -73,12 +73,20 @@ TEST(FleetScenario, RefusesWhatAFleetDoesNotShare) {
 
 TEST(FleetScenario, UnavailableFixSourcesAreRefusedByName) {
   Scenario s = parse_scenario(kTwo, "f.yaml", ".");
+  s.vehicles[1].fix_source = FixSourceKind::kOnboardStar;
+  try {
+    make_fix_sources(s);
+    FAIL() << "onboard_star accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("vehicle 'b': fix_source onboard_star"), std::string::npos) << e.what();
+  }
+  // The ground cameras need the station's command (quad_sim's --station).
   s.vehicles[1].fix_source = FixSourceKind::kGroundCameras;
   try {
     make_fix_sources(s);
-    FAIL() << "ground_cameras accepted";
+    FAIL() << "ground_cameras accepted without a station";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("vehicle 'b': fix_source ground_cameras"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ground_cameras needs the vision station"), std::string::npos) << e.what();
   }
 }
 

@@ -116,6 +116,8 @@ wire::VehicleReport vehicle_report(const VehicleFix& fix) {
   wire::VehicleReport r;
   r.id = fix.id;
   r.found = fix.pose ? 1u : 0u;
+  r.ambiguous_gates = fix.ambiguous_gates;
+  r.epipolar_resolutions = fix.epipolar_resolutions;
   if (fix.pose)
     for (int i = 0; i < 3; ++i) r.ned[i] = fix.pose->position_ned[i];
   for (int k = 0; k < kMarkerColours; ++k)

@@ -97,6 +97,10 @@ TrackerConfig load_tracker_config(const std::string& path) {
     start.id = static_cast<int>(v["id"]);
     start.ned = read_vec3(v["ned"], path, key + ".ned");
     start.yaw_rad = static_cast<double>(v["yaw_deg"]) * CV_PI / 180.0;
+    for (int k = 0; k < kMarkerColours; ++k) {
+      const std::string marker = std::string("marker_") + colour_name(static_cast<MarkerColour>(k));
+      start.marker_frd[k] = v[marker].empty() ? config.marker_frd[k] : read_vec3(v[marker], path, key + "." + marker);
+    }
     config.vehicles.push_back(start);
   }
   return config;
@@ -130,7 +134,7 @@ GroundTracker::GroundTracker(RoomRig rig, TrackerConfig config, GroundTrackerSet
     const VehicleStart& start = config_.vehicles[v];
     for (size_t c = 0; c < cameras; ++c) {
       for (int k = 0; k < kMarkerColours; ++k) {
-        const cv::Vec3d p = start.ned + yaw_rotation(start.yaw_rad) * config_.marker_frd[k];
+        const cv::Vec3d p = start.ned + yaw_rotation(start.yaw_rad) * start.marker_frd[k];
         tracks_[c][v][k].reset(project(rig_.cameras[c], p), 10.0);
       }
     }
@@ -147,7 +151,7 @@ void GroundTracker::predict_tracks(double dt) {
         if (track.missed >= settings_.reseed_after_missed && last_pose_[v]) {
           const int missed = track.missed;
           const RigidPose& pose = *last_pose_[v];
-          track.reset(project(rig_.cameras[c], pose.position_ned + pose.R_IB * config_.marker_frd[k]), 8.0);
+          track.reset(project(rig_.cameras[c], pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k]), 8.0);
           track.missed = missed;
         }
         track.predict(dt, settings_.noise);
@@ -382,7 +386,7 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
       }
       const auto point = triangulate(views, settings_.pixel_sigma_px);
       if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
-      body.push_back(config_.marker_frd[k]);
+      body.push_back(config_.vehicles[v].marker_frd[k]);
       points.push_back(*point);
     }
     fix.markers = static_cast<int>(points.size());

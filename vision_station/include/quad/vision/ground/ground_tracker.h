@@ -25,16 +25,19 @@ struct VehicleStart {
   int id = 0;
   cv::Vec3d ned;        // body origin, metres
   double yaw_rad = 0.0;
+  std::array<cv::Vec3d, kMarkerColours> marker_frd;  // this vehicle's layout (body FRD, metres)
 };
 
-// The vehicles and their common marker layout (body FRD, metres, one marker per colour).
+// The vehicles, each with its marker layout (body FRD, metres, one marker per colour); marker_frd is
+// the file's common layout, the one a vehicle without its own wears.
 struct TrackerConfig {
   std::array<cv::Vec3d, kMarkerColours> marker_frd;
   std::vector<VehicleStart> vehicles;
 };
 
 // OpenCV YAML: marker_red, marker_green, marker_blue, marker_yellow ([x, y, z] FRD) and vehicles, a
-// list of {id, ned: [n, e, d], yaw_deg}. Errors name the file and key.
+// list of {id, ned: [n, e, d], yaw_deg}, each optionally with its own marker_red ... marker_yellow.
+// Errors name the file and key.
 TrackerConfig load_tracker_config(const std::string& path);
 
 struct GroundTrackerSettings {
