@@ -109,6 +109,7 @@ class GroundCameraFixes final : public FixSource {
     const auto it = per.find(s_.vehicles[vehicle].system_id);
     v.add("ground_station", ground_vehicle_json(it == per.end() ? GroundVehicleFigures() : it->second));
   }
+  int helper_pid() const override { return loop_->station_pid(); }
   void finish() override { loop_->finish(); }
 
  private:

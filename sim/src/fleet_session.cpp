@@ -181,6 +181,7 @@ class FleetSession {
   double min_separation_m_ = INFINITY, min_separation_t_ = 0.0;
   size_t min_pair_a_ = 0, min_pair_b_ = 0;
   double load_start_ = -1.0, cpu_start_ = 0.0;
+  double station_cpu_s_ = 0.0;  // the ground-camera station's process, last read
   Clock::time_point wall_start_, last_progress_, last_summary_;
 };
 
@@ -542,11 +543,17 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
     }
     firmware_cpu += c->firmware_cpu_s;
   }
+  for (const auto& src : fixes_) {
+    const int pid = src->helper_pid();
+    const double used = pid > 0 ? process_cpu_s(pid) : -1.0;
+    if (used >= 0.0) station_cpu_s_ = used;  // kept once the station has ended
+  }
   const double sim_cpu = self_cpu_s() - cpu_start_;
+  const double total = sim_cpu + firmware_cpu + station_cpu_s_;
   Json cpu;
-  cpu.add("simulator_s", sim_cpu).add("firmware_s", firmware_cpu).add("total_s", sim_cpu + firmware_cpu)
-      .add("per_sim_s", sim > 0 ? (sim_cpu + firmware_cpu) / sim : 0.0)
-      .add("per_vehicle_per_sim_s", sim > 0 ? (sim_cpu + firmware_cpu) / sim / static_cast<double>(crafts_.size()) : 0.0);
+  cpu.add("simulator_s", sim_cpu).add("firmware_s", firmware_cpu).add("station_s", station_cpu_s_).add("total_s", total)
+      .add("per_sim_s", sim > 0 ? total / sim : 0.0)
+      .add("per_vehicle_per_sim_s", sim > 0 ? total / sim / static_cast<double>(crafts_.size()) : 0.0);
   Json machine;
   machine.add("cores", static_cast<long>(sysconf(_SC_NPROCESSORS_ONLN))).add("load_1min_start", load_start_)
       .add("load_1min_end", load_1min());

@@ -104,8 +104,9 @@ std::string fix_json(const VehicleFix& fix, const FrameSetResult& frame) {
     s += "]";
   }
   char tail[160];
-  std::snprintf(tail, sizeof tail, "},\"ambiguous_gates\":%d,\"epipolar_resolutions\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f}",
-                fix.ambiguous_gates, fix.epipolar_resolutions, frame.processing_ms, frame.cpu_ms);
+  std::snprintf(tail, sizeof tail,
+                "},\"ambiguous_gates\":%d,\"epipolar_resolutions\":%d,\"disowned\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f}",
+                fix.ambiguous_gates, fix.epipolar_resolutions, fix.disowned, frame.processing_ms, frame.cpu_ms);
   return s + tail;
 }
 

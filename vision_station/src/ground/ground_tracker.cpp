@@ -377,22 +377,47 @@ void GroundTracker::resolve(const Gate& g, const std::vector<std::vector<MarkerB
 void GroundTracker::estimate_poses(FrameSetResult& result) {
   for (size_t v = 0; v < result.vehicles.size(); ++v) {
     VehicleFix& fix = result.vehicles[v];
-    std::vector<cv::Vec3d> body;
-    std::vector<TriangulatedPoint> points;
-    for (int k = 0; k < kMarkerColours; ++k) {
-      std::vector<PixelObservation> views;
-      for (size_t c = 0; c < rig_.cameras.size(); ++c) {
-        if (fix.pixels[k][c]) views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
+    // A second pass only when the first pose disowned a detection (below).
+    for (int pass = 0; pass < 2; ++pass) {
+      std::vector<cv::Vec3d> body;
+      std::vector<TriangulatedPoint> points;
+      for (int k = 0; k < kMarkerColours; ++k) {
+        std::vector<PixelObservation> views;
+        for (size_t c = 0; c < rig_.cameras.size(); ++c) {
+          if (fix.pixels[k][c]) views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
+        }
+        const auto point = triangulate(views, settings_.pixel_sigma_px);
+        if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
+        body.push_back(config_.vehicles[v].marker_frd[k]);
+        points.push_back(*point);
       }
-      const auto point = triangulate(views, settings_.pixel_sigma_px);
-      if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
-      body.push_back(config_.vehicles[v].marker_frd[k]);
-      points.push_back(*point);
+      fix.markers = static_cast<int>(points.size());
+      fix.pose = fit_rigid_pose(body, points);
+      if (!fix.pose || !disown_stray_detections(v, *fix.pose, fix)) break;
     }
-    fix.markers = static_cast<int>(points.size());
-    fix.pose = fit_rigid_pose(body, points);
     if (fix.pose) last_pose_[v] = fix.pose;
   }
+}
+
+// A detection far from where the vehicle's pose puts its marker went to the wrong track (a same-colour
+// marker of another vehicle taken in a shared gate, then followed): it is removed from the fix and the
+// track restarts at the pose's projection, so a swapped track does not keep the other vehicle's marker.
+// The pose comes from the markers the cameras agree on (views that disagree are not triangulated).
+bool GroundTracker::disown_stray_detections(size_t v, const RigidPose& pose, VehicleFix& fix) {
+  bool any = false;
+  for (int k = 0; k < kMarkerColours; ++k) {
+    const cv::Vec3d marker = pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k];
+    for (size_t c = 0; c < rig_.cameras.size(); ++c) {
+      if (!fix.pixels[k][c]) continue;
+      const cv::Point2d expected = project(rig_.cameras[c], marker);
+      if (cv::norm(*fix.pixels[k][c] - expected) <= settings_.pose_check_px) continue;
+      fix.pixels[k][c].reset();
+      tracks_[c][v][k].reset(expected, 8.0);
+      ++fix.disowned;
+      any = true;
+    }
+  }
+  return any;
 }
 
 }  // namespace quad::vision::ground

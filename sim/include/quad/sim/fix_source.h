@@ -39,6 +39,9 @@ class FixSource {
   // The source's own figures: summary.json at the top and per vehicle (nothing to add by default).
   virtual void add_summary(Json& /*summary*/) const {}
   virtual void add_vehicle_summary(size_t /*vehicle*/, Json& /*vehicle_json*/) const {}
+  // The process the source runs beside the simulator (the vision station), or -1: its CPU time counts
+  // in the run's cost.
+  virtual int helper_pid() const { return -1; }
   // The run has ended: stop any helper process (its last output written).
   virtual void finish() {}
 };

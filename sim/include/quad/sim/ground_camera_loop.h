@@ -98,6 +98,7 @@ class GroundCameraLoop {
 
   const GroundCameraFigures& figures() const { return figures_; }
   const GroundCameraParams& params() const { return p_; }
+  int station_pid() const { return process_ && process_->running() ? static_cast<int>(process_->pid()) : -1; }
   void finish();
 
  private:
