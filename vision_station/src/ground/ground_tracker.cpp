@@ -128,6 +128,7 @@ GroundTracker::GroundTracker(RoomRig rig, TrackerConfig config, GroundTrackerSet
   const size_t n = config_.vehicles.size();
   tracks_.assign(cameras, std::vector<std::array<ImageTrack, kMarkerColours>>(n));
   assigned_.assign(cameras, std::vector<std::array<int, kMarkerColours>>(n));
+  shared_.assign(cameras, std::vector<std::array<bool, kMarkerColours>>(n));
   last_pose_.assign(n, std::nullopt);
   // Seed 003 sec. 3.3.1: each marker's initial position is known.
   for (size_t v = 0; v < n; ++v) {
@@ -231,6 +232,7 @@ void GroundTracker::associate(const std::vector<std::vector<MarkerBlob>>& blobs,
   std::vector<Gate> ambiguous;
   for (size_t c = 0; c < blobs.size(); ++c) {
     for (auto& a : assigned_[c]) a.fill(-1);
+    for (auto& a : shared_[c]) a.fill(false);
     for (int k = 0; k < kMarkerColours; ++k) {
       // Gate graph of this colour: vehicle v and blob b linked when b is inside v's gate.
       std::vector<int> candidates;
@@ -371,31 +373,52 @@ void GroundTracker::resolve(const Gate& g, const std::vector<std::vector<MarkerB
     ++result.vehicles[v].ambiguous_gates;
     if (used_epipolar) ++result.vehicles[v].epipolar_resolutions;
     assigned_[g.camera][v][g.colour] = chosen[t] < 0 ? -1 : g.blobs[chosen[t]];
+    shared_[g.camera][v][g.colour] = true;
   }
+}
+
+// The pose from the triangulated markers; with trusted_only, from detections assigned without a shared
+// gate alone (nullopt when those give fewer than three markers).
+std::optional<RigidPose> GroundTracker::fit_pose(size_t v, VehicleFix& fix, bool trusted_only) const {
+  std::vector<cv::Vec3d> body;
+  std::vector<TriangulatedPoint> points;
+  for (int k = 0; k < kMarkerColours; ++k) {
+    std::vector<PixelObservation> views;
+    for (size_t c = 0; c < rig_.cameras.size(); ++c) {
+      if (fix.pixels[k][c] && !(trusted_only && shared_[c][v][k]))
+        views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
+    }
+    const auto point = triangulate(views, settings_.pixel_sigma_px);
+    if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
+    body.push_back(config_.vehicles[v].marker_frd[k]);
+    points.push_back(*point);
+  }
+  if (!trusted_only) fix.markers = static_cast<int>(points.size());
+  return fit_rigid_pose(body, points);
 }
 
 void GroundTracker::estimate_poses(FrameSetResult& result) {
   for (size_t v = 0; v < result.vehicles.size(); ++v) {
     VehicleFix& fix = result.vehicles[v];
-    // A second pass only when the first pose disowned a detection (below).
-    for (int pass = 0; pass < 2; ++pass) {
-      std::vector<cv::Vec3d> body;
-      std::vector<TriangulatedPoint> points;
-      for (int k = 0; k < kMarkerColours; ++k) {
-        std::vector<PixelObservation> views;
-        for (size_t c = 0; c < rig_.cameras.size(); ++c) {
-          if (fix.pixels[k][c]) views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
-        }
-        const auto point = triangulate(views, settings_.pixel_sigma_px);
-        if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
-        body.push_back(config_.vehicles[v].marker_frd[k]);
-        points.push_back(*point);
-      }
-      fix.markers = static_cast<int>(points.size());
-      fix.pose = fit_rigid_pose(body, points);
-      if (!fix.pose || !disown_stray_detections(v, *fix.pose, fix)) break;
+    // A detection from a shared gate is checked against the pose of the others when they give one (a
+    // blob merged with another vehicle's ball would pull a pose fitted with it towards itself).
+    std::optional<RigidPose> check = fit_pose(v, fix, true);
+    if (!check) check = fit_pose(v, fix, false);
+    if (check) disown_stray_detections(v, *check, fix);
+    fix.pose = fit_pose(v, fix, false);
+    if (fix.pose) {
+      last_pose_[v] = fix.pose;
+      continue;
     }
-    if (fix.pose) last_pose_[v] = fix.pose;
+    // No pose to confirm them: detections from shared gates are not reported, and their tracks count a
+    // miss (restarted from the last pose after reseed_after_missed).
+    for (int k = 0; k < kMarkerColours; ++k)
+      for (size_t c = 0; c < rig_.cameras.size(); ++c)
+        if (fix.pixels[k][c] && shared_[c][v][k]) {
+          fix.pixels[k][c].reset();
+          ++tracks_[c][v][k].missed;
+          ++fix.disowned;
+        }
   }
 }
 

@@ -98,6 +98,7 @@ class GroundTracker {
   void associate(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void resolve(const Gate& gate, const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void estimate_poses(FrameSetResult& result);
+  std::optional<RigidPose> fit_pose(size_t vehicle, VehicleFix& fix, bool trusted_only) const;
   bool disown_stray_detections(size_t vehicle, const RigidPose& pose, VehicleFix& fix);
 
   RoomRig rig_;
@@ -108,6 +109,7 @@ class GroundTracker {
   // tracks_[camera][vehicle][colour] and the detection each got this frame (index into the blobs, or -1)
   std::vector<std::vector<std::array<ImageTrack, kMarkerColours>>> tracks_;
   std::vector<std::vector<std::array<int, kMarkerColours>>> assigned_;
+  std::vector<std::vector<std::array<bool, kMarkerColours>>> shared_;  // [camera][vehicle][colour]: from a shared gate
   std::vector<std::optional<RigidPose>> last_pose_;
   std::optional<int64_t> last_time_us_;
   AssociationStats totals_;
