@@ -302,6 +302,7 @@ void GroundTracker::associate(const std::vector<std::vector<MarkerBlob>>& blobs,
           ++track.missed;
           continue;
         }
+        if (track.missed > 0) shared_[c][v][k] = true;  // re-acquired after a loss: as unconfirmed as a shared gate
         track.update(blobs[c][b].centre, settings_.noise);
         result.vehicles[v].pixels[k][c] = blobs[c][b].centre;
         ++result.stats.assigned;
@@ -410,8 +411,8 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
       last_pose_[v] = fix.pose;
       continue;
     }
-    // No pose to confirm them: detections from shared gates are not reported, and their tracks count a
-    // miss (restarted from the last pose after reseed_after_missed).
+    // No pose to confirm them: detections from shared gates or re-acquired after a loss are not reported,
+    // and their tracks count a miss (restarted from the last pose after reseed_after_missed).
     for (int k = 0; k < kMarkerColours; ++k)
       for (size_t c = 0; c < rig_.cameras.size(); ++c)
         if (fix.pixels[k][c] && shared_[c][v][k]) {

@@ -109,7 +109,7 @@ class GroundTracker {
   // tracks_[camera][vehicle][colour] and the detection each got this frame (index into the blobs, or -1)
   std::vector<std::vector<std::array<ImageTrack, kMarkerColours>>> tracks_;
   std::vector<std::vector<std::array<int, kMarkerColours>>> assigned_;
-  std::vector<std::vector<std::array<bool, kMarkerColours>>> shared_;  // [camera][vehicle][colour]: from a shared gate
+  std::vector<std::vector<std::array<bool, kMarkerColours>>> shared_;  // [camera][vehicle][colour]: from a shared gate or re-acquired
   std::vector<std::optional<RigidPose>> last_pose_;
   std::optional<int64_t> last_time_us_;
   AssociationStats totals_;
