@@ -437,6 +437,7 @@ bool GroundTracker::disown_stray_detections(size_t v, const RigidPose& pose, Veh
       if (cv::norm(*fix.pixels[k][c] - expected) <= settings_.pose_check_px) continue;
       fix.pixels[k][c].reset();
       tracks_[c][v][k].reset(expected, 8.0);
+      tracks_[c][v][k].missed = 1;  // its next detection is a re-acquisition, to be confirmed
       ++fix.disowned;
       any = true;
     }

@@ -51,7 +51,7 @@ struct GroundTrackerSettings {
   bool use_roi = true;                // seed 003 sec. 3.2: search around the tracks while all are held
   int roi_min_half_px = 32;
   int reseed_after_missed = 2;        // a track lost this long restarts from the vehicle's last pose
-  double pose_check_px = 2.0;         // a detection this far from its marker under the pose is disowned
+  double pose_check_px = 1.5;         // a detection this far from its marker under the pose is disowned
 };
 
 struct AssociationStats {
