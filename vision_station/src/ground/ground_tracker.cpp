@@ -399,13 +399,18 @@ std::optional<RigidPose> GroundTracker::fit_pose(size_t v, VehicleFix& fix, bool
 }
 
 void GroundTracker::estimate_poses(FrameSetResult& result) {
-  for (size_t v = 0; v < result.vehicles.size(); ++v) {
+  // Each vehicle's pose to check its detections against: from the detections not taken in a shared gate
+  // (nor re-acquired) when those give one, since a blob merged with another vehicle's ball pulls a pose
+  // fitted with it towards itself; else from all.
+  const size_t n = result.vehicles.size();
+  std::vector<std::optional<RigidPose>> check(n);
+  for (size_t v = 0; v < n; ++v) {
+    check[v] = fit_pose(v, result.vehicles[v], true);
+    if (!check[v]) check[v] = fit_pose(v, result.vehicles[v], false);
+  }
+  for (size_t v = 0; v < n; ++v) {
     VehicleFix& fix = result.vehicles[v];
-    // A detection from a shared gate is checked against the pose of the others when they give one (a
-    // blob merged with another vehicle's ball would pull a pose fitted with it towards itself).
-    std::optional<RigidPose> check = fit_pose(v, fix, true);
-    if (!check) check = fit_pose(v, fix, false);
-    if (check) disown_stray_detections(v, *check, fix);
+    if (check[v]) disown_stray_detections(v, check, fix);
     fix.pose = fit_pose(v, fix, false);
     if (fix.pose) {
       last_pose_[v] = fix.pose;
@@ -423,18 +428,29 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
   }
 }
 
-// A detection far from where the vehicle's pose puts its marker went to the wrong track (a same-colour
-// marker of another vehicle taken in a shared gate, then followed): it is removed from the fix and the
-// track restarts at the pose's projection, so a swapped track does not keep the other vehicle's marker.
-// The pose comes from the markers the cameras agree on (views that disagree are not triangulated).
-bool GroundTracker::disown_stray_detections(size_t v, const RigidPose& pose, VehicleFix& fix) {
+// A detection that is not clearly nearer its own marker under the vehicle's pose than another vehicle's
+// marker of that colour (under that one's pose), by pose_check_px, went to the wrong track or is shared:
+// a same-colour ball taken in a shared gate, then followed, or a blob merged with it. It is removed from
+// the fix and the track restarts at the expected pixel, its next detection a re-acquisition. Off its
+// marker alone is not enough: frames of free-running cameras put a moving vehicle's markers a few pixels
+// off its pose.
+bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix) {
   bool any = false;
   for (int k = 0; k < kMarkerColours; ++k) {
+    const RigidPose& pose = *poses[v];
     const cv::Vec3d marker = pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k];
     for (size_t c = 0; c < rig_.cameras.size(); ++c) {
       if (!fix.pixels[k][c]) continue;
       const cv::Point2d expected = project(rig_.cameras[c], marker);
-      if (cv::norm(*fix.pixels[k][c] - expected) <= settings_.pose_check_px) continue;
+      const double own = cv::norm(*fix.pixels[k][c] - expected);
+      bool nearer_other = false;
+      for (size_t o = 0; o < poses.size() && !nearer_other; ++o) {
+        const std::optional<RigidPose>& other = poses[o] ? poses[o] : last_pose_[o];
+        if (o == v || !other) continue;
+        const cv::Vec3d theirs = other->position_ned + other->R_IB * config_.vehicles[o].marker_frd[k];
+        nearer_other = cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs)) < own + settings_.pose_check_px;
+      }
+      if (!nearer_other) continue;
       fix.pixels[k][c].reset();
       tracks_[c][v][k].reset(expected, 8.0);
       tracks_[c][v][k].missed = 1;  // its next detection is a re-acquisition, to be confirmed

@@ -51,7 +51,7 @@ struct GroundTrackerSettings {
   bool use_roi = true;                // seed 003 sec. 3.2: search around the tracks while all are held
   int roi_min_half_px = 32;
   int reseed_after_missed = 2;        // a track lost this long restarts from the vehicle's last pose
-  double pose_check_px = 1.5;         // a detection this far from its marker under the pose is disowned
+  double pose_check_px = 3.0;         // a detection not this much nearer its marker than another vehicle's is disowned
 };
 
 struct AssociationStats {
@@ -74,7 +74,7 @@ struct VehicleFix {
   std::array<std::vector<std::optional<cv::Point2d>>, kMarkerColours> pixels;
   int ambiguous_gates = 0;
   int epipolar_resolutions = 0;
-  int disowned = 0;  // detections dropped as inconsistent with the pose (track restarted)
+  int disowned = 0;  // detections dropped as another vehicle's or unconfirmed (track restarted)
 };
 
 struct FrameSetResult {
@@ -99,7 +99,7 @@ class GroundTracker {
   void resolve(const Gate& gate, const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void estimate_poses(FrameSetResult& result);
   std::optional<RigidPose> fit_pose(size_t vehicle, VehicleFix& fix, bool trusted_only) const;
-  bool disown_stray_detections(size_t vehicle, const RigidPose& pose, VehicleFix& fix);
+  bool disown_stray_detections(size_t vehicle, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix);
 
   RoomRig rig_;
   TrackerConfig config_;
