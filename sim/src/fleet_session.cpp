@@ -181,6 +181,7 @@ class FleetSession {
   double min_separation_m_ = INFINITY, min_separation_t_ = 0.0;
   size_t min_pair_a_ = 0, min_pair_b_ = 0;
   double load_start_ = -1.0, cpu_start_ = 0.0;
+  double station_cpu_s_ = 0.0;  // the ground-camera station's process, last read
   Clock::time_point wall_start_, last_progress_, last_summary_;
 };
 
@@ -197,7 +198,16 @@ FleetSession::FleetSession(const Scenario& s, const SessionOptions& o) : s_(s), 
   p.drag_quadratic_n_per_m2_s2 = s.drag_quadratic;
   world_ = std::make_unique<FleetWorld>(p, s.vehicles);
   world_->start(s.vehicles, 0.5);
-  fixes_ = make_fix_sources(s);
+  FixSourceContext context;
+  context.out_dir = o.out_dir;
+  context.station_argv = o.station_argv;
+  context.room_calibration = o.room_calibration;
+  context.calibration_cache = o.station_calibration_cache;
+  context.progress = [this](const std::string& line) {
+    if (o_.progress) std::fprintf(stderr, "%s\n", line.c_str());
+  };
+  for (size_t i = 0; i < s.vehicles.size(); ++i) context.start.push_back(world_->truth(i));
+  fixes_ = make_fix_sources(s, context);
   for (size_t i = 0; i < s.vehicles.size(); ++i) {
     auto c = std::make_unique<Craft>(s, s.vehicles[i], i, o.out_dir, world_->rest_down_m());
     make_directories(c->dir);
@@ -440,6 +450,7 @@ std::string FleetSession::exchange(double t, double period, double byte_s) {
     c->radio_up.deliver_until(t + period, [&](const uint8_t* d, size_t n) {
       c->uart2.write_all(d, n);
       c->radio_written = true;
+      for (auto& src : fixes_) src->delivered(c->index, t + period, d, n);
     });
   }
   return "";
@@ -532,11 +543,17 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
     }
     firmware_cpu += c->firmware_cpu_s;
   }
+  for (const auto& src : fixes_) {
+    const int pid = src->helper_pid();
+    const double used = pid > 0 ? process_cpu_s(pid) : -1.0;
+    if (used >= 0.0) station_cpu_s_ = used;  // kept once the station has ended
+  }
   const double sim_cpu = self_cpu_s() - cpu_start_;
+  const double total = sim_cpu + firmware_cpu + station_cpu_s_;
   Json cpu;
-  cpu.add("simulator_s", sim_cpu).add("firmware_s", firmware_cpu).add("total_s", sim_cpu + firmware_cpu)
-      .add("per_sim_s", sim > 0 ? (sim_cpu + firmware_cpu) / sim : 0.0)
-      .add("per_vehicle_per_sim_s", sim > 0 ? (sim_cpu + firmware_cpu) / sim / static_cast<double>(crafts_.size()) : 0.0);
+  cpu.add("simulator_s", sim_cpu).add("firmware_s", firmware_cpu).add("station_s", station_cpu_s_).add("total_s", total)
+      .add("per_sim_s", sim > 0 ? total / sim : 0.0)
+      .add("per_vehicle_per_sim_s", sim > 0 ? total / sim / static_cast<double>(crafts_.size()) : 0.0);
   Json machine;
   machine.add("cores", static_cast<long>(sysconf(_SC_NPROCESSORS_ONLN))).add("load_1min_start", load_start_)
       .add("load_1min_end", load_1min());
@@ -574,6 +591,7 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
           .add("gcs_udp_datagrams_received", static_cast<long>(c->udp->stats().datagrams_received)).add("ground_ids", ids);
     }
     v.add("firmware_cpu_s", c->firmware_cpu_s);
+    for (const auto& src : fixes_) src->add_vehicle_summary(c->index, v);
     crashed = crashed || c->metrics.crashed();
     vehicles.add(c->spec.name, v);
   }
@@ -586,7 +604,9 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
   j.add("real_time_factor", wall > 0 ? sim / wall : 0.0).add("lockstep_exchanges", static_cast<long>(exchanges_));
   j.add("cpu", cpu).add("machine", machine);
   if (crafts_.size() > 1) j.add("separation", sep);
-  j.add("collisions", collisions).add("crashed", crashed).add("vehicles", vehicles);
+  j.add("collisions", collisions).add("crashed", crashed);
+  for (const auto& src : fixes_) src->add_summary(j);
+  j.add("vehicles", vehicles);
   write_file_atomically(o_.out_dir + "/summary.json", j.str() + "\n");
 }
 
@@ -661,6 +681,8 @@ SessionResult FleetSession::run() {
   progress(world_->time(), true);
   write_summary(r.complete, reason);  // reads the firmware processes' CPU time while they still run
   if (!reason.empty()) std::fprintf(events_, "%9.3f cut short: %s\n", world_->time(), reason.c_str());
+  for (auto& src : fixes_) src->finish();
+  write_summary(r.complete, reason);  // the station's last answers counted
   for (auto& c : crafts_) c->firmware.reset();
   return r;
 }

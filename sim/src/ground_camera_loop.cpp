@@ -6,6 +6,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -61,6 +62,32 @@ double yaw_of(const Eigen::Quaterniond& q) {
 
 }  // namespace
 
+Json ground_station_json(const GroundCameraFigures& f, const GroundCameraParams& p) {
+  Json j;
+  j.add("trigger", p.triggered ? "together" : "free").add("cameras", static_cast<long>(p.count));
+  j.add("sets_captured", static_cast<long>(f.sets_captured)).add("sets_lost", static_cast<long>(f.sets_lost));
+  j.add("sets_answered", static_cast<long>(f.sets_answered)).add("fixes", static_cast<long>(f.fixes));
+  j.add("capture_skew_us", percentiles_json(f.capture_skew_us));
+  j.add("fix_error_m", percentiles_json(f.fix_error_m));
+  j.add("fix_latency_s", percentiles_json(f.fix_latency_s));
+  j.add("processing_us", percentiles_json(f.processing_us)).add("cpu_us", percentiles_json(f.cpu_us));
+  j.add("configured_latency_s", p.latency_s).add("late_answers", static_cast<long>(f.late_answers));
+  j.add("pixels_checked", static_cast<long>(f.pixels_checked)).add("association_errors", static_cast<long>(f.association_errors));
+  j.add("ambiguous_sets", static_cast<long>(f.ambiguous_sets)).add("epipolar_sets", static_cast<long>(f.epipolar_sets));
+  j.add("ambiguous_gates", static_cast<long>(f.ambiguous_gates)).add("epipolar_resolutions", static_cast<long>(f.epipolar_resolutions));
+  return j;
+}
+
+Json ground_vehicle_json(const GroundVehicleFigures& f) {
+  Json j;
+  j.add("fixes", static_cast<long>(f.fixes)).add("fix_error_m", percentiles_json(f.fix_error_m));
+  j.add("fix_latency_s", percentiles_json(f.fix_latency_s));
+  j.add("pixels_checked", static_cast<long>(f.pixels_checked)).add("association_errors", static_cast<long>(f.association_errors));
+  j.add("ambiguous_sets", static_cast<long>(f.ambiguous_sets)).add("ambiguous_gates", static_cast<long>(f.ambiguous_gates));
+  j.add("epipolar_resolutions", static_cast<long>(f.epipolar_resolutions));
+  return j;
+}
+
 void write_ground_vehicles_file(const std::string& path, const std::vector<MarkedVehicle>& start) {
   cv::FileStorage fs(path, cv::FileStorage::WRITE);
   if (!fs.isOpened()) throw StationError(path + ": cannot write the ground station's vehicles file");
@@ -70,9 +97,15 @@ void write_ground_vehicles_file(const std::string& path, const std::vector<Marke
     fs << names[k] << "[:" << m.x() << m.y() << m.z() << "]";
   }
   fs << "vehicles" << "[";
-  for (const MarkedVehicle& v : start)
+  for (const MarkedVehicle& v : start) {
     fs << "{" << "id" << v.id << "ned" << "[:" << v.p_ned.x() << v.p_ned.y() << v.p_ned.z() << "]" << "yaw_deg"
-       << yaw_of(v.q_ib) * 180.0 / M_PI << "}";
+       << yaw_of(v.q_ib) * 180.0 / M_PI;
+    for (int k = 0; k < kMarkerColourCount; ++k) {
+      const Eigen::Vector3d& m = v.markers_frd[static_cast<size_t>(k)];
+      fs << names[k] << "[:" << m.x() << m.y() << m.z() << "]";
+    }
+    fs << "}";
+  }
   fs << "]";
 }
 
@@ -265,6 +298,19 @@ void GroundCameraLoop::collect(const Pending& set, const RadioSink& to_radio) {
   }
   // Release this set's fixes only: one frame for each vehicle the set found.
   const double release_t = set.complete_t + p_.latency_s;
+  bool ambiguous = false, epipolar = false;
+  for (const wire::VehicleReport& r : reports) {
+    GroundVehicleFigures& mine = figures_.per_vehicle[r.id];
+    mine.ambiguous_gates += static_cast<uint64_t>(std::max(0, r.ambiguous_gates));
+    mine.epipolar_resolutions += static_cast<uint64_t>(std::max(0, r.epipolar_resolutions));
+    if (r.ambiguous_gates > 0) ++mine.ambiguous_sets;
+    figures_.ambiguous_gates += static_cast<uint64_t>(std::max(0, r.ambiguous_gates));
+    figures_.epipolar_resolutions += static_cast<uint64_t>(std::max(0, r.epipolar_resolutions));
+    ambiguous = ambiguous || r.ambiguous_gates > 0;
+    epipolar = epipolar || r.epipolar_resolutions > 0;
+  }
+  figures_.ambiguous_sets += ambiguous ? 1 : 0;
+  figures_.epipolar_sets += epipolar ? 1 : 0;
   for (size_t i = 0; i < reports.size(); ++i) {
     const wire::VehicleReport& r = reports[i];
     const auto it = links_.find(r.id);
@@ -273,10 +319,13 @@ void GroundCameraLoop::collect(const Pending& set, const RadioSink& to_radio) {
     it->second.frames.pop_front();
     ++figures_.fixes;
     ++figures_.fixes_per_vehicle[r.id];
+    ++figures_.per_vehicle[r.id].fixes;
     const auto v = std::find(ids_.begin(), ids_.end(), r.id);
     if (v != ids_.end()) {
       const Eigen::Vector3d& truth = set.truth_ned[static_cast<size_t>(v - ids_.begin())];
-      figures_.fix_error_m.push_back((Eigen::Vector3d(r.ned[0], r.ned[1], r.ned[2]) - truth).norm());
+      const double error = (Eigen::Vector3d(r.ned[0], r.ned[1], r.ned[2]) - truth).norm();
+      figures_.fix_error_m.push_back(error);
+      figures_.per_vehicle[r.id].fix_error_m.push_back(error);
     }
     to_radio(r.id, release_t, bytes.data(), bytes.size());
   }
@@ -296,6 +345,8 @@ void GroundCameraLoop::score(const Pending& set, const std::vector<wire::Vehicle
         const float u = r.pixels[c][camera][0], w = r.pixels[c][camera][1];
         if (std::isnan(u) || std::isnan(w) || own >= views.size()) continue;
         ++figures_.pixels_checked;
+        GroundVehicleFigures& mine_figures = figures_.per_vehicle[r.id];
+        ++mine_figures.pixels_checked;
         const Eigen::Vector2d px(u, w);
         const MarkerView& mine = views[own][static_cast<size_t>(c)];
         const double d_own = (px - mine.pixel).norm();
@@ -304,7 +355,10 @@ void GroundCameraLoop::score(const Pending& set, const std::vector<wire::Vehicle
           const MarkerView& other = views[o][static_cast<size_t>(c)];
           if (o != own && other.visible >= kVisibleEnough && (px - other.pixel).norm() < d_own) wrong = true;
         }
-        if (wrong) ++figures_.association_errors;
+        if (wrong) {
+          ++figures_.association_errors;
+          ++mine_figures.association_errors;
+        }
       }
     }
   }
@@ -315,8 +369,10 @@ void GroundCameraLoop::delivered(int vehicle_id, double t, const uint8_t* data, 
   if (it == links_.end()) return;
   it->second.delivered.feed(data, length, [&](const mav::Frame& f) {
     mav::VisionPositionEstimate m;
-    if (f.message_id == mav::VisionPositionEstimate::kId && mav::decode(f, m))
+    if (f.message_id == mav::VisionPositionEstimate::kId && mav::decode(f, m)) {
       figures_.fix_latency_s.push_back(t - static_cast<double>(m.usec) * 1e-6);
+      figures_.per_vehicle[vehicle_id].fix_latency_s.push_back(t - static_cast<double>(m.usec) * 1e-6);
+    }
   });
 }
 

@@ -743,15 +743,6 @@ void Session::score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estim
   }
 }
 
-// Median, 95th percentile and maximum of a sample (null-free: an empty sample gives zeros).
-Json percentiles_json(std::vector<double> v) {
-  Json j;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v.empty() ? 0.0 : v[static_cast<size_t>(std::lround(q * (v.size() - 1)))]; };
-  j.add("median", at(0.5)).add("p95", at(0.95)).add("max", at(1.0)).add("count", static_cast<long>(v.size()));
-  return j;
-}
-
 Json station_json(const StationFigures& f, const Scenario& s) {
   Json j;
   j.add("pairs_captured", static_cast<long>(f.pairs_captured)).add("pairs_lost", static_cast<long>(f.pairs_lost));
@@ -761,20 +752,6 @@ Json station_json(const StationFigures& f, const Scenario& s) {
   j.add("fix_error_m", percentiles_json(f.fix_error_m));
   j.add("processing_us", percentiles_json(f.processing_us));
   j.add("configured_latency_s", s.vision.latency_s).add("late_answers", static_cast<long>(f.late_answers));
-  return j;
-}
-
-Json ground_station_json(const GroundCameraFigures& f, const GroundCameraParams& p) {
-  Json j;
-  j.add("trigger", p.triggered ? "together" : "free").add("cameras", static_cast<long>(p.count));
-  j.add("sets_captured", static_cast<long>(f.sets_captured)).add("sets_lost", static_cast<long>(f.sets_lost));
-  j.add("sets_answered", static_cast<long>(f.sets_answered)).add("fixes", static_cast<long>(f.fixes));
-  j.add("capture_skew_us", percentiles_json(f.capture_skew_us));
-  j.add("fix_error_m", percentiles_json(f.fix_error_m));
-  j.add("fix_latency_s", percentiles_json(f.fix_latency_s));
-  j.add("processing_us", percentiles_json(f.processing_us)).add("cpu_us", percentiles_json(f.cpu_us));
-  j.add("configured_latency_s", p.latency_s).add("late_answers", static_cast<long>(f.late_answers));
-  j.add("pixels_checked", static_cast<long>(f.pixels_checked)).add("association_errors", static_cast<long>(f.association_errors));
   return j;
 }
 

@@ -1,5 +1,6 @@
 #include "quad/sim/run_output.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -32,6 +33,14 @@ std::string quote(const std::string& s) {
 }
 
 }  // namespace
+
+Json percentiles_json(std::vector<double> v) {
+  Json j;
+  std::sort(v.begin(), v.end());
+  auto at = [&](double q) { return v.empty() ? 0.0 : v[static_cast<size_t>(std::lround(q * (v.size() - 1)))]; };
+  j.add("median", at(0.5)).add("p95", at(0.95)).add("max", at(1.0)).add("count", static_cast<long>(v.size()));
+  return j;
+}
 
 Json& Json::add(const std::string& key, double value) {
   if (!std::isfinite(value)) return add_null(key);

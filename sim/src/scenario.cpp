@@ -638,6 +638,18 @@ FixSourceKind parse_fix_source(const Field& f) {
   f.fail("is not a fix source (expected one of: synthetic, onboard_star, ground_cameras)");
 }
 
+// The room cameras' station tracks one ball of each colour per vehicle, all of one size.
+void check_ground_markers(const Field& v, const std::vector<Marker>& markers) {
+  const Field where = v["markers"].defined() ? v["markers"] : v;
+  for (const char* colour : {"red", "green", "blue", "yellow"}) {
+    const auto n = std::count_if(markers.begin(), markers.end(), [&](const Marker& m) { return m.colour == colour; });
+    if (n != 1)
+      where.fail(std::string("must hold exactly one ") + colour + " marker for the ground cameras (seed 003: one ball of each colour)");
+  }
+  for (const Marker& m : markers)
+    if (m.radius_m != markers.front().radius_m) where.fail("must give the four markers one radius for the ground cameras");
+}
+
 // One item of `vehicles:`; `shared` holds the scenario's commands and firmware parameters.
 FleetVehicle parse_fleet_vehicle(const Field& v, const YAML::Node& node, const Scenario& shared, size_t index) {
   v.expect_map({"name", "system_id", "initial", "fix_source", "markers", "firmware_params", "commands"});
@@ -654,8 +666,10 @@ FleetVehicle parse_fleet_vehicle(const Field& v, const YAML::Node& node, const S
     f["height_m"].get(out.initial_height_m, 0.0, 1000.0);
     if (f["yaw_deg"].defined()) out.initial_yaw_rad = f["yaw_deg"].number(-360.0, 360.0) * kDeg;
   }
+  if (shared.ground_cameras.enabled) out.fix_source = FixSourceKind::kGroundCameras;  // the fleet's default
   if (v["fix_source"].defined()) out.fix_source = parse_fix_source(v["fix_source"]);
   if (v["markers"].defined()) out.markers = parse_markers(v["markers"]);
+  if (shared.ground_cameras.enabled || out.fix_source == FixSourceKind::kGroundCameras) check_ground_markers(v, out.markers);
   out.firmware_params = shared.firmware_params;
   if (const Field f = v["firmware_params"]; f.defined()) {
     if (!node["firmware_params"].IsMap()) f.fail("must be a mapping of parameter names to values");
@@ -689,6 +703,8 @@ void parse_fleet(const YAML::Node& root, const Field& top, Scenario& s) {
   for (const char* k : {"initial", "rc", "faults"})
     if (top[k].defined()) top[k].fail("is per vehicle in a scenario with vehicles: (not supported at the top)");
   if (s.camera.enabled) top["camera"]["enabled"].fail("is a fix source in a scenario with vehicles: (vehicles[i].fix_source)");
+  if (top["ground_cameras"].defined() && top["ground_cameras"]["markers_frd_m"].defined())
+    top["ground_cameras"]["markers_frd_m"].fail("is per vehicle in a scenario with vehicles: (vehicles[i].markers)");
   for (size_t i = 0; i < list.size(); ++i) {
     FleetVehicle v = parse_fleet_vehicle(list.at(i), root["vehicles"][i], s, i);
     for (const FleetVehicle& other : s.vehicles) {

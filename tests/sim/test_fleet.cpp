@@ -71,14 +71,41 @@ TEST(FleetScenario, RefusesWhatAFleetDoesNotShare) {
   EXPECT_NE(error_of(std::string(kTwo) + "camera: {enabled: true}\n").find("fix source"), std::string::npos);
 }
 
+// With the room cameras on, every vehicle's fix source defaults to them (one may keep the simulated fix);
+// each needs one ball of each colour; the rig's own layout key is per vehicle in a fleet.
+TEST(FleetScenario, GroundCamerasKeys) {
+  const std::string on = std::string(kTwo) + "ground_cameras: {enabled: true}\n";
+  const Scenario s = parse_scenario(on, "f.yaml", ".");
+  EXPECT_EQ(s.vehicles[0].fix_source, FixSourceKind::kGroundCameras);
+  EXPECT_EQ(s.vehicles[1].fix_source, FixSourceKind::kGroundCameras);
+  const Scenario mixed = parse_scenario(std::regex_replace(on, std::regex("name: a,"), "name: a, fix_source: synthetic,"), "f.yaml", ".");
+  EXPECT_EQ(mixed.vehicles[0].fix_source, FixSourceKind::kSynthetic);
+  const std::string two_reds = std::regex_replace(
+      on, std::regex("name: a,"),
+      "name: a, markers: [{colour: red, position_frd_m: [0.2, 0, 0]}, {colour: red, position_frd_m: [0, 0.2, 0]}, "
+      "{colour: blue, position_frd_m: [-0.2, 0, 0]}, {colour: yellow, position_frd_m: [0, 0, -0.1]}],");
+  EXPECT_NE(error_of(two_reds).find("exactly one red marker"), std::string::npos) << error_of(two_reds);
+  EXPECT_NE(error_of(std::string(kTwo) + "ground_cameras: {enabled: true, markers_frd_m: {red: [0.2, 0, 0]}}\n")
+                .find("'ground_cameras.markers_frd_m' is per vehicle"),
+            std::string::npos);
+}
+
 TEST(FleetScenario, UnavailableFixSourcesAreRefusedByName) {
   Scenario s = parse_scenario(kTwo, "f.yaml", ".");
+  s.vehicles[1].fix_source = FixSourceKind::kOnboardStar;
+  try {
+    make_fix_sources(s);
+    FAIL() << "onboard_star accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("vehicle 'b': fix_source onboard_star"), std::string::npos) << e.what();
+  }
+  // The ground cameras need the station's command (quad_sim's --station).
   s.vehicles[1].fix_source = FixSourceKind::kGroundCameras;
   try {
     make_fix_sources(s);
-    FAIL() << "ground_cameras accepted";
+    FAIL() << "ground_cameras accepted without a station";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("vehicle 'b': fix_source ground_cameras"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ground_cameras needs the vision station"), std::string::npos) << e.what();
   }
 }
 

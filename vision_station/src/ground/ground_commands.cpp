@@ -104,8 +104,9 @@ std::string fix_json(const VehicleFix& fix, const FrameSetResult& frame) {
     s += "]";
   }
   char tail[160];
-  std::snprintf(tail, sizeof tail, "},\"ambiguous_gates\":%d,\"epipolar_resolutions\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f}",
-                fix.ambiguous_gates, fix.epipolar_resolutions, frame.processing_ms, frame.cpu_ms);
+  std::snprintf(tail, sizeof tail,
+                "},\"ambiguous_gates\":%d,\"epipolar_resolutions\":%d,\"disowned\":%d,\"ms\":%.3f,\"cpu_ms\":%.3f}",
+                fix.ambiguous_gates, fix.epipolar_resolutions, fix.disowned, frame.processing_ms, frame.cpu_ms);
   return s + tail;
 }
 
@@ -116,6 +117,8 @@ wire::VehicleReport vehicle_report(const VehicleFix& fix) {
   wire::VehicleReport r;
   r.id = fix.id;
   r.found = fix.pose ? 1u : 0u;
+  r.ambiguous_gates = fix.ambiguous_gates;
+  r.epipolar_resolutions = fix.epipolar_resolutions;
   if (fix.pose)
     for (int i = 0; i < 3; ++i) r.ned[i] = fix.pose->position_ned[i];
   for (int k = 0; k < kMarkerColours; ++k)

@@ -52,9 +52,10 @@ bool GroundSimSource::read(GroundFrameSet& set) {
 }
 
 void GroundSimSource::answer(const wire::SetAnswer& answer, const std::vector<wire::VehicleReport>& reports) {
-  std::vector<uint8_t> bytes(sizeof answer + reports.size() * sizeof(wire::VehicleReport));
-  std::memcpy(bytes.data(), &answer, sizeof answer);
-  if (!reports.empty()) std::memcpy(bytes.data() + sizeof answer, reports.data(), reports.size() * sizeof(wire::VehicleReport));
+  const auto* head = reinterpret_cast<const uint8_t*>(&answer);
+  const auto* body = reinterpret_cast<const uint8_t*>(reports.data());
+  std::vector<uint8_t> bytes(head, head + sizeof answer);
+  bytes.insert(bytes.end(), body, body + reports.size() * sizeof(wire::VehicleReport));
   const uint8_t* p = bytes.data();
   size_t length = bytes.size();
   while (length > 0) {

@@ -97,6 +97,10 @@ TrackerConfig load_tracker_config(const std::string& path) {
     start.id = static_cast<int>(v["id"]);
     start.ned = read_vec3(v["ned"], path, key + ".ned");
     start.yaw_rad = static_cast<double>(v["yaw_deg"]) * CV_PI / 180.0;
+    for (int k = 0; k < kMarkerColours; ++k) {
+      const std::string marker = std::string("marker_") + colour_name(static_cast<MarkerColour>(k));
+      start.marker_frd[k] = v[marker].empty() ? config.marker_frd[k] : read_vec3(v[marker], path, key + "." + marker);
+    }
     config.vehicles.push_back(start);
   }
   return config;
@@ -124,13 +128,14 @@ GroundTracker::GroundTracker(RoomRig rig, TrackerConfig config, GroundTrackerSet
   const size_t n = config_.vehicles.size();
   tracks_.assign(cameras, std::vector<std::array<ImageTrack, kMarkerColours>>(n));
   assigned_.assign(cameras, std::vector<std::array<int, kMarkerColours>>(n));
+  shared_.assign(cameras, std::vector<std::array<bool, kMarkerColours>>(n));
   last_pose_.assign(n, std::nullopt);
   // Seed 003 sec. 3.3.1: each marker's initial position is known.
   for (size_t v = 0; v < n; ++v) {
     const VehicleStart& start = config_.vehicles[v];
     for (size_t c = 0; c < cameras; ++c) {
       for (int k = 0; k < kMarkerColours; ++k) {
-        const cv::Vec3d p = start.ned + yaw_rotation(start.yaw_rad) * config_.marker_frd[k];
+        const cv::Vec3d p = start.ned + yaw_rotation(start.yaw_rad) * start.marker_frd[k];
         tracks_[c][v][k].reset(project(rig_.cameras[c], p), 10.0);
       }
     }
@@ -147,7 +152,7 @@ void GroundTracker::predict_tracks(double dt) {
         if (track.missed >= settings_.reseed_after_missed && last_pose_[v]) {
           const int missed = track.missed;
           const RigidPose& pose = *last_pose_[v];
-          track.reset(project(rig_.cameras[c], pose.position_ned + pose.R_IB * config_.marker_frd[k]), 8.0);
+          track.reset(project(rig_.cameras[c], pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k]), 8.0);
           track.missed = missed;
         }
         track.predict(dt, settings_.noise);
@@ -227,6 +232,7 @@ void GroundTracker::associate(const std::vector<std::vector<MarkerBlob>>& blobs,
   std::vector<Gate> ambiguous;
   for (size_t c = 0; c < blobs.size(); ++c) {
     for (auto& a : assigned_[c]) a.fill(-1);
+    for (auto& a : shared_[c]) a.fill(false);
     for (int k = 0; k < kMarkerColours; ++k) {
       // Gate graph of this colour: vehicle v and blob b linked when b is inside v's gate.
       std::vector<int> candidates;
@@ -296,6 +302,7 @@ void GroundTracker::associate(const std::vector<std::vector<MarkerBlob>>& blobs,
           ++track.missed;
           continue;
         }
+        if (track.missed > 0) shared_[c][v][k] = true;  // re-acquired after a loss: as unconfirmed as a shared gate
         track.update(blobs[c][b].centre, settings_.noise);
         result.vehicles[v].pixels[k][c] = blobs[c][b].centre;
         ++result.stats.assigned;
@@ -367,28 +374,91 @@ void GroundTracker::resolve(const Gate& g, const std::vector<std::vector<MarkerB
     ++result.vehicles[v].ambiguous_gates;
     if (used_epipolar) ++result.vehicles[v].epipolar_resolutions;
     assigned_[g.camera][v][g.colour] = chosen[t] < 0 ? -1 : g.blobs[chosen[t]];
+    shared_[g.camera][v][g.colour] = true;
   }
 }
 
-void GroundTracker::estimate_poses(FrameSetResult& result) {
-  for (size_t v = 0; v < result.vehicles.size(); ++v) {
-    VehicleFix& fix = result.vehicles[v];
-    std::vector<cv::Vec3d> body;
-    std::vector<TriangulatedPoint> points;
-    for (int k = 0; k < kMarkerColours; ++k) {
-      std::vector<PixelObservation> views;
-      for (size_t c = 0; c < rig_.cameras.size(); ++c) {
-        if (fix.pixels[k][c]) views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
-      }
-      const auto point = triangulate(views, settings_.pixel_sigma_px);
-      if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
-      body.push_back(config_.marker_frd[k]);
-      points.push_back(*point);
+// The pose from the triangulated markers; with trusted_only, from detections assigned without a shared
+// gate alone (nullopt when those give fewer than three markers).
+std::optional<RigidPose> GroundTracker::fit_pose(size_t v, VehicleFix& fix, bool trusted_only) const {
+  std::vector<cv::Vec3d> body;
+  std::vector<TriangulatedPoint> points;
+  for (int k = 0; k < kMarkerColours; ++k) {
+    std::vector<PixelObservation> views;
+    for (size_t c = 0; c < rig_.cameras.size(); ++c) {
+      if (fix.pixels[k][c] && !(trusted_only && shared_[c][v][k]))
+        views.push_back({projection_[c], undistort_one(rig_.cameras[c], *fix.pixels[k][c])});
     }
-    fix.markers = static_cast<int>(points.size());
-    fix.pose = fit_rigid_pose(body, points);
-    if (fix.pose) last_pose_[v] = fix.pose;
+    const auto point = triangulate(views, settings_.pixel_sigma_px);
+    if (!point || point->reprojection_rms_px > settings_.max_reprojection_px) continue;
+    body.push_back(config_.vehicles[v].marker_frd[k]);
+    points.push_back(*point);
   }
+  if (!trusted_only) fix.markers = static_cast<int>(points.size());
+  return fit_rigid_pose(body, points);
+}
+
+void GroundTracker::estimate_poses(FrameSetResult& result) {
+  // Each vehicle's pose to check its detections against: from the detections not taken in a shared gate
+  // (nor re-acquired) when those give one, since a blob merged with another vehicle's ball pulls a pose
+  // fitted with it towards itself; else from all.
+  const size_t n = result.vehicles.size();
+  std::vector<std::optional<RigidPose>> check(n);
+  for (size_t v = 0; v < n; ++v) {
+    check[v] = fit_pose(v, result.vehicles[v], true);
+    if (!check[v]) check[v] = fit_pose(v, result.vehicles[v], false);
+  }
+  for (size_t v = 0; v < n; ++v) {
+    VehicleFix& fix = result.vehicles[v];
+    if (check[v]) disown_stray_detections(v, check, fix);
+    fix.pose = fit_pose(v, fix, false);
+    if (fix.pose) {
+      last_pose_[v] = fix.pose;
+      continue;
+    }
+    // No pose to confirm them: detections from shared gates or re-acquired after a loss are not reported,
+    // and their tracks count a miss (restarted from the last pose after reseed_after_missed).
+    for (int k = 0; k < kMarkerColours; ++k)
+      for (size_t c = 0; c < rig_.cameras.size(); ++c)
+        if (fix.pixels[k][c] && shared_[c][v][k]) {
+          fix.pixels[k][c].reset();
+          ++tracks_[c][v][k].missed;
+          ++fix.disowned;
+        }
+  }
+}
+
+// A detection that is not clearly nearer its own marker under the vehicle's pose than another vehicle's
+// marker of that colour (under that one's pose), by pose_check_px, went to the wrong track or is shared:
+// a same-colour ball taken in a shared gate, then followed, or a blob merged with it. It is removed from
+// the fix and the track restarts at the expected pixel, its next detection a re-acquisition. Off its
+// marker alone is not enough: frames of free-running cameras put a moving vehicle's markers a few pixels
+// off its pose.
+bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix) {
+  bool any = false;
+  for (int k = 0; k < kMarkerColours; ++k) {
+    const RigidPose& pose = *poses[v];
+    const cv::Vec3d marker = pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k];
+    for (size_t c = 0; c < rig_.cameras.size(); ++c) {
+      if (!fix.pixels[k][c]) continue;
+      const cv::Point2d expected = project(rig_.cameras[c], marker);
+      const double own = cv::norm(*fix.pixels[k][c] - expected);
+      bool nearer_other = false;
+      for (size_t o = 0; o < poses.size() && !nearer_other; ++o) {
+        const std::optional<RigidPose>& other = poses[o] ? poses[o] : last_pose_[o];
+        if (o == v || !other) continue;
+        const cv::Vec3d theirs = other->position_ned + other->R_IB * config_.vehicles[o].marker_frd[k];
+        nearer_other = cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs)) < own + settings_.pose_check_px;
+      }
+      if (!nearer_other) continue;
+      fix.pixels[k][c].reset();
+      tracks_[c][v][k].reset(expected, 8.0);
+      tracks_[c][v][k].missed = 1;  // its next detection is a re-acquisition, to be confirmed
+      ++fix.disowned;
+      any = true;
+    }
+  }
+  return any;
 }
 
 }  // namespace quad::vision::ground

@@ -13,8 +13,10 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
+#include "quad/sim/run_output.h"
 #include "quad/sim/scenario.h"
 #include "quad/sim/vehicle.h"
 
@@ -32,10 +34,31 @@ class FixSource {
   virtual void release_until(double t, const FixSink& sink) = 0;
   // The fixes handed over so far to the vehicle (0 for a vehicle the source does not serve).
   virtual uint64_t released(size_t vehicle) const = 0;
+  // Bytes of the vehicle's radio uplink handed to its firmware at time t (for the fix latency).
+  virtual void delivered(size_t /*vehicle*/, double /*t*/, const uint8_t* /*data*/, size_t /*length*/) {}
+  // The source's own figures: summary.json at the top and per vehicle (nothing to add by default).
+  virtual void add_summary(Json& /*summary*/) const {}
+  virtual void add_vehicle_summary(size_t /*vehicle*/, Json& /*vehicle_json*/) const {}
+  // The process the source runs beside the simulator (the vision station), or -1: its CPU time counts
+  // in the run's cost.
+  virtual int helper_pid() const { return -1; }
+  // The run has ended: stop any helper process (its last output written).
+  virtual void finish() {}
+};
+
+// What a source that runs the vision station needs from the run (quad_sim's options).
+struct FixSourceContext {
+  std::string out_dir;
+  std::vector<std::string> station_argv;  // ends in `run` (replaced by the subcommand)
+  std::string room_calibration;           // empty: calibrate-room on rendered boards, cached
+  std::string calibration_cache;          // empty: station_calibration/ beside the station
+  std::function<void(const std::string&)> progress = [](const std::string&) {};
+  std::vector<VehicleTruth> start;        // the fleet at rest before take-off, indexed like scenario.vehicles
 };
 
 // The sources of a scenario's vehicles (one per source kind in use). Throws std::runtime_error naming the
 // vehicle and its fix_source when that kind is not available in a multi-vehicle run.
-std::vector<std::unique_ptr<FixSource>> make_fix_sources(const Scenario& scenario);
+std::vector<std::unique_ptr<FixSource>> make_fix_sources(const Scenario& scenario,
+                                                         const FixSourceContext& context = FixSourceContext());
 
 }  // namespace quad::sim

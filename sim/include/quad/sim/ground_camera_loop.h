@@ -29,6 +29,7 @@
 #include "quad/sim/ground_camera.h"
 #include "quad/sim/pty.h"
 #include "quad/sim/rng.h"
+#include "quad/sim/run_output.h"
 #include "quad/sim/station_loop.h"
 
 namespace quad::vision::ground_sim_protocol {
@@ -36,6 +37,14 @@ struct VehicleReport;
 }
 
 namespace quad::sim {
+
+// One vehicle's share of the ground-camera figures (summary.json "vehicles.NAME.ground_station").
+struct GroundVehicleFigures {
+  uint64_t fixes = 0, pixels_checked = 0, association_errors = 0;
+  uint64_t ambiguous_sets = 0;         // sets in which the station put this vehicle's tracks in a shared gate
+  uint64_t ambiguous_gates = 0, epipolar_resolutions = 0;
+  std::vector<double> fix_error_m, fix_latency_s;
+};
 
 // Figures of the ground-camera station over a run (summary.json "ground_station").
 struct GroundCameraFigures {
@@ -47,10 +56,18 @@ struct GroundCameraFigures {
   std::map<int, uint64_t> fixes_per_vehicle;
   uint64_t pixels_checked = 0;                 // associated detections compared with the rendered truth
   uint64_t association_errors = 0;             // ... nearer another vehicle's marker or off their own
+  uint64_t ambiguous_sets = 0;                 // sets with at least one shared gate (any vehicle)
+  uint64_t epipolar_sets = 0;                  // sets with at least one gate settled by the epipolar constraint
+  uint64_t ambiguous_gates = 0, epipolar_resolutions = 0;  // summed over the vehicles' reports
+  std::map<int, GroundVehicleFigures> per_vehicle;          // by vehicle id
 };
 
-// The tracker's vehicles file (`track --vehicles`): the marker layout (the first vehicle's: the tracker
-// takes one layout) and each vehicle's id and start pose, which seed 003 takes as known.
+// summary.json "ground_station" (the whole rig) and a vehicle's share of it.
+Json ground_station_json(const GroundCameraFigures& figures, const GroundCameraParams& params);
+Json ground_vehicle_json(const GroundVehicleFigures& figures);
+
+// The tracker's vehicles file (`track --vehicles`): the first vehicle's marker layout as the common one,
+// and each vehicle's id, start pose (which seed 003 takes as known) and own marker layout.
 void write_ground_vehicles_file(const std::string& path, const std::vector<MarkedVehicle>& start);
 
 struct GroundCameraLoopOptions {
@@ -81,6 +98,7 @@ class GroundCameraLoop {
 
   const GroundCameraFigures& figures() const { return figures_; }
   const GroundCameraParams& params() const { return p_; }
+  int station_pid() const { return process_ && process_->running() ? static_cast<int>(process_->pid()) : -1; }
   void finish();
 
  private:

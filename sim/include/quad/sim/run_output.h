@@ -30,6 +30,9 @@ class Json {
   std::vector<Json> objects_;
 };
 
+// Median, 95th percentile, maximum and count of a sample (an empty sample gives zeros).
+Json percentiles_json(std::vector<double> sample);
+
 class CsvLog {
  public:
   CsvLog(const std::string& path, const std::vector<std::string>& columns);

@@ -41,9 +41,11 @@ struct VehicleReport {
   uint32_t found = 0;             // 1 when the set gave this vehicle a pose
   double ned[3] = {};             // the pose's position (body origin), metres
   float pixels[kColours][kMaxCameras][2] = {};  // associated detection per colour and camera (NaN: none)
+  int32_t ambiguous_gates = 0;    // this set's gate groups shared with another track or detection
+  int32_t epipolar_resolutions = 0;  // ... of those, settled with the epipolar constraint
 };
 
-static_assert(sizeof(SetHeader) == 88 && sizeof(SetAnswer) == 48 && sizeof(VehicleReport) == 288,
+static_assert(sizeof(SetHeader) == 88 && sizeof(SetAnswer) == 48 && sizeof(VehicleReport) == 296,
               "fixed wire layout");
 
 }  // namespace quad::vision::ground_sim_protocol

@@ -25,16 +25,19 @@ struct VehicleStart {
   int id = 0;
   cv::Vec3d ned;        // body origin, metres
   double yaw_rad = 0.0;
+  std::array<cv::Vec3d, kMarkerColours> marker_frd;  // this vehicle's layout (body FRD, metres)
 };
 
-// The vehicles and their common marker layout (body FRD, metres, one marker per colour).
+// The vehicles, each with its marker layout (body FRD, metres, one marker per colour); marker_frd is
+// the file's common layout, the one a vehicle without its own wears.
 struct TrackerConfig {
   std::array<cv::Vec3d, kMarkerColours> marker_frd;
   std::vector<VehicleStart> vehicles;
 };
 
 // OpenCV YAML: marker_red, marker_green, marker_blue, marker_yellow ([x, y, z] FRD) and vehicles, a
-// list of {id, ned: [n, e, d], yaw_deg}. Errors name the file and key.
+// list of {id, ned: [n, e, d], yaw_deg}, each optionally with its own marker_red ... marker_yellow.
+// Errors name the file and key.
 TrackerConfig load_tracker_config(const std::string& path);
 
 struct GroundTrackerSettings {
@@ -48,6 +51,7 @@ struct GroundTrackerSettings {
   bool use_roi = true;                // seed 003 sec. 3.2: search around the tracks while all are held
   int roi_min_half_px = 32;
   int reseed_after_missed = 2;        // a track lost this long restarts from the vehicle's last pose
+  double pose_check_px = 3.0;         // a detection not this much nearer its marker than another vehicle's is disowned
 };
 
 struct AssociationStats {
@@ -70,6 +74,7 @@ struct VehicleFix {
   std::array<std::vector<std::optional<cv::Point2d>>, kMarkerColours> pixels;
   int ambiguous_gates = 0;
   int epipolar_resolutions = 0;
+  int disowned = 0;  // detections dropped as another vehicle's or unconfirmed (track restarted)
 };
 
 struct FrameSetResult {
@@ -93,6 +98,8 @@ class GroundTracker {
   void associate(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void resolve(const Gate& gate, const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void estimate_poses(FrameSetResult& result);
+  std::optional<RigidPose> fit_pose(size_t vehicle, VehicleFix& fix, bool trusted_only) const;
+  bool disown_stray_detections(size_t vehicle, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix);
 
   RoomRig rig_;
   TrackerConfig config_;
@@ -102,6 +109,7 @@ class GroundTracker {
   // tracks_[camera][vehicle][colour] and the detection each got this frame (index into the blobs, or -1)
   std::vector<std::vector<std::array<ImageTrack, kMarkerColours>>> tracks_;
   std::vector<std::vector<std::array<int, kMarkerColours>>> assigned_;
+  std::vector<std::vector<std::array<bool, kMarkerColours>>> shared_;  // [camera][vehicle][colour]: from a shared gate or re-acquired
   std::vector<std::optional<RigidPose>> last_pose_;
   std::optional<int64_t> last_time_us_;
   AssociationStats totals_;
