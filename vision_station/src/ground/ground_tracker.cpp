@@ -429,11 +429,13 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
 }
 
 // A detection that is not clearly nearer its own marker under the vehicle's pose than another vehicle's
-// marker of that colour (under that one's pose), by pose_check_px, went to the wrong track or is shared:
-// a same-colour ball taken in a shared gate, then followed, or a blob merged with it. It is removed from
-// the fix and the track restarts at the expected pixel, its next detection a re-acquisition. Off its
-// marker alone is not enough: frames of free-running cameras put a moving vehicle's markers a few pixels
-// off its pose.
+// marker of that colour, by pose_check_px, went to the wrong track or is shared: a same-colour ball taken
+// in a shared gate, then followed, or a blob merged with it. The other vehicle's marker is taken under
+// its pose of this frame set and under its last pose alike, since a pose fitted with a stray detection of
+// its own can lie tens of pixels off, and the ball it hides would then pass for the neighbour's. The
+// detection is removed from the fix and the track restarts at the expected pixel, its next detection a
+// re-acquisition. Off its marker alone is not enough: frames of free-running cameras put a moving
+// vehicle's markers a few pixels off its pose.
 bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix) {
   bool any = false;
   for (int k = 0; k < kMarkerColours; ++k) {
@@ -445,10 +447,14 @@ bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::opt
       const double own = cv::norm(*fix.pixels[k][c] - expected);
       bool nearer_other = false;
       for (size_t o = 0; o < poses.size() && !nearer_other; ++o) {
-        const std::optional<RigidPose>& other = poses[o] ? poses[o] : last_pose_[o];
-        if (o == v || !other) continue;
-        const cv::Vec3d theirs = other->position_ned + other->R_IB * config_.vehicles[o].marker_frd[k];
-        nearer_other = cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs)) < own + settings_.pose_check_px;
+        if (o == v) continue;
+        const std::array<const std::optional<RigidPose>*, 2> others{&poses[o], &last_pose_[o]};
+        for (const std::optional<RigidPose>* other : others) {
+          if (!*other) continue;
+          const cv::Vec3d theirs = (*other)->position_ned + (*other)->R_IB * config_.vehicles[o].marker_frd[k];
+          nearer_other = nearer_other ||
+                         cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs)) < own + settings_.pose_check_px;
+        }
       }
       if (!nearer_other) continue;
       fix.pixels[k][c].reset();
