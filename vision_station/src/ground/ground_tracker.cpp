@@ -26,6 +26,9 @@ void AssociationStats::add(const AssociationStats& o) {
 
 namespace {
 
+constexpr double kVelocitySpanS = 0.2;  // a velocity from two poses at most this far apart (six frame sets at 30 Hz)
+constexpr double kMoveOnS = 0.5;        // a lost vehicle's pose is carried on for at most this long
+
 double thread_cpu_ms() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
@@ -130,6 +133,8 @@ GroundTracker::GroundTracker(RoomRig rig, TrackerConfig config, GroundTrackerSet
   assigned_.assign(cameras, std::vector<std::array<int, kMarkerColours>>(n));
   shared_.assign(cameras, std::vector<std::array<bool, kMarkerColours>>(n));
   last_pose_.assign(n, std::nullopt);
+  last_pose_time_us_.assign(n, 0);
+  last_velocity_ned_.assign(n, cv::Vec3d(0.0, 0.0, 0.0));
   // Seed 003 sec. 3.3.1: each marker's initial position is known.
   for (size_t v = 0; v < n; ++v) {
     const VehicleStart& start = config_.vehicles[v];
@@ -220,7 +225,7 @@ FrameSetResult GroundTracker::process(const std::vector<cv::Mat>& images, int64_
     result.vehicles.push_back(fix);
   }
   associate(blobs, result);
-  estimate_poses(result);
+  estimate_poses(blobs, result);
   totals_.add(result.stats);
   result.processing_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   result.cpu_ms = thread_cpu_ms() - cpu_start;
@@ -398,7 +403,7 @@ std::optional<RigidPose> GroundTracker::fit_pose(size_t v, VehicleFix& fix, bool
   return fit_rigid_pose(body, points);
 }
 
-void GroundTracker::estimate_poses(FrameSetResult& result) {
+void GroundTracker::estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result) {
   // Each vehicle's pose to check its detections against: from the detections not taken in a shared gate
   // (nor re-acquired) when those give one, since a blob merged with another vehicle's ball pulls a pose
   // fitted with it towards itself; else from all.
@@ -410,10 +415,10 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
   }
   for (size_t v = 0; v < n; ++v) {
     VehicleFix& fix = result.vehicles[v];
-    if (check[v]) disown_stray_detections(v, check, fix);
+    if (check[v]) disown_stray_detections(v, check, blobs, fix);
     fix.pose = fit_pose(v, fix, false);
     if (fix.pose) {
-      last_pose_[v] = fix.pose;
+      remember_pose(v, *fix.pose, fix.time_us);
       continue;
     }
     // No pose to confirm them: detections from shared gates or re-acquired after a loss are not reported,
@@ -428,15 +433,34 @@ void GroundTracker::estimate_poses(FrameSetResult& result) {
   }
 }
 
+void GroundTracker::remember_pose(size_t v, const RigidPose& pose, int64_t time_us) {
+  const double dt = (time_us - last_pose_time_us_[v]) * 1e-6;
+  const bool recent = last_pose_[v] && dt > 0.0 && dt <= kVelocitySpanS;
+  last_velocity_ned_[v] = recent ? (pose.position_ned - last_pose_[v]->position_ned) / dt : cv::Vec3d(0.0, 0.0, 0.0);
+  last_pose_[v] = pose;
+  last_pose_time_us_[v] = time_us;
+}
+
+// The vehicle's last pose carried on at its last velocity to time_us, for at most kMoveOnS: where its
+// markers are while its own detections give no pose (a vehicle crossing at 1 m/s moves 3 cm a frame).
+RigidPose GroundTracker::pose_moved_on(size_t v, int64_t time_us) const {
+  RigidPose pose = *last_pose_[v];
+  const double dt = std::clamp((time_us - last_pose_time_us_[v]) * 1e-6, 0.0, kMoveOnS);
+  pose.position_ned += last_velocity_ned_[v] * dt;
+  return pose;
+}
+
 // A detection that is not clearly nearer its own marker under the vehicle's pose than another vehicle's
 // marker of that colour, by pose_check_px, went to the wrong track or is shared: a same-colour ball taken
-// in a shared gate, then followed, or a blob merged with it. The other vehicle's marker is taken under
-// its pose of this frame set and under its last pose alike, since a pose fitted with a stray detection of
-// its own can lie tens of pixels off, and the ball it hides would then pass for the neighbour's. The
-// detection is removed from the fix and the track restarts at the expected pixel, its next detection a
-// re-acquisition. Off its marker alone is not enough: frames of free-running cameras put a moving
-// vehicle's markers a few pixels off its pose.
-bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix) {
+// in a shared gate, then followed, or a blob merged with it. So is one with another vehicle's marker of
+// that colour inside the blob's diameter: the two balls overlap in that image, and the blob is the other
+// ball, or ours merged with it or partly hidden by it. The other vehicle's marker is taken under its pose
+// of this frame set and under its last pose carried on to this frame set alike, since a pose fitted with
+// a stray detection of its own can lie tens of pixels off, and a vehicle hidden in a crossing has none. The detection is removed from the fix and the track restarts at the
+// expected pixel, its next detection a re-acquisition. Off its marker alone is not enough: frames of
+// free-running cameras put a moving vehicle's markers a few pixels off its pose.
+bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses,
+                                            const std::vector<std::vector<MarkerBlob>>& blobs, VehicleFix& fix) {
   bool any = false;
   for (int k = 0; k < kMarkerColours; ++k) {
     const RigidPose& pose = *poses[v];
@@ -445,15 +469,18 @@ bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::opt
       if (!fix.pixels[k][c]) continue;
       const cv::Point2d expected = project(rig_.cameras[c], marker);
       const double own = cv::norm(*fix.pixels[k][c] - expected);
+      const int b = assigned_[c][v][k];
+      const double diameter = b < 0 ? 0.0 : 2.0 * std::sqrt(blobs[c][static_cast<size_t>(b)].area_px / CV_PI);
       bool nearer_other = false;
       for (size_t o = 0; o < poses.size() && !nearer_other; ++o) {
         if (o == v) continue;
-        const std::array<const std::optional<RigidPose>*, 2> others{&poses[o], &last_pose_[o]};
-        for (const std::optional<RigidPose>* other : others) {
-          if (!*other) continue;
-          const cv::Vec3d theirs = (*other)->position_ned + (*other)->R_IB * config_.vehicles[o].marker_frd[k];
-          nearer_other = nearer_other ||
-                         cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs)) < own + settings_.pose_check_px;
+        std::vector<RigidPose> others;
+        if (poses[o]) others.push_back(*poses[o]);
+        if (last_pose_[o]) others.push_back(pose_moved_on(o, fix.time_us));
+        for (const RigidPose& other : others) {
+          const cv::Vec3d theirs = other.position_ned + other.R_IB * config_.vehicles[o].marker_frd[k];
+          const double d = cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs));
+          nearer_other = nearer_other || d < own + settings_.pose_check_px || d < diameter;
         }
       }
       if (!nearer_other) continue;

@@ -97,9 +97,12 @@ class GroundTracker {
   void predict_tracks(double dt);
   void associate(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void resolve(const Gate& gate, const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
-  void estimate_poses(FrameSetResult& result);
+  void estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   std::optional<RigidPose> fit_pose(size_t vehicle, VehicleFix& fix, bool trusted_only) const;
-  bool disown_stray_detections(size_t vehicle, const std::vector<std::optional<RigidPose>>& poses, VehicleFix& fix);
+  void remember_pose(size_t vehicle, const RigidPose& pose, int64_t time_us);
+  RigidPose pose_moved_on(size_t vehicle, int64_t time_us) const;
+  bool disown_stray_detections(size_t vehicle, const std::vector<std::optional<RigidPose>>& poses,
+                               const std::vector<std::vector<MarkerBlob>>& blobs, VehicleFix& fix);
 
   RoomRig rig_;
   TrackerConfig config_;
@@ -111,6 +114,8 @@ class GroundTracker {
   std::vector<std::vector<std::array<int, kMarkerColours>>> assigned_;
   std::vector<std::vector<std::array<bool, kMarkerColours>>> shared_;  // [camera][vehicle][colour]: from a shared gate or re-acquired
   std::vector<std::optional<RigidPose>> last_pose_;
+  std::vector<int64_t> last_pose_time_us_;
+  std::vector<cv::Vec3d> last_velocity_ned_;  // between the last two poses, zero when they lie far apart in time
   std::optional<int64_t> last_time_us_;
   AssociationStats totals_;
 };
