@@ -281,7 +281,8 @@ void GroundCameraLoop::collect(const Pending& set, const RadioSink& to_radio) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
   while (frames_read_ < answer.fixes_sent) {
     bool any = false;
-    for (auto& [id, link] : links_) {
+    for (auto& entry : links_) {
+      auto& link = entry.second;  // a plain reference: C++17 lambdas cannot capture a structured binding
       uint8_t buf[1024];
       for (size_t n; (n = link.port->read_some(buf, sizeof buf)) > 0;) {
         any = true;
