@@ -28,6 +28,7 @@
 #include "emulated_parts.h"
 #include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
+#include "stack_pointer.h"
 
 extern "C" const char* __asan_default_options() { return "detect_leaks=0"; }  // simavr's loader leaks
 
@@ -201,8 +202,7 @@ struct Board {
       for (int i = 0; i < 1000; ++i) {
         const int state = avr_run(avr);
         ASSERT_NE(state, cpu_Crashed) << "at pc 0x" << std::hex << avr->pc;
-        const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
-        if (sp < lowest_sp) lowest_sp = sp;
+        parts::track_lowest_stack_pointer(avr, lowest_sp);
         if (static_cast<long>(avr->pc) == star_correction_pc) ++star_corrections;
       }
       if (now_us() >= fixes_from_us && now_us() >= *next_fix_us) {

@@ -42,6 +42,7 @@
 #include "param_file.h"    // fw::build_param_storage: the EEPROM image of a --params file
 #include "quad/firmware/params.h"  // SYS_LOOP_HZ: the period the iterations are measured against
 #include "quad/hal/hal.h"  // hal::TracePoint: the phase numbers the firmware writes to GPIOR1
+#include "stack_pointer.h"  // the peak stack
 
 #include <simavr/avr_eeprom.h>
 #include <simavr/avr_uart.h>
@@ -526,9 +527,8 @@ int main(int argc, char** argv) {
         if (profile.in_step) step_acc += avr->cycle - cycle_before;
       }
       was_in_step = profile.in_step;
-      // Peak stack: the lowest stack pointer seen at any instruction boundary (SPL/SPH at 0x5D/0x5E).
-      const uint16_t sp = static_cast<uint16_t>(avr->data[0x5D] | (avr->data[0x5E] << 8));
-      if (sp < lowest_sp) lowest_sp = sp;
+      // Peak stack: the lowest stack pointer seen at any instruction boundary.
+      parts::track_lowest_stack_pointer(avr, lowest_sp);
       if (state == cpu_Done || state == cpu_Crashed || state == cpu_Sleeping) break;  // sleeping: feed it
     }
     if (state == cpu_Done || state == cpu_Crashed) break;
