@@ -344,7 +344,7 @@ void ErrorStateEkf::fuse_star(const StarFix& fix, EkfFuse* position_result, EkfF
       if (pr == EkfFuse::kFused) apply_group(P_, x_, y, w, 3);
     }
   }
-  if (fix.has_attitude && is_finite(fix.q_bs) && norm_sq(fix.q_bs) > 0.5f) {
+  if (fix.has_attitude && usable_attitude(fix.q_bs)) {
     if (params_.star_attitude == StarAttitudeUse::kFull) ar = fuse_star_attitude(fix);
     if (params_.star_attitude == StarAttitudeUse::kHeading) ar = fuse_star_heading(fix);
   }

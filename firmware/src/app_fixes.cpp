@@ -44,7 +44,7 @@ void FlightApp::star_fix_ekf(const mav::LandingTarget& msg, uint32_t capture_us)
   fix.capture_us = capture_us;
   fix.star_body = Vec3{msg.x, msg.y, msg.z};
   fix.q_bs = Quat{msg.q[0], msg.q[1], msg.q[2], msg.q[3]};
-  fix.has_attitude = !(msg.q[0] == 1.0f && msg.q[1] == 0.0f && msg.q[2] == 0.0f && msg.q[3] == 0.0f);
+  fix.has_attitude = star_attitude_fitted(msg.q);
   const est::FixResult r = estimator_.queue_star(fix);
   fix_result(r, false);
   // The log records the fix as the thesis pair would have taken it (NED through the attitude at the

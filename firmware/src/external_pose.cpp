@@ -40,7 +40,7 @@ void covariance_at(const mav::Frame& f, size_t offset, ExternalPose* pose) {
 }
 
 void set_attitude(const Quat& q, ExternalPose* pose) {
-  pose->has_attitude = is_finite(q) && norm_sq(q) > 0.5f;
+  pose->has_attitude = usable_attitude(q);
   pose->q_ib = pose->has_attitude ? normalized(q) : Quat::identity();
 }
 

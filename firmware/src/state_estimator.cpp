@@ -98,10 +98,8 @@ void StateEstimator::weigh_star_attitude(const float* att_cov) {
 
 void StateEstimator::star_attitude(const float q_bs[4], uint32_t capture_us) {
   if (star_attitude_use_ == 0u || ekf_selected()) return;
-  // q = 1 0 0 0: the station fitted no attitude (LANDING_TARGET's convention); nor is a q far from unit
-  // norm (or not finite) one.
   const Quat q{q_bs[0], q_bs[1], q_bs[2], q_bs[3]};
-  if ((q.w == 1.0f && q.x == 0.0f && q.y == 0.0f && q.z == 0.0f) || !is_finite(q) || !(norm_sq(q) > 0.5f)) return;
+  if (!star_attitude_fitted(q_bs) || !usable_attitude(q)) return;
   Quat q_then;
   if (!history_.lookup(capture_us, q_then)) return;
   const Quat q_meas = est::attitude_from_star(q, q_then);

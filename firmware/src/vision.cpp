@@ -83,7 +83,7 @@ void CameraMount::configure(const Euler& e) {
 void CameraMount::apply(Vec3* star_body, float q[4]) const {
   if (identity_) return;
   *star_body = rotate(q_bv_, *star_body);
-  if (q[0] == 1.0f && q[1] == 0.0f && q[2] == 0.0f && q[3] == 0.0f) return;
+  if (!star_attitude_fitted(q)) return;
   const Quat q_bs = q_bv_ * Quat{q[0], q[1], q[2], q[3]};
   q[0] = q_bs.w;
   q[1] = q_bs.x;

@@ -90,30 +90,41 @@ TEST(FrameSchedule, AFixGivesTheFrameWorkBackAfterTwoFrames) {
   EXPECT_NEAR(work_dt, 0.03f, 1e-6f);
 }
 
+// The estimator at 100 Hz on a level, still vehicle heading north: the samples of the boot calibration.
+struct LevelAndStill {
+  quad::fw::StateEstimator est;
+  FrameSchedule schedule;
+  quad::hal::ImuSample imu;
+  quad::hal::MagSample mag;
+  uint32_t t_us = 0;
+  explicit LevelAndStill(const quad::fw::Params& params) {
+    est.configure(params, 100.0f);
+    est.restart_calibration();
+    schedule.configure(100.0f);
+    imu.accel = Vec3{0.0f, 0.0f, -kG};
+    mag.field = Vec3{0.2f, 0.0f, 0.45f};
+  }
+  quad::fw::EstimatorEvent step() {
+    const quad::fw::EstimatorEvent e = est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
+    t_us += 10000;
+    return e;
+  }
+};
+
 // Level and still for the boot calibration, then a fix: the estimator calibrates, converges, and takes
 // the fix's position, all from samples and parameters.
 TEST(StateEstimator, CalibratesConvergesAndTakesAFix) {
   quad::fw::Params params;
-  quad::fw::StateEstimator est;
+  LevelAndStill still(params);
+  quad::fw::StateEstimator& est = still.est;
   ASSERT_EQ(est.check(params), nullptr);
-  est.configure(params, 100.0f);
-  est.restart_calibration();
-  FrameSchedule schedule;
-  schedule.configure(100.0f);
-  quad::hal::ImuSample imu;
-  imu.accel = Vec3{0.0f, 0.0f, -kG};
-  quad::hal::MagSample mag;
-  mag.field = Vec3{0.2f, 0.0f, 0.45f};
   bool calibrated = false;
-  uint32_t t_us = 0;
-  for (int i = 0; i < 400 && !calibrated; ++i, t_us += 10000) {
-    const quad::fw::EstimatorEvent e = est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
-    calibrated = e == quad::fw::EstimatorEvent::kCalibrated;
-  }
+  for (int i = 0; i < 400 && !calibrated; ++i) calibrated = still.step() == quad::fw::EstimatorEvent::kCalibrated;
   ASSERT_TRUE(calibrated);
   EXPECT_TRUE(est.converged());
-  for (int i = 0; i < 20; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
+  for (int i = 0; i < 20; ++i) still.step();
   EXPECT_TRUE(est.healthy());
+  const uint32_t t_us = still.t_us;
   EXPECT_NEAR(std::fabs(est.attitude().w), 1.0f, 1e-4f) << "level, heading north";
   // The star 1.5 m below, seen 30 ms ago: the vehicle 1.5 m above it.
   Vec3 p;
@@ -134,17 +145,10 @@ struct StarAttitudeCase {
 StarAttitudeCase star_attitude_case(float est_star_att, const float q_bs[4], const float* att_cov) {
   quad::fw::Params params;
   EXPECT_EQ(params.set(quad::fw::kEstStarAtt, est_star_att), quad::fw::ParamError::kNone);
-  quad::fw::StateEstimator est;
-  est.configure(params, 100.0f);
-  est.restart_calibration();
-  FrameSchedule schedule;
-  schedule.configure(100.0f);
-  quad::hal::ImuSample imu;
-  imu.accel = Vec3{0.0f, 0.0f, -kG};
-  quad::hal::MagSample mag;
-  mag.field = Vec3{0.2f, 0.0f, 0.45f};
-  uint32_t t_us = 0;
-  for (int i = 0; i < 420; ++i, t_us += 10000) est.step(t_us, imu, &mag, 0.01f, schedule.next(0.01f, false), false, false);
+  LevelAndStill still(params);
+  quad::fw::StateEstimator& est = still.est;
+  for (int i = 0; i < 420; ++i) still.step();
+  const uint32_t t_us = still.t_us;
   EXPECT_TRUE(est.converged());
   if (att_cov != nullptr) est.attach_covariance(t_us - 30000, att_cov, att_cov, true);
   StarAttitudeCase c;

@@ -97,6 +97,13 @@ int main(int argc, char** argv) {
     const quad::mount::LogPairs log = quad::mount::read_log_pairs(path);
     std::printf("%s: %d fixes with the star's attitude, %zu paired with the estimator's attitude\n", path.c_str(),
                 log.fixes_with_attitude, log.pairs.size());
+    if (log.logged_star_attitude > 0.0f) {
+      std::fprintf(stderr,
+                   "mount_calibration: %s: warning: the flight ran with EST_STAR_ATT %g: the estimator took the "
+                   "star's heading%s, so that much of the mount turns the estimate with the fixes and is not seen; "
+                   "fly the calibration with EST_STAR_ATT 0\n",
+                   path.c_str(), log.logged_star_attitude, log.logged_star_attitude > 1.5f ? " and tilt" : "");
+    }
     const quad::mount::MountResult m = quad::mount::calibrate_mount(log, options);
     if (!m.xqy.ok) {
       std::fprintf(stderr, "mount_calibration: %s: %s\n", path.c_str(), m.xqy.message.c_str());

@@ -71,6 +71,8 @@ LogPairs read_log_pairs(const std::string& path) {
     const auto it = log.initial_params().find(names[i]);
     if (it != log.initial_params().end()) out.logged_mount_rad(i) = it->second;
   }
+  if (const auto it = log.initial_params().find("EST_STAR_ATT"); it != log.initial_params().end())
+    out.logged_star_attitude = static_cast<float>(it->second);
   for (const auto& [t, q_vs] : fixes) {
     ++out.fixes_with_attitude;
     const auto after = std::lower_bound(attitudes.begin(), attitudes.end(), t,

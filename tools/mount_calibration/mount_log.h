@@ -21,6 +21,9 @@ struct LogPairs {
   int fixes_with_attitude = 0;     // vision_fix records with a finite, non-identity q
   int outside_attitude_span = 0;   // of those, captured where no vehicle_attitude brackets them
   Eigen::Vector3d logged_mount_rad = Eigen::Vector3d::Zero();  // EST_CAM_ROLL/PITCH/YAW the log ran with
+  // EST_STAR_ATT the log ran with (-1: not in the log). Above 0 the estimator took the star's heading
+  // (and at 2 its tilt): a mount error then turns the estimate with the fixes and hides from the pairs.
+  float logged_star_attitude = -1.0f;
 };
 
 // Throws std::runtime_error naming the file when the log lacks a topic or field.

@@ -57,12 +57,16 @@ std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray,
   return rectified;
 }
 
-cv::Vec3d StereoStarLocator::triangulate(const cv::Point2d& left, double disparity) const {
+cv::Vec3d StereoStarLocator::rectified_point(const cv::Point2d& left, double disparity) const {
   const cv::Matx34d& P1 = calibration_.P1;
   const double z = P1(0, 0) * calibration_.baseline() / disparity;  // thesis eq. 8.3
   const double x = z * (left.x - P1(0, 2)) / P1(0, 0);              // thesis eq. 8.4a
   const double y = z * (left.y - P1(1, 2)) / P1(1, 1);              // thesis eq. 8.4b
-  return calibration_.R1.t() * cv::Vec3d(x, y, z);  // rectified left frame back to the left camera
+  return {x, y, z};
+}
+
+cv::Vec3d StereoStarLocator::triangulate(const cv::Point2d& left, double disparity) const {
+  return calibration_.R1.t() * rectified_point(left, disparity);  // rectified left frame back to the left camera
 }
 
 void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
@@ -132,7 +136,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   const double f = P1(0, 0);
   const double fy = P1(1, 1);
   const double cx1 = P1(0, 2);
-  const double cy = P1(1, 2);
   const double cx2 = P2(0, 2);
   const double b = calibration_.baseline();
 
@@ -167,12 +170,11 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       const cv::Point2d pl = cl[best_i];
       const cv::Point2d pr = cr[best_j];
       const double d = (pl.x - cx1) - (pr.x - cx2);
-      const double z = f * b / d;                  // thesis eq. 8.3
-      const double x = z * (pl.x - cx1) / f;       // thesis eq. 8.4a
-      const double y = z * (pl.y - cy) / fy;       // thesis eq. 8.4b
+      const cv::Vec3d rectified = rectified_point(pl, d);
+      const double x = rectified[0], y = rectified[1], z = rectified[2];
       // The triangulated point is in the rectified left frame; R1 rotated the left camera into it.
       const cv::Matx33d R1t = calibration_.R1.t();
-      fix.p_left = R1t * cv::Vec3d(x, y, z);
+      fix.p_left = R1t * rectified;
       fix.p_centroids = fix.p_left;
       // Uncertainty: first-order propagation of independent centroid noise on u_l, v_l, u_r.
       const cv::Matx33d J(-x / d + z / f, 0.0, x / d,   // ∂X/∂(u_l, v_l, u_r)

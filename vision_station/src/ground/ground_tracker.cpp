@@ -225,7 +225,7 @@ FrameSetResult GroundTracker::process(const std::vector<cv::Mat>& images, int64_
     result.vehicles.push_back(fix);
   }
   associate(blobs, result);
-  estimate_poses(blobs, result);
+  estimate_poses(blobs, time_us, result);
   totals_.add(result.stats);
   result.processing_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   result.cpu_ms = thread_cpu_ms() - cpu_start;
@@ -403,22 +403,26 @@ std::optional<RigidPose> GroundTracker::fit_pose(size_t v, VehicleFix& fix, bool
   return fit_rigid_pose(body, points);
 }
 
-void GroundTracker::estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result) {
+void GroundTracker::estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, int64_t time_us,
+                                   FrameSetResult& result) {
   // Each vehicle's pose to check its detections against: from the detections not taken in a shared gate
   // (nor re-acquired) when those give one, since a blob merged with another vehicle's ball pulls a pose
-  // fitted with it towards itself; else from all.
+  // fitted with it towards itself; else from all. Its neighbours are checked against that pose and its
+  // last one carried on to this frame set (this frame set's own, once it has one).
   const size_t n = result.vehicles.size();
-  std::vector<std::optional<RigidPose>> check(n);
+  std::vector<std::optional<RigidPose>> check(n), moved_on(n);
   for (size_t v = 0; v < n; ++v) {
     check[v] = fit_pose(v, result.vehicles[v], true);
     if (!check[v]) check[v] = fit_pose(v, result.vehicles[v], false);
+    if (last_pose_[v]) moved_on[v] = pose_moved_on(v, time_us);
   }
   for (size_t v = 0; v < n; ++v) {
     VehicleFix& fix = result.vehicles[v];
-    if (check[v]) disown_stray_detections(v, check, blobs, fix);
+    if (check[v]) disown_stray_detections(v, *check[v], {check, moved_on}, blobs, fix);
     fix.pose = fit_pose(v, fix, false);
     if (fix.pose) {
-      remember_pose(v, *fix.pose, fix.time_us);
+      remember_pose(v, *fix.pose, time_us);
+      moved_on[v] = fix.pose;
       continue;
     }
     // No pose to confirm them: detections from shared gates or re-acquired after a loss are not reported,
@@ -454,44 +458,40 @@ RigidPose GroundTracker::pose_moved_on(size_t v, int64_t time_us) const {
 // marker of that colour, by pose_check_px, went to the wrong track or is shared: a same-colour ball taken
 // in a shared gate, then followed, or a blob merged with it. So is one with another vehicle's marker of
 // that colour inside the blob's diameter: the two balls overlap in that image, and the blob is the other
-// ball, or ours merged with it or partly hidden by it. The other vehicle's marker is taken under its pose
-// of this frame set and under its last pose carried on to this frame set alike, since a pose fitted with
-// a stray detection of its own can lie tens of pixels off, and a vehicle hidden in a crossing has none. The detection is removed from the fix and the track restarts at the
-// expected pixel, its next detection a re-acquisition. Off its marker alone is not enough: frames of
-// free-running cameras put a moving vehicle's markers a few pixels off its pose.
-bool GroundTracker::disown_stray_detections(size_t v, const std::vector<std::optional<RigidPose>>& poses,
+// ball, or ours merged with it or partly hidden by it. Each other vehicle's marker is taken under all its
+// poses in `neighbours` (its pose of this frame set and its last pose carried on), since a pose fitted
+// with a stray detection of its own can lie tens of pixels off, and a vehicle hidden in a crossing has
+// none. The detection is removed from the fix and the track restarts at the expected pixel, its next
+// detection a re-acquisition. Off its marker alone is not enough: frames of free-running cameras put a
+// moving vehicle's markers a few pixels off its pose.
+void GroundTracker::disown_stray_detections(size_t v, const RigidPose& pose, const NeighbourPoses& neighbours,
                                             const std::vector<std::vector<MarkerBlob>>& blobs, VehicleFix& fix) {
-  bool any = false;
   for (int k = 0; k < kMarkerColours; ++k) {
-    const RigidPose& pose = *poses[v];
     const cv::Vec3d marker = pose.position_ned + pose.R_IB * config_.vehicles[v].marker_frd[k];
     for (size_t c = 0; c < rig_.cameras.size(); ++c) {
       if (!fix.pixels[k][c]) continue;
+      const cv::Point2d pixel = *fix.pixels[k][c];
       const cv::Point2d expected = project(rig_.cameras[c], marker);
-      const double own = cv::norm(*fix.pixels[k][c] - expected);
+      const double own = cv::norm(pixel - expected);
       const int b = assigned_[c][v][k];
       const double diameter = b < 0 ? 0.0 : 2.0 * std::sqrt(blobs[c][static_cast<size_t>(b)].area_px / CV_PI);
+      auto near_theirs = [&](size_t o, const std::optional<RigidPose>& other) {
+        if (!other) return false;
+        const cv::Vec3d theirs = other->position_ned + other->R_IB * config_.vehicles[o].marker_frd[k];
+        const double d = cv::norm(pixel - project(rig_.cameras[c], theirs));
+        return d < own + settings_.pose_check_px || d < diameter;
+      };
       bool nearer_other = false;
-      for (size_t o = 0; o < poses.size() && !nearer_other; ++o) {
-        if (o == v) continue;
-        std::vector<RigidPose> others;
-        if (poses[o]) others.push_back(*poses[o]);
-        if (last_pose_[o]) others.push_back(pose_moved_on(o, fix.time_us));
-        for (const RigidPose& other : others) {
-          const cv::Vec3d theirs = other.position_ned + other.R_IB * config_.vehicles[o].marker_frd[k];
-          const double d = cv::norm(*fix.pixels[k][c] - project(rig_.cameras[c], theirs));
-          nearer_other = nearer_other || d < own + settings_.pose_check_px || d < diameter;
-        }
+      for (size_t o = 0; o < neighbours.this_set.size() && !nearer_other; ++o) {
+        if (o != v) nearer_other = near_theirs(o, neighbours.this_set[o]) || near_theirs(o, neighbours.moved_on[o]);
       }
       if (!nearer_other) continue;
       fix.pixels[k][c].reset();
       tracks_[c][v][k].reset(expected, 8.0);
       tracks_[c][v][k].missed = 1;  // its next detection is a re-acquisition, to be confirmed
       ++fix.disowned;
-      any = true;
     }
   }
-  return any;
 }
 
 }  // namespace quad::vision::ground

@@ -17,6 +17,11 @@
 namespace quad {
 namespace fw {
 
+// LANDING_TARGET's q (q_BS) is 1 0 0 0 when the station fitted no attitude.
+inline bool star_attitude_fitted(const float q[4]) {
+  return !(q[0] == 1.0f && q[1] == 0.0f && q[2] == 0.0f && q[3] == 0.0f);
+}
+
 // Past attitudes at a decimated rate, quantised to 16 bits per component (error < 1e-4 rad): 12 records
 // of 12 bytes cover a few hundred milliseconds (every 3rd iteration at 100 Hz spans 0.36 s). 12, not
 // more: the ATmega2560's 6 KiB budget (data + bss + peak stack) has no room for more.

@@ -59,6 +59,8 @@ QUAD_MATH_FN Quat normalized(const Quat& q) {
 QUAD_MATH_FN Quat canonical(const Quat& q) { return q.w < 0.0f ? -q : q; }
 
 QUAD_MATH_FN bool is_finite(const Quat& q) { return is_finite(q.w) && is_finite(q.x) && is_finite(q.y) && is_finite(q.z); }
+// A received attitude worth normalising: finite and not far from unit norm.
+QUAD_MATH_FN bool usable_attitude(const Quat& q) { return is_finite(q) && norm_sq(q) > 0.5f; }
 
 // v_I = q (x) [0 v_B] (x) q^-1 for a unit q, in the cheap form v + 2 w (u x v) + 2 u x (u x v).
 // No normalisation (hot path). For a non-unit q = s u (u unit, s = |q|) the result is exactly

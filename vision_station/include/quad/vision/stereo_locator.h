@@ -123,7 +123,9 @@ class StereoStarLocator {
   void add_pose(const std::vector<cv::Point2f>& left_edges, const std::vector<cv::Point2f>& right_edges,
                 StarFix& fix);
 
-  // The point in the left camera frame at rectified left pixel `left` with disparity `disparity`.
+  // The point at rectified left pixel `left` with disparity `disparity` (thesis eq. 8.3-8.4), in the
+  // rectified left frame, and in the left camera's.
+  cv::Vec3d rectified_point(const cv::Point2d& left, double disparity) const;
   cv::Vec3d triangulate(const cv::Point2d& left, double disparity) const;
 
   // A candidate's sub-pixel edge points, rectified.

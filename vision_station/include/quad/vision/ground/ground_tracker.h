@@ -97,11 +97,17 @@ class GroundTracker {
   void predict_tracks(double dt);
   void associate(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
   void resolve(const Gate& gate, const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
-  void estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, FrameSetResult& result);
+  void estimate_poses(const std::vector<std::vector<MarkerBlob>>& blobs, int64_t time_us, FrameSetResult& result);
   std::optional<RigidPose> fit_pose(size_t vehicle, VehicleFix& fix, bool trusted_only) const;
   void remember_pose(size_t vehicle, const RigidPose& pose, int64_t time_us);
   RigidPose pose_moved_on(size_t vehicle, int64_t time_us) const;
-  bool disown_stray_detections(size_t vehicle, const std::vector<std::optional<RigidPose>>& poses,
+  // Every vehicle's poses its neighbours' detections are checked against (docs/vision_station.md,
+  // "Checked against the poses").
+  struct NeighbourPoses {
+    const std::vector<std::optional<RigidPose>>& this_set;  // fitted in this frame set
+    const std::vector<std::optional<RigidPose>>& moved_on;  // the last pose carried on to this frame set
+  };
+  void disown_stray_detections(size_t vehicle, const RigidPose& pose, const NeighbourPoses& neighbours,
                                const std::vector<std::vector<MarkerBlob>>& blobs, VehicleFix& fix);
 
   RoomRig rig_;
