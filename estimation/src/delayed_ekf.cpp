@@ -62,6 +62,7 @@ void DelayedEkfCore::imu(const Vec3& gyro, const Vec3& accel, float dt) {
   acc_.dt += dt;
   // The output carried sample by sample with the filter's biases (seed 004 eq. 3.6-3.9).
   ErrorStateEkf::propagate_nominal(out_, gyro * dt, accel * dt, dt);
+  if (floor_applies() && out_.p.z > floor_down_) out_.p.z = floor_down_;
   rate_ = gyro - out_.gyro_bias;
 }
 
@@ -107,6 +108,7 @@ const ImuIncrement& DelayedEkfCore::entry(uint16_t age_from_oldest) const {
 void DelayedEkfCore::advance(const ImuIncrement& e) {
   filter_.predict(e.delta_angle, e.delta_velocity, e.dt);
   filter_us_ = e.t_us;
+  if (floor_applies()) filter_.keep_above(floor_down_);
   if (e.still) fuse_ground(e);
   still_ = e.still;
   if (e.hovering && use_hover_force_ && filter_.fuse_hover_force(e.delta_velocity * (1.0f / e.dt)) == EkfFuse::kFused)
@@ -126,11 +128,19 @@ void DelayedEkfCore::fuse_ground(const ImuIncrement& e) {
   // position, so the zero velocity that follows does not move it along the dead reckoning.
   // While fixes are fused they hold the position (and say where the floor is): the hold starts from
   // where they leave it.
-  const bool aided = fix_fused_ && micros_between(e.t_us, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
+  const bool aided = this->aided(e.t_us);
   if (!still_ || aided) hold_ = filter_.state().p;
   if (e.on_floor) hold_.z = floor_down_;
   if (position_initialized_ && !aided) filter_.fuse_position_hold(hold_);
   filter_.fuse_zero_velocity();
+}
+
+bool DelayedEkfCore::aided(uint32_t t_us) const {
+  return fix_fused_ && micros_between(t_us, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
+}
+
+bool DelayedEkfCore::floor_applies() const {
+  return position_initialized_ && fix_count_ == 0 && !aided(filter_us_);
 }
 
 void DelayedEkfCore::fuse_due_fixes(const ImuIncrement& e) {
@@ -194,6 +204,7 @@ void DelayedEkfCore::recompute_output() {
     const ImuIncrement& e = entry(i);
     ErrorStateEkf::propagate_nominal(out_, e.delta_angle, e.delta_velocity, e.dt);
   }
+  if (floor_applies() && out_.p.z > floor_down_) out_.p.z = floor_down_;
   if (count_ > 0) {
     const ImuIncrement& newest = entry(static_cast<uint16_t>(count_ - 1u));
     rate_ = newest.delta_angle * (1.0f / newest.dt) - out_.gyro_bias;
@@ -257,7 +268,7 @@ uint16_t DelayedEkfCore::flags() const {
   if (!started_ || !finite()) return kEstAccelError;
   uint16_t f = 0;
   if (filter_.tilt_sigma() <= kGoodTiltSigma) f |= kEstAttitude;
-  const bool aided = fix_fused_ && micros_between(filter_us_, fix_fused_us_) <= static_cast<int32_t>(kAidedWindowUs);
+  const bool aided = this->aided(filter_us_);
   if (aided) f |= kEstPosHorizRel | kEstPredPosHorizRel;
   if (aided || still_) f |= kEstVelocityHoriz | kEstVelocityVert | kEstPosVertAbs;
   if (still_ && !aided) f |= kEstConstPosMode;

@@ -490,6 +490,12 @@ EkfFuse ErrorStateEkf::fuse_position_hold(const Vec3& p_hold) {
   return EkfFuse::kFused;
 }
 
+bool ErrorStateEkf::keep_above(float down) {
+  if (!(x_.p.z > down)) return false;
+  x_.p.z = down;
+  return true;
+}
+
 EkfFuse ErrorStateEkf::fuse_hover_force(const Vec3& specific_force) {
   // h = b_a (x, y), H = I on the accelerometer bias: one scalar group per axis, each gated.
   if (!is_finite(specific_force)) return EkfFuse::kRejectedInvalid;

@@ -420,3 +420,64 @@ TEST(GroundHold, EkfHoldsTheFloorAndWhereItCameToRest) {
     EXPECT_NEAR(ekf.delayed_state().accel_bias.z, accel_error.z, 0.02f);
   }
 }
+
+// The end of a landing without fixes: the last fix 30 cm above the floor, then the fixes stop and the
+// vehicle, descending at 0.5 m/s, touches down 0.6 s later; the touchdown's jolt reaches the delayed filter only
+// after its 0.1 s delay, so the output (carried ahead of it on the same velocity) would pass through the
+// floor. Without fixes neither the output nor the filter goes below the floor; the velocity is kept
+// (the jolt, when measured, takes it to zero). While fixes are fused the floor does not apply.
+TEST(GroundHold, EkfStaysAboveTheFloorWithoutFixes) {
+  const float floor_down = -0.13f;
+  DelayedEkf<quad::est::history_length(100)> ekf;
+  EkfParams params;
+  params.star_ned = Vec3{};
+  params.star_attitude = quad::est::StarAttitudeUse::kNone;
+  ekf.set_params(params, 0.1f, false);
+  ekf.set_floor(floor_down);
+  uint32_t t = 1000000;
+  ekf.reset(Quat::identity(), Vec3{}, Vec3{}, t);
+  const float speed = 0.5f;
+  float truth_down = floor_down - 0.9f;
+  // Descending at 0.5 m/s with fixes every 30 ms: the filter learns the velocity.
+  for (int i = 0; i < 120; ++i) {
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    truth_down += speed * kDt;
+    ekf.predict(t += kStepUs, false);
+    if (i % 3 == 0) {
+      StarFix fix;
+      fix.capture_us = t;
+      fix.star_body = Vec3{0.0f, 0.0f, -truth_down};
+      ASSERT_EQ(ekf.queue_fix(fix), quad::est::EkfFixResult::kQueued);
+    }
+  }
+  ASSERT_TRUE(ekf.position_initialized());
+  ASSERT_NEAR(ekf.velocity().z, speed, 0.05f);
+  ASSERT_LT(truth_down, floor_down - 0.25f);
+  // The fixes stop; the estimate dead-reckons on down to the floor and, unconstrained, beyond it.
+  float deepest = -1.0f, deepest_filter = -1.0f;
+  for (int i = 0; i < 80; ++i) {
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    ekf.predict(t += kStepUs, false);
+    deepest = quad::maxf(deepest, ekf.position().z);
+    deepest_filter = quad::maxf(deepest_filter, ekf.delayed_state().p.z);
+  }
+  std::printf("[figure] EKF 0.8 s without fixes at 0.5 m/s down: output %.4f m, filter %.4f m below the floor, "
+              "velocity %.3f m/s\n", deepest - floor_down, deepest_filter - floor_down, ekf.velocity().z);
+  EXPECT_LE(deepest, floor_down);
+  EXPECT_LE(deepest_filter, floor_down);
+  EXPECT_NEAR(ekf.position().z, floor_down, 1e-6f);
+  EXPECT_GT(ekf.velocity().z, 0.4f);  // kept: only the position is projected
+
+  // A fix below the floor (the floor is the vehicle's standing height: a fix says where it is) is fused.
+  for (int i = 0; i < 60; ++i) {
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    ekf.predict(t += kStepUs, false);
+    if (i % 3 == 0) {
+      StarFix fix;
+      fix.capture_us = t;
+      fix.star_body = Vec3{0.0f, 0.0f, -(floor_down + 0.02f)};
+      ekf.queue_fix(fix);
+    }
+  }
+  EXPECT_GT(ekf.position().z, floor_down + 0.01f);
+}

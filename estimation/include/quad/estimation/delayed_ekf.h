@@ -140,6 +140,11 @@ class DelayedEkfCore {
   // Standing still: the held position (set at the first still increment; the floor's height on the
   // floor), then zero velocity.
   void fuse_ground(const ImuIncrement& e);
+  // A fix's position was fused within kAidedWindowUs before t_us.
+  bool aided(uint32_t t_us) const;
+  // Without fixes (none fused within the window, none waiting), nothing stands below the floor: the
+  // filter's and the output's down position are kept above it, so a dead-reckoned touchdown ends on it.
+  bool floor_applies() const;
   void clear_accumulator();
 
   ErrorStateEkf filter_;
@@ -153,7 +158,7 @@ class DelayedEkfCore {
   bool converged_ = false;
   bool still_ = false;             // the newest increment the filter took fused zero velocity
   Vec3 hold_;                      // the position held while still (valid while still_)
-  float floor_down_ = 0.0f;        // set_floor()
+  float floor_down_ = NAN;         // set_floor() (NaN: no floor)
   bool fix_fused_ = false;         // a fix's position was fused (or set the position) at fix_fused_us_
   uint32_t fix_fused_us_ = 0;
   uint16_t rejections_in_a_row_ = 0;
