@@ -148,6 +148,61 @@ TEST_F(StereoCamera, CalibratedStationFindsTheRenderedStarWhereTheTruthIs) {
   EXPECT_LT(worst_relative, 0.02);
 }
 
+// An interlaced frame is stamped at the end of its second field; with `deinterlace: field` the station
+// sees the first, one field period earlier (its edge search as well: vision::first_field), and stamps its
+// fix with that instant (vision::view_time_offset_us). The vehicle climbs and descends at 1 m/s through
+// the same heights: the fix's height error, taken against the truth at the fix's instant, is the same
+// climbing and descending (what is left is the static error of the range); against the truth at the
+// frame's stamp the two differ by two field periods' travel, 3.3 cm.
+TEST_F(StereoCamera, InterlacedFieldFixIsTheVehicleOneFieldPeriodBeforeTheStamp) {
+  CameraParams params;
+  params.enabled = true;
+  params.interlaced = true;
+  StereoCameraRenderer renderer(params, shipped_rig(params), make_floor_scene(params, Rng(7, "floor")), Rng(7, "camera"));
+  vis::LocatorSettings settings;
+  settings.track_roi = false;
+  settings.detector.deinterlace = vis::Deinterlace::kField;
+  vis::StereoStarLocator locator(vis::load_calibration(file_), settings);
+  const vis::CameraMount mount = vis::thesis_camera_mount();
+  const vis::StationSettings defaults;
+  const double offset_s = 1e-6 * static_cast<double>(vis::view_time_offset_us(settings.detector.deinterlace,
+                                                                              defaults.field_period_ms));
+  EXPECT_NEAR(offset_s, -1.0 / 59.94, 1e-6);
+  std::vector<double> at_view, at_stamp;  // climbing minus descending, per height
+  cv::Mat left, right;
+  for (double height = 1.0; height <= 1.61; height += 0.1) {
+    double view[2] = {NAN, NAN}, stamp[2] = {NAN, NAN};
+    for (int k = 0; k < 2; ++k) {
+      const double climb = k == 0 ? 1.0 : -1.0, t = 10.0;
+      const Eigen::Vector3d p0(0.05, -0.04, -height);
+      const Eigen::Quaterniond q = attitude(0.02, -0.03, 0.4);
+      const PoseAtTime pose_at = [&](double when) { return VehiclePose{p0 + Eigen::Vector3d(0, 0, -climb * (when - t)), q}; };
+      renderer.render(pose_at, t, false, left, right);
+      const vis::StarFix fix = locator.locate(left, right);
+      if (!fix.found) continue;
+      // The star below the vehicle: its body z is the height.
+      const double seen = vis::camera_to_body(mount, fix.p_left)[2];
+      view[k] = seen - star_in_body_frd(pose_at(t + offset_s).p_ned, q).z();
+      stamp[k] = seen - star_in_body_frd(pose_at(t).p_ned, q).z();
+    }
+    if (std::isnan(view[0]) || std::isnan(view[1])) continue;
+    at_view.push_back(view[0] - view[1]);
+    at_stamp.push_back(stamp[0] - stamp[1]);
+    std::printf("height %.1f m: height error climbing %+.2f mm, descending %+.2f mm (at the stamp %+.2f, %+.2f)\n",
+                height, 1e3 * view[0], 1e3 * view[1], 1e3 * stamp[0], 1e3 * stamp[1]);
+  }
+  ASSERT_GE(at_view.size(), 6u);
+  auto rms = [](const std::vector<double>& v) {
+    double sum = 0.0;
+    for (double x : v) sum += x * x;
+    return std::sqrt(sum / static_cast<double>(v.size()));
+  };
+  std::printf("[figure] climbing minus descending at 1 m/s, %zu heights: RMS %.2f mm at the fix's instant, %.2f mm "
+              "at the frame's stamp\n", at_view.size(), 1e3 * rms(at_view), 1e3 * rms(at_stamp));
+  EXPECT_LT(rms(at_view), 0.003);
+  EXPECT_GT(rms(at_stamp), 0.025);
+}
+
 TEST_F(StereoCamera, HiddenStarIsNotFound) {
   CameraParams params;
   StereoCameraRenderer renderer(params, shipped_rig(params), make_floor_scene(params, Rng(5, "floor")), Rng(5, "camera"));
@@ -233,8 +288,11 @@ TEST(StereoCameraScene, StationSeesALevelStarLevel) {
       ASSERT_GE(roll.size(), 36u) << label;
       std::printf("%s deg: %zu poses, median roll %+.3f deg, pitch %+.3f deg\n", label.c_str(), roll.size(), median(roll),
                   median(pitch));
-      EXPECT_LT(std::fabs(median(roll)), 0.12) << label;
-      EXPECT_LT(std::fabs(median(pitch)), 0.12) << label;
+      // The first field's edges are sampled every other row (a fix shows one instant: first_field): a still
+      // star's tilt is off by up to 0.15 deg there, 0.03 deg with both fields' rows.
+      const double bound = deinterlace == vis::Deinterlace::kField ? 0.2 : 0.12;
+      EXPECT_LT(std::fabs(median(roll)), bound) << label;
+      EXPECT_LT(std::fabs(median(pitch)), bound) << label;
     }
   }
 }

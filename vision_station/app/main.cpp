@@ -292,6 +292,8 @@ int run(const std::map<std::string, std::string>& options) {
     link = std::make_unique<FixLink>(*port, !source->vehicle_clock(), settings.send_covariance);
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(number(options, "--timeout-ms", 500)));
+  // The fix's capture time is the instant the detector's view shows (the first field of an interlaced frame).
+  const int64_t view_offset_us = view_time_offset_us(settings.locator.detector.deinterlace, settings.field_period_ms);
   const double status_period_s = number(options, "--status-s", 1.0);
   StereoStarLocator locator(calibration, settings.locator);
   std::signal(SIGINT, [](int) { g_stop = 1; });
@@ -316,7 +318,9 @@ int run(const std::map<std::string, std::string>& options) {
       stalled = false;
       status.add(step.fix);
       total.add(step.fix);
-      if (step.fix.found && link) link->send(step.fix, settings.mount, step.frame.capture_time_us);
+      if (step.fix.found && link) {
+        link->send(step.fix, settings.mount, step.frame.capture_time_us + view_offset_us);
+      }
       source->answered(step.fix.found, link ? link->frames_sent() : 0);
       if (display) shown = show(step.frame, step.fix);
     }

@@ -1,5 +1,6 @@
 #include "quad/vision/settings_file.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <variant>
 #include <vector>
@@ -38,6 +39,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"star_tip_radius_m", &l.pose.tip_radius_m},
       {"pose_max_rms_px", &l.pose.max_rms_px}, {"pose_min_edge_sigma_px", &l.pose.min_edge_sigma_px},
       {"send_covariance", &s.send_covariance}, {"max_pair_skew_ms", &s.max_pair_skew_ms},
+      {"field_period_ms", &s.field_period_ms},
       {"robust_window_px", &d.robust_window_px}, {"robust_min_ratio", &d.robust_min_ratio},
       {"robust_max_ratio", &d.robust_max_ratio},
       {"robust_low_ratio", &d.robust_low_ratio}, {"max_elongation", &d.shape.max_elongation},
@@ -85,7 +87,19 @@ StationSettings load_station_settings(const std::string& path) {
     }
     if (!known) throw std::runtime_error(path + ": unknown setting '" + key + "'");
   }
+  if (!(s.field_period_ms >= 0.0 && s.field_period_ms <= 100.0)) {
+    throw std::runtime_error(path + ": key 'field_period_ms' must be within [0, 100]");
+  }
   return s;
+}
+
+int64_t view_time_offset_us(Deinterlace deinterlace, double field_period_ms) {
+  switch (deinterlace) {
+    case Deinterlace::kField: return -std::llround(field_period_ms * 1e3);
+    case Deinterlace::kBlend: return -std::llround(field_period_ms * 0.5e3);
+    case Deinterlace::kNone: break;
+  }
+  return 0;
 }
 
 }  // namespace quad::vision

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include <opencv2/imgproc.hpp>
+
 namespace quad::vision {
 namespace {
 
@@ -39,6 +41,28 @@ StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const
       left_near_(calibration, 0),
       right_near_(calibration, 1) {}
 
+cv::Mat first_field(const cv::Mat& gray, const cv::Rect& region) {
+  // The frame's even rows (the first field) as they are, each odd row interpolated from the four even rows
+  // around it (cubic: a linear mean biases a blurred edge's sub-pixel position with its phase to the rows).
+  cv::Mat out(region.size(), CV_8UC1);
+  const int last_even = (gray.rows - 1) & ~1;
+  auto even_row = [&](int r) { return gray.ptr<uint8_t>(std::clamp(r, 0, last_even)) + region.x; };
+  for (int y = 0; y < region.height; ++y) {
+    const int row = region.y + y;
+    uint8_t* o = out.ptr<uint8_t>(y);
+    if (row % 2 == 0) {
+      std::copy(even_row(row), even_row(row) + region.width, o);
+      continue;
+    }
+    const uint8_t *a = even_row(row - 3), *b = even_row(row - 1), *c = even_row(row + 1), *d = even_row(row + 3);
+    for (int x = 0; x < region.width; ++x) {
+      const int v = (9 * (b[x] + c[x]) - a[x] - d[x] + 8) >> 4;
+      o[x] = static_cast<uint8_t>(std::clamp(v, 0, 255));
+    }
+  }
+  return out;
+}
+
 std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray, const StarCandidate& star,
                                                             const NearRectifier& rectifier) const {
   // Neighbouring edge points share pixels and carry nearly the same information: at most
@@ -51,7 +75,21 @@ std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray,
     sampled.push_back(star.contour[i]);
     guesses.push_back(star.rectified[i]);  // the detector's rectified copy of the same raw pixel
   }
-  const std::vector<cv::Point2f> raw = subpixel_edges(gray, sampled);
+  std::vector<cv::Point2f> raw;
+  if (settings_.detector.deinterlace == Deinterlace::kField && !sampled.empty()) {
+    // The detector saw the first field only: so must the edges, or they mix two instants 1/60 s apart
+    // (a vehicle climbing at 1 m/s moves its star's image a pixel between them).
+    constexpr int kMargin = 8;  // the edge search reaches 5 px from a contour point, bilinear one more
+    const cv::Rect box = cv::boundingRect(sampled);
+    const cv::Rect region = cv::Rect(box.x - kMargin, box.y - kMargin, box.width + 2 * kMargin,
+                                     box.height + 2 * kMargin) & cv::Rect(0, 0, gray.cols, gray.rows);
+    const cv::Mat field = first_field(gray, region);
+    for (cv::Point& p : sampled) p -= region.tl();
+    raw = subpixel_edges(field, sampled);
+    for (cv::Point2f& p : raw) p += cv::Point2f(static_cast<float>(region.x), static_cast<float>(region.y));
+  } else {
+    raw = subpixel_edges(gray, sampled);
+  }
   std::vector<cv::Point2f> rectified(raw.size());
   for (size_t i = 0; i < raw.size(); ++i) rectified[i] = rectifier.rectified(raw[i], guesses[i]);
   return rectified;

@@ -8,6 +8,7 @@
 //   undistort_iterations estimate_pose pose_max_rms_px pose_min_edge_sigma_px
 //   send_covariance (1: LANDING_TARGET_COVARIANCE after each LANDING_TARGET)
 //   max_pair_skew_ms (left/right capture times further apart are no pair; 0: half the frame period)
+//   field_period_ms (interlaced sources: the time between the two fields of a frame)
 //   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
 //   robust_max_ratio robust_low_ratio max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
 //   max_shape_solidity robust_floor_closing robust_sync_repair robust_row_median robust_require_midlevel
@@ -17,6 +18,7 @@
 //   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "quad/vision/stereo_locator.h"
@@ -28,7 +30,15 @@ struct StationSettings {
   CameraMount mount = thesis_camera_mount();
   bool send_covariance = true;
   double max_pair_skew_ms = 0.0;  // 0: half the measured frame period
+  double field_period_ms = 1000.0 / 59.94;  // NTSC; 20 for PAL
 };
+
+// The instant the detector's view of a frame shows, relative to the frame's time stamp (microseconds,
+// negative: earlier). A frame is stamped when it has been received, at the end of its last field; with
+// `deinterlace: field` the detector sees the first field (the even rows), which ended one field period
+// before the stamp; with `blend` the mean of both fields, half a period before it; with `none`
+// (progressive sources) the frame at its stamp. The fix sent for the frame carries this capture time.
+int64_t view_time_offset_us(Deinterlace deinterlace, double field_period_ms);
 
 StationSettings load_station_settings(const std::string& path);  // throws std::runtime_error
 
