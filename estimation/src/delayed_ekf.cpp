@@ -62,7 +62,7 @@ void DelayedEkfCore::imu(const Vec3& gyro, const Vec3& accel, float dt) {
   acc_.dt += dt;
   // The output carried sample by sample with the filter's biases (seed 004 eq. 3.6-3.9).
   ErrorStateEkf::propagate_nominal(out_, gyro * dt, accel * dt, dt);
-  if (floor_applies() && out_.p.z > floor_down_) out_.p.z = floor_down_;
+  keep_output_above_floor();
   rate_ = gyro - out_.gyro_bias;
 }
 
@@ -143,6 +143,10 @@ bool DelayedEkfCore::floor_applies() const {
   return position_initialized_ && fix_count_ == 0 && !aided(filter_us_);
 }
 
+void DelayedEkfCore::keep_output_above_floor() {
+  if (floor_applies() && out_.p.z > floor_down_) out_.p.z = floor_down_;
+}
+
 void DelayedEkfCore::fuse_due_fixes(const ImuIncrement& e) {
   while (fix_count_ > 0 && micros_between(fixes_[fix_head_].capture_us, e.t_us) <= 0) {
     const StarFix fix = fixes_[fix_head_];
@@ -204,7 +208,7 @@ void DelayedEkfCore::recompute_output() {
     const ImuIncrement& e = entry(i);
     ErrorStateEkf::propagate_nominal(out_, e.delta_angle, e.delta_velocity, e.dt);
   }
-  if (floor_applies() && out_.p.z > floor_down_) out_.p.z = floor_down_;
+  keep_output_above_floor();
   if (count_ > 0) {
     const ImuIncrement& newest = entry(static_cast<uint16_t>(count_ - 1u));
     rate_ = newest.delta_angle * (1.0f / newest.dt) - out_.gyro_bias;

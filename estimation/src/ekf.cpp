@@ -490,10 +490,8 @@ EkfFuse ErrorStateEkf::fuse_position_hold(const Vec3& p_hold) {
   return EkfFuse::kFused;
 }
 
-bool ErrorStateEkf::keep_above(float down) {
-  if (!(x_.p.z > down)) return false;
-  x_.p.z = down;
-  return true;
+void ErrorStateEkf::keep_above(float down) {
+  if (x_.p.z > down) x_.p.z = down;
 }
 
 EkfFuse ErrorStateEkf::fuse_hover_force(const Vec3& specific_force) {

@@ -332,6 +332,25 @@ void still_sample(quad::est::DelayedEkfCore& ekf, const Vec3& accel_error) {
   ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG} + accel_error, kDt);
 }
 
+// An EKF taking fixes as positions only (no star attitude) over the star's floor at floor_down, started
+// level at t_us, 0.1 s behind.
+void start_over_floor(quad::est::DelayedEkfCore& ekf, float floor_down, uint32_t t_us) {
+  EkfParams params;
+  params.star_ned = Vec3{};
+  params.star_attitude = quad::est::StarAttitudeUse::kNone;
+  ekf.set_params(params, 0.1f, false);
+  ekf.set_floor(floor_down);
+  ekf.reset(Quat::identity(), Vec3{}, Vec3{}, t_us);
+}
+
+// The fix of a level vehicle heading north at p_ned (body = NED), the star at the origin.
+StarFix level_fix(const Vec3& p_ned, uint32_t capture_us) {
+  StarFix fix;
+  fix.capture_us = capture_us;
+  fix.star_body = Vec3{} - p_ned;
+  return fix;
+}
+
 }  // namespace
 
 TEST(GroundHold, EkfPositionHoldIsTheKalmanUpdateOfThePosition) {
@@ -376,23 +395,13 @@ TEST(GroundHold, EkfHoldsTheFloorAndWhereItCameToRest) {
   const Vec3 accel_error{0.05f, -0.04f, 0.1f};
   for (const bool on_floor : {true, false}) {
     DelayedEkf<quad::est::history_length(100)> ekf;
-    EkfParams params;
-    params.star_ned = Vec3{};
-    params.star_attitude = quad::est::StarAttitudeUse::kNone;
-    ekf.set_params(params, 0.1f, false);
-    ekf.set_floor(floor_down);
     uint32_t t = 1000000;
-    ekf.reset(Quat::identity(), Vec3{}, Vec3{}, t);
+    start_over_floor(ekf, floor_down, t);
     const Vec3 fixed{0.1f, -0.2f, floor_down - 0.04f};
     for (int i = 0; i < 100; ++i) {
       still_sample(ekf, Vec3{});
       ekf.predict(t += kStepUs, false);
-      if (i % 3 == 0) {
-        StarFix fix;
-        fix.capture_us = t;
-        fix.star_body = Vec3{} - fixed;  // level, heading north: body = NED
-        ASSERT_EQ(ekf.queue_fix(fix), quad::est::EkfFixResult::kQueued);
-      }
+      if (i % 3 == 0) ASSERT_EQ(ekf.queue_fix(level_fix(fixed, t)), quad::est::EkfFixResult::kQueued);
     }
     for (int i = 0; i < 20; ++i) {  // the last fixes taken (0.1 s behind), not yet still
       still_sample(ekf, Vec3{});
@@ -429,26 +438,16 @@ TEST(GroundHold, EkfHoldsTheFloorAndWhereItCameToRest) {
 TEST(GroundHold, EkfStaysAboveTheFloorWithoutFixes) {
   const float floor_down = -0.13f;
   DelayedEkf<quad::est::history_length(100)> ekf;
-  EkfParams params;
-  params.star_ned = Vec3{};
-  params.star_attitude = quad::est::StarAttitudeUse::kNone;
-  ekf.set_params(params, 0.1f, false);
-  ekf.set_floor(floor_down);
   uint32_t t = 1000000;
-  ekf.reset(Quat::identity(), Vec3{}, Vec3{}, t);
+  start_over_floor(ekf, floor_down, t);
   const float speed = 0.5f;
   float truth_down = floor_down - 0.9f;
   // Descending at 0.5 m/s with fixes every 30 ms: the filter learns the velocity.
   for (int i = 0; i < 120; ++i) {
-    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);  // a steady descent: level, specific force g
     truth_down += speed * kDt;
     ekf.predict(t += kStepUs, false);
-    if (i % 3 == 0) {
-      StarFix fix;
-      fix.capture_us = t;
-      fix.star_body = Vec3{0.0f, 0.0f, -truth_down};
-      ASSERT_EQ(ekf.queue_fix(fix), quad::est::EkfFixResult::kQueued);
-    }
+    if (i % 3 == 0) ASSERT_EQ(ekf.queue_fix(level_fix(Vec3{0.0f, 0.0f, truth_down}, t)), quad::est::EkfFixResult::kQueued);
   }
   ASSERT_TRUE(ekf.position_initialized());
   ASSERT_NEAR(ekf.velocity().z, speed, 0.05f);
@@ -456,7 +455,7 @@ TEST(GroundHold, EkfStaysAboveTheFloorWithoutFixes) {
   // The fixes stop; the estimate dead-reckons on down to the floor and, unconstrained, beyond it.
   float deepest = -1.0f, deepest_filter = -1.0f;
   for (int i = 0; i < 80; ++i) {
-    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);  // a steady descent: level, specific force g
     ekf.predict(t += kStepUs, false);
     deepest = quad::maxf(deepest, ekf.position().z);
     deepest_filter = quad::maxf(deepest_filter, ekf.delayed_state().p.z);
@@ -470,14 +469,9 @@ TEST(GroundHold, EkfStaysAboveTheFloorWithoutFixes) {
 
   // A fix below the floor (the floor is the vehicle's standing height: a fix says where it is) is fused.
   for (int i = 0; i < 60; ++i) {
-    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);
+    ekf.imu(Vec3{}, Vec3{0.0f, 0.0f, -kG}, kDt);  // a steady descent: level, specific force g
     ekf.predict(t += kStepUs, false);
-    if (i % 3 == 0) {
-      StarFix fix;
-      fix.capture_us = t;
-      fix.star_body = Vec3{0.0f, 0.0f, -(floor_down + 0.02f)};
-      ekf.queue_fix(fix);
-    }
+    if (i % 3 == 0) ekf.queue_fix(level_fix(Vec3{0.0f, 0.0f, floor_down + 0.02f}, t));
   }
   EXPECT_GT(ekf.position().z, floor_down + 0.01f);
 }

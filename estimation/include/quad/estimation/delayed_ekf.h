@@ -145,6 +145,8 @@ class DelayedEkfCore {
   // Without fixes (none fused within the window, none waiting), nothing stands below the floor: the
   // filter's and the output's down position are kept above it, so a dead-reckoned touchdown ends on it.
   bool floor_applies() const;
+  // The output (the present) projected onto the floor when floor_applies().
+  void keep_output_above_floor();
   void clear_accumulator();
 
   ErrorStateEkf filter_;

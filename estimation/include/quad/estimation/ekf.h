@@ -144,8 +144,8 @@ class ErrorStateEkf {
   // Hovering still: the mean specific force over a step (body FRD) has x, y = the accelerometer's bias.
   EkfFuse fuse_hover_force(const Vec3& specific_force);
   // Projects the nominal position's down coordinate onto `down` when it is below it (the projection
-  // method of constrained Kalman filtering: velocity and covariance unchanged); true when it did.
-  bool keep_above(float down);
+  // method of constrained Kalman filtering: velocity and covariance unchanged).
+  void keep_above(float down);
 
   const EkfState& state() const { return x_; }
   EkfState& mutable_state() { return x_; }

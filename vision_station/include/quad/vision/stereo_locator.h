@@ -91,7 +91,8 @@ struct StarFix {
 };
 
 // An interlaced frame's first field over `region` at full height: the even rows as they are, each odd row
-// the mean of its even neighbours (the edge search of a `deinterlace: field` fix sees one instant).
+// interpolated (cubic) from the four even rows around it, so the edge search of a `deinterlace: field`
+// fix sees one instant.
 cv::Mat first_field(const cv::Mat& gray, const cv::Rect& region);
 
 // p_B = R_BC·p_C + t_BC (thesis eq. 7.22): the star relative to the vehicle in body FRD.
