@@ -409,13 +409,14 @@ TEST(Ekf, ConvergesOnASimulatedHoverWithDelayedFixes) {
     EXPECT_LT(run.pos_rms_mm, with_attitude ? 8.0 : 15.0);
     EXPECT_EQ(run.rejected, 0u);
     EXPECT_LT(run.yaw_rms_deg, 0.5);
-    // With the attitude the star's tilt is not an absolute reference (its bias states, prior 0.2 deg):
-    // the tilt comes from the accelerometer and the motion, the star's tilt steadies it.
+    // With the attitude the star's tilt is not an absolute reference (its bias states, prior 0.5 deg):
+    // the tilt comes from the accelerometer and the motion, the star's tilt steadies it. The accelerometer
+    // bias rests on the same motion: 0.032 m/s^2 after 40 s (0.016 with a 0.2 deg prior).
     EXPECT_LT(run.tilt_rms_deg, with_attitude ? 0.2 : 0.4);
     if (with_attitude) {
       EXPECT_LT(run.yaw_rms_deg, 0.15);
       EXPECT_LT(run.bg_error.norm(), 1e-3);
-      EXPECT_LT(run.ba_error.norm(), 0.03);
+      EXPECT_LT(run.ba_error.norm(), 0.04);
     }
   }
 }

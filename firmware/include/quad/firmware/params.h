@@ -68,6 +68,12 @@ namespace fw {
   /* tilt (the EKF: with the station's tilt bias estimated, docs/estimation.md, "The star's */      \
   /* attitude"; the thesis pair: "The star's attitude in the thesis pair") */                      \
   X(kEstStarAtt, "EST_STAR_ATT", 1.0f, 0.0f, 2.0f)                                                \
+  /* the EKF's floors on the station's fix covariance (m, rad), as PX4's EKF2_EVP_NOISE and */      \
+  /* EKF2_EVA_NOISE: the station reports its scatter, not the mount's or the star's */             \
+  X(kEstEvpNoise, "EST_EVP_NOISE", 0.001f, 0.0005f, 0.1f)                                         \
+  X(kEstEvaNoise, "EST_EVA_NOISE", 0.0017f, 0.0001f, 0.1f)                                        \
+  /* the prior sigma of the station's tilt bias (rad; the EKF's b_s, EST_STAR_ATT 2) */               \
+  X(kEstSattBias, "EST_SATT_BIAS", 0.0087f, 0.0f, 0.05f)                                          \
   /* ground hold (quad/estimation/ground_hold.h): still on the ground below these rates (rad/s) and */ \
   /* specific-force deviations from g (m/s^2); the reference point's height above the floor standing */ \
   /* on the gear (m; the Quad-C of the simulator: 0.13) */                                      \
