@@ -411,7 +411,7 @@ TEST(Ekf, ConvergesOnASimulatedHoverWithDelayedFixes) {
     EXPECT_LT(run.yaw_rms_deg, 0.5);
     // With the attitude the star's tilt is not an absolute reference (its bias states, prior 0.5 deg):
     // the tilt comes from the accelerometer and the motion, the star's tilt steadies it. The accelerometer
-    // bias rests on the same motion: 0.032 m/s^2 after 40 s (0.016 with a 0.2 deg prior).
+    // bias rests on the same motion: 0.032 m/s^2 after 40 s (0.026 with a 0.2 deg prior).
     EXPECT_LT(run.tilt_rms_deg, with_attitude ? 0.2 : 0.4);
     if (with_attitude) {
       EXPECT_LT(run.yaw_rms_deg, 0.15);
