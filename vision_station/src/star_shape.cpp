@@ -73,6 +73,10 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
   profile.fill(0.0);
   const size_t n = outline.size();
   const double bins_per_rad = kBins / (2.0 * CV_PI);
+  // Consecutive samples mostly fall in the same bin: their maximum is kept in a register and written
+  // when the bin changes, not read back from memory after every sample.
+  int bin_now = 0;
+  double max_now = 0.0;
   for (size_t i = 0; i < n; ++i) {
     // Each edge sampled finely enough to touch every bin it crosses.
     const cv::Point2f p0 = outline[i], p1 = outline[(i + 1) % n];
@@ -84,9 +88,15 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
     for (int k = 0; k < steps; ++k) {
       const double u = u0 + du * k, v = v0 + dv * k;
       const int bin = std::min(kBins - 1, static_cast<int>((fast_atan2(v, u) + CV_PI) * bins_per_rad));
-      profile[bin] = std::max(profile[bin], u * u + v * v);
+      if (bin != bin_now) {
+        profile[bin_now] = std::max(profile[bin_now], max_now);
+        bin_now = bin;
+        max_now = profile[bin];
+      }
+      max_now = std::max(max_now, u * u + v * v);
     }
   }
+  profile[bin_now] = std::max(profile[bin_now], max_now);
   for (double& r : profile) r = std::sqrt(r);
   for (int i = 0; i < kBins; ++i) {  // empty bins: the mean of the nearest filled neighbours
     if (profile[i] > 0.0) continue;
