@@ -52,11 +52,11 @@ StarShapeTest::StarShapeTest(double inner_ratio, const StarShapeLimits& limits) 
   std::vector<cv::Point2f> star;
   for (const cv::Point2d& p : star_vertices(StarShape{100.0, inner_ratio})) star.emplace_back(p);
   double elongation = 0.0;
-  radial_profile(star, ideal_, elongation);
+  radial_profile(star, cv::moments(star), ideal_, elongation);
 }
 
-bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Profile& profile, double& elongation) {
-  const cv::Moments m = cv::moments(outline);
+bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, const cv::Moments& m, Profile& profile,
+                                   double& elongation) {
   if (std::fabs(m.m00) < 1e-9) return false;
   const double cx = m.m10 / m.m00, cy = m.m01 / m.m00;
   // Whitening W = C^(−1/2) of the area's covariance C (eigen decomposition of a symmetric 2 × 2).
@@ -115,9 +115,14 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline) const { return score(outline, limits_); }
 
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const StarShapeLimits& gate) const {
+  return outline.size() < 8 ? StarShapeScore{} : score(outline, cv::moments(outline), gate);
+}
+
+StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const cv::Moments& moments,
+                                    const StarShapeLimits& gate) const {
   StarShapeScore s;
   Profile p;
-  if (outline.size() < 8 || !radial_profile(outline, p, s.elongation)) return s;
+  if (outline.size() < 8 || !radial_profile(outline, moments, p, s.elongation)) return s;
   const std::complex<double> c4 = harmonic(p, 4);
   s.fourfold = std::abs(c4);
   for (int k : {1, 2, 3, 5, 6, 7}) s.other_harmonic = std::max(s.other_harmonic, std::abs(harmonic(p, k)));
