@@ -108,7 +108,7 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c, S
   const cv::Moments m = cv::moments(rectified);
   // The coarse contour of the low level is thinner than the mid-level one; a merge shows as a failed shape.
   if (!(std::fabs(m.m00) > 0.5 * c.area && std::fabs(m.m00) < 2.5 * c.area)) return false;
-  score = shape_test_.score(rectified);
+  score = shape_test_.score(rectified, m, settings_.shape);
   if (!score.is_star) return false;
   c.rectified.swap(rectified);
   c.area = std::fabs(m.m00);
@@ -171,18 +171,18 @@ void StarDetector::robust_candidates(std::vector<StarCandidate>& candidates, dou
     }
     c.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
     const Clock::time_point r0 = Clock::now();
-    robust_accept(contour, box, c, candidates);
+    robust_accept(contour, box, m, c, candidates);
     refine_us += microseconds(r0, Clock::now());
   }
 }
 
-void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, StarCandidate& c,
-                                 std::vector<StarCandidate>& candidates) {
+void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, const cv::Moments& m,
+                                 StarCandidate& c, std::vector<StarCandidate>& candidates) {
   // The shape test on the coarse outline; a near miss gets a second chance at full resolution, where a
   // small or blurred star keeps its thin tips and inner corners (the coarse copy and its opening round
   // them off). A second-chance candidate must pass the full test on its mid-level outline.
   // The hull is computed only for outlines within the looser of the two limit sets.
-  const StarShapeScore score = shape_test_.score(c.rectified, settings_.refine_midpoint ? loosest_shape_ : settings_.shape);
+  const StarShapeScore score = shape_test_.score(c.rectified, m, settings_.refine_midpoint ? loosest_shape_ : settings_.shape);
   const bool retry = !score.is_star && settings_.refine_midpoint &&
                      StarShapeTest::within(score, settings_.retry_shape);
   if (!score.is_star && !retry) {

@@ -1,6 +1,7 @@
 #include "quad/vision/star_pose.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <complex>
 #include <cmath>
 #include <functional>
@@ -130,10 +131,17 @@ cv::Matx33d kabsch(const std::array<cv::Point3d, 8>& model, const std::array<cv:
   return cv::Matx33d(cv::Mat(svd.u * D * svd.vt));
 }
 
+// cv::Rodrigues's formula, term by term in its order (the same rotation to the last bit), without its
+// array wrapping: the pose fit calls this some hundred times per fix.
 cv::Matx33d rotation_from_vector(const cv::Vec3d& w) {
-  cv::Matx33d R;
-  cv::Rodrigues(w, R);
-  return R;
+  const double theta = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  if (theta < DBL_EPSILON) return cv::Matx33d::eye();
+  const double c = std::cos(theta), s = std::sin(theta), c1 = 1.0 - c;
+  const cv::Vec3d r = w * (1.0 / theta);
+  const cv::Matx33d rrt(r[0] * r[0], r[0] * r[1], r[0] * r[2], r[0] * r[1], r[1] * r[1], r[1] * r[2], r[0] * r[2],
+                        r[1] * r[2], r[2] * r[2]);
+  const cv::Matx33d r_x(0, -r[2], r[1], r[2], 0, -r[0], -r[1], r[0], 0);
+  return c * cv::Matx33d::eye() + c1 * rrt + s * r_x;
 }
 
 }  // namespace
@@ -191,8 +199,10 @@ namespace {
 
 // Bilinear grey value, or −1 outside the image.
 double grey_at(const cv::Mat& gray, cv::Point2d p) {
-  const int x = static_cast<int>(std::floor(p.x)), y = static_cast<int>(std::floor(p.y));
-  if (x < 0 || y < 0 || x + 1 >= gray.cols || y + 1 >= gray.rows) return -1.0;
+  // A negative coordinate is outside, so for the rest truncation is the floor (and cheaper).
+  if (!(p.x >= 0.0 && p.y >= 0.0)) return -1.0;
+  const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
+  if (x + 1 >= gray.cols || y + 1 >= gray.rows) return -1.0;
   const double fx = p.x - x, fy = p.y - y;
   const uint8_t* r0 = gray.ptr<uint8_t>(y);
   const uint8_t* r1 = gray.ptr<uint8_t>(y + 1);

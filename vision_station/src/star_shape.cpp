@@ -52,11 +52,11 @@ StarShapeTest::StarShapeTest(double inner_ratio, const StarShapeLimits& limits) 
   std::vector<cv::Point2f> star;
   for (const cv::Point2d& p : star_vertices(StarShape{100.0, inner_ratio})) star.emplace_back(p);
   double elongation = 0.0;
-  radial_profile(star, ideal_, elongation);
+  radial_profile(star, cv::moments(star), ideal_, elongation);
 }
 
-bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Profile& profile, double& elongation) {
-  const cv::Moments m = cv::moments(outline);
+bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, const cv::Moments& m, Profile& profile,
+                                   double& elongation) {
   if (std::fabs(m.m00) < 1e-9) return false;
   const double cx = m.m10 / m.m00, cy = m.m01 / m.m00;
   // Whitening W = C^(−1/2) of the area's covariance C (eigen decomposition of a symmetric 2 × 2).
@@ -73,6 +73,10 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
   profile.fill(0.0);
   const size_t n = outline.size();
   const double bins_per_rad = kBins / (2.0 * CV_PI);
+  // Consecutive samples mostly fall in the same bin: their maximum is kept in a register and written
+  // when the bin changes, not read back from memory after every sample.
+  int bin_now = 0;
+  double max_now = 0.0;
   for (size_t i = 0; i < n; ++i) {
     // Each edge sampled finely enough to touch every bin it crosses.
     const cv::Point2f p0 = outline[i], p1 = outline[(i + 1) % n];
@@ -84,9 +88,15 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
     for (int k = 0; k < steps; ++k) {
       const double u = u0 + du * k, v = v0 + dv * k;
       const int bin = std::min(kBins - 1, static_cast<int>((fast_atan2(v, u) + CV_PI) * bins_per_rad));
-      profile[bin] = std::max(profile[bin], u * u + v * v);
+      if (bin != bin_now) {
+        profile[bin_now] = std::max(profile[bin_now], max_now);
+        bin_now = bin;
+        max_now = profile[bin];
+      }
+      max_now = std::max(max_now, u * u + v * v);
     }
   }
+  profile[bin_now] = std::max(profile[bin_now], max_now);
   for (double& r : profile) r = std::sqrt(r);
   for (int i = 0; i < kBins; ++i) {  // empty bins: the mean of the nearest filled neighbours
     if (profile[i] > 0.0) continue;
@@ -105,9 +115,14 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, Prof
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline) const { return score(outline, limits_); }
 
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const StarShapeLimits& gate) const {
+  return outline.size() < 8 ? StarShapeScore{} : score(outline, cv::moments(outline), gate);
+}
+
+StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const cv::Moments& moments,
+                                    const StarShapeLimits& gate) const {
   StarShapeScore s;
   Profile p;
-  if (outline.size() < 8 || !radial_profile(outline, p, s.elongation)) return s;
+  if (outline.size() < 8 || !radial_profile(outline, moments, p, s.elongation)) return s;
   const std::complex<double> c4 = harmonic(p, 4);
   s.fourfold = std::abs(c4);
   for (int k : {1, 2, 3, 5, 6, 7}) s.other_harmonic = std::max(s.other_harmonic, std::abs(harmonic(p, k)));

@@ -172,9 +172,10 @@ class StarDetector {
   // refine_binary_: the view's pixels in `region` below the mid-level between the star and the local floor
   // around the coarse candidate in `grown` (false: no floor around it).
   bool mid_level_threshold(const cv::Rect& grown, const cv::Rect& region);
-  // Shape test, second chance, duplicate check and refinement of one contour that passed the area filters.
-  void robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, StarCandidate& c,
-                     std::vector<StarCandidate>& candidates);
+  // Shape test, second chance, duplicate check and refinement of one contour that passed the area filters
+  // (m: the moments of its rectified outline, c.rectified).
+  void robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, const cv::Moments& m,
+                     StarCandidate& c, std::vector<StarCandidate>& candidates);
   // The largest outline of refine_binary_ (the pixels of `region` below the mid-level), smoothed.
   const std::vector<cv::Point>* mid_level_outline(const cv::Rect& region);
 

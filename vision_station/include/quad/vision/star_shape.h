@@ -37,6 +37,9 @@ class StarShapeTest {
   // The same, but an outline whose profile already fails `gate` (looser limits) gets no convex hull:
   // solidity 0 and not a star. The hull is the test's largest cost on a textured floor's many outlines.
   StarShapeScore score(const std::vector<cv::Point2f>& outline, const StarShapeLimits& gate) const;
+  // The same with the outline's cv::moments, when the caller has them already.
+  StarShapeScore score(const std::vector<cv::Point2f>& outline, const cv::Moments& moments,
+                       const StarShapeLimits& gate) const;
   // The measured score within other limits (score() applies the test's own).
   static bool within(const StarShapeScore& s, const StarShapeLimits& limits);
 
@@ -45,7 +48,8 @@ class StarShapeTest {
  private:
   using Profile = std::array<double, kBins>;
   // Largest whitened radius per angle bin (gaps filled from their neighbours), divided by its mean.
-  static bool radial_profile(const std::vector<cv::Point2f>& outline, Profile& profile, double& elongation);
+  static bool radial_profile(const std::vector<cv::Point2f>& outline, const cv::Moments& m, Profile& profile,
+                             double& elongation);
 
   StarShapeLimits limits_;
   Profile ideal_{};
