@@ -5,6 +5,7 @@
 #include "quad/firmware/state_estimator.h"
 
 #include "quad/firmware/app_checks.h"
+#include "quad/firmware/param_fields.h"
 
 namespace quad {
 namespace fw {
@@ -44,9 +45,7 @@ void StateEstimator::configure_ekf(const Params& p) {
   // with it (EST_ABIAS_TAU 0: a steady wind's drag is a real force).
   ekf_hover_force_ = p.get(kEstABiasTau) > 0.0f;
   ekf_params_.star_ned = star_ned_;
-  ekf_params_.fix_sigma_floor = p.get(kEstEvpNoise);
-  ekf_params_.attitude_sigma_floor = p.get(kEstEvaNoise);
-  ekf_params_.star_bias_sigma0 = p.get(kEstSattBias);
+  load_fields(p, ekf_params_, kEkfFields);
   const float star_att = p.get(kEstStarAtt);
   ekf_params_.star_attitude = star_att >= 1.5f   ? est::StarAttitudeUse::kFull
                               : star_att >= 0.5f ? est::StarAttitudeUse::kHeading

@@ -551,4 +551,28 @@ TEST_F(ParamFields, ObserverFilterStarAndCalibration) {
   EXPECT_EQ(sizeof quad::fw::kCalibrationFields / sizeof(quad::fw::ParamField), 5u);
 }
 
+TEST_F(ParamFields, Ekf) {
+  quad::est::EkfParams e;
+  const quad::est::EkfParams ed;
+  quad::fw::load_fields(p_, e, quad::fw::kEkfFields);
+  EXPECT_EQ(e.fix_sigma_floor, get(quad::fw::kEstEvpNoise));
+  EXPECT_EQ(e.attitude_sigma_floor, get(quad::fw::kEstEvaNoise));
+  EXPECT_EQ(e.star_bias_sigma0, get(quad::fw::kEstSattBias));
+  EXPECT_EQ(e.fix_sigma, ed.fix_sigma);
+  EXPECT_EQ(e.star_bias_walk, ed.star_bias_walk);
+  EXPECT_EQ(sizeof quad::fw::kEkfFields / sizeof(quad::fw::ParamField), 3u);
+}
+
+// The EKF library's defaults (its tests, estimation_replay) are the firmware's parameter defaults.
+TEST(ParamTable, EkfDefaultsAreTheLibrarysDefaults) {
+  const Params defaults;
+  quad::est::EkfParams loaded;
+  loaded.fix_sigma_floor = loaded.attitude_sigma_floor = loaded.star_bias_sigma0 = -1.0f;
+  quad::fw::load_fields(defaults, loaded, quad::fw::kEkfFields);
+  const quad::est::EkfParams library;
+  EXPECT_EQ(loaded.fix_sigma_floor, library.fix_sigma_floor);
+  EXPECT_EQ(loaded.attitude_sigma_floor, library.attitude_sigma_floor);
+  EXPECT_EQ(loaded.star_bias_sigma0, library.star_bias_sigma0);
+}
+
 }  // namespace

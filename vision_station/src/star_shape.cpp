@@ -115,7 +115,7 @@ bool StarShapeTest::radial_profile(const std::vector<cv::Point2f>& outline, cons
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline) const { return score(outline, limits_); }
 
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const StarShapeLimits& gate) const {
-  return outline.size() < 8 ? StarShapeScore{} : score(outline, cv::moments(outline), gate);
+  return score(outline, cv::moments(outline), gate);
 }
 
 StarShapeScore StarShapeTest::score(const std::vector<cv::Point2f>& outline, const cv::Moments& moments,

@@ -13,6 +13,7 @@
 #include "quad/control/setpoint_shaper.h"
 #include "quad/estimation/calibration.h"
 #include "quad/estimation/conditioned_observer.h"
+#include "quad/estimation/ekf.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/firmware/calibration.h"
 #include "quad/firmware/flash.h"
@@ -120,6 +121,14 @@ constexpr ParamField kCameraMountFields[] QUAD_FLASH = {
     QUAD_PARAM_FIELD(Euler, kEstCamRoll, roll),
     QUAD_PARAM_FIELD(Euler, kEstCamPitch, pitch),
     QUAD_PARAM_FIELD(Euler, kEstCamYaw, yaw),
+};
+
+// The EKF's floors on the station's covariance and the prior of its tilt bias (the EKF is not in the
+// ATmega2560 image: there this table is never referenced).
+constexpr ParamField kEkfFields[] QUAD_FLASH = {
+    QUAD_PARAM_FIELD(est::EkfParams, kEstEvpNoise, fix_sigma_floor),
+    QUAD_PARAM_FIELD(est::EkfParams, kEstEvaNoise, attitude_sigma_floor),
+    QUAD_PARAM_FIELD(est::EkfParams, kEstSattBias, star_bias_sigma0),
 };
 
 constexpr ParamField kCalibrationFields[] QUAD_FLASH = {
