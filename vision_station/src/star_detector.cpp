@@ -217,15 +217,21 @@ bool StarDetector::touches_border(const cv::Rect& box, cv::Size view_size, int m
   return box.x < m[0] || box.y < m[1] || box.br().x > view_size.width - m[2] || box.br().y > view_size.height - m[3];
 }
 
-std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times) {
+std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times,
+                                                double level_ratio) {
   CV_Assert(gray.type() == CV_8UC1);
   const cv::Rect image_rect(0, 0, gray.cols, gray.rows);
   roi = roi.empty() ? image_rect : (roi & image_rect);
   if (roi.width < 8 || roi.height < 8) return {};
   if (table_.image_size() != gray.size()) table_ = RectifyTable(rectifier_, gray.size());
-  make_view(gray, roi);
-  std::vector<StarCandidate> candidates =
-      settings_.method == DetectorMethod::kThesis ? detect_thesis(times) : detect_robust(times);
+  level_ratio_ = level_ratio;
+  std::vector<StarCandidate> candidates;
+  if (settings_.method == DetectorMethod::kThesis) {
+    make_view(gray, roi);
+    candidates = detect_thesis(times);
+  } else {
+    candidates = detect_robust(gray, roi, times);
+  }
   std::sort(candidates.begin(), candidates.end(),
             [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
   return candidates;

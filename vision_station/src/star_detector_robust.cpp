@@ -28,27 +28,70 @@ cv::Point2f StarDetector::coarse_scale() const {
 
 void StarDetector::row_median() { vertical_median_3(coarse_, median_lo_); }
 
-void StarDetector::robust_floor() {
+cv::Rect StarDetector::floor_region(const cv::Rect& roi, cv::Size image) const {
+  // The floor at a pixel depends on the 1/8-size pixels within two half-windows (the closing), one more
+  // for the blur and one for the interpolation: grown by the window and three 8-pixel cells.
+  constexpr int kCell = 8;
+  const int reach = settings_.robust_window_px + 3 * kCell;
+  const int x0 = std::max(0, (roi.x - reach) / kCell * kCell), y0 = std::max(0, (roi.y - reach) / kCell * kCell);
+  const int x1 = std::min(image.width, (roi.br().x + reach + kCell - 1) / kCell * kCell);
+  const int y1 = std::min(image.height, (roi.br().y + reach + kCell - 1) / kCell * kCell);
+  return cv::Rect(cv::Point(x0, y0), cv::Point(x1, y1));
+}
+
+void StarDetector::upsample_floor(const cv::Rect& window) {
+  // cv::resize maps coarse pixel i to 1/8-size coordinate (i + ½)/4 − ½: a crop of whole 1/8-size pixels,
+  // one more on each side than the window needs, resized 4 ×, gives the same values in the window.
+  const cv::Size full = coarse_region_.size();
+  if (full.width != 4 * background_.cols || full.height != 4 * background_.rows) {
+    cv::resize(background_, scratch_, full, 0, 0, cv::INTER_LINEAR);
+    scratch_(window).copyTo(coarse_floor_);
+    return;
+  }
+  const int x0 = std::max(0, window.x / 4 - 1), y0 = std::max(0, window.y / 4 - 1);
+  const int x1 = std::min(background_.cols, (window.br().x + 3) / 4 + 1);
+  const int y1 = std::min(background_.rows, (window.br().y + 3) / 4 + 1);
+  const cv::Rect cells(cv::Point(x0, y0), cv::Point(x1, y1));
+  cv::resize(background_(cells), scratch_, cv::Size(4 * cells.width, 4 * cells.height), 0, 0, cv::INTER_LINEAR);
+  scratch_(window - cv::Point(4 * x0, 4 * y0)).copyTo(coarse_floor_);
+}
+
+void StarDetector::robust_floor(const cv::Rect& window) {
   // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
   // the brightest surface), on a 1/8-size copy, smoothed and brought back to the half-resolution copy.
   // The contrast level ρ comes from the image (Otsu on the image/floor ratio), clamped.
   const DetectorSettings& s = settings_;
   const cv::Point2f scale = coarse_scale();
-  half_resolution(view_, scale.y > 1.0f, coarse_);
+  half_resolution(view_, scale.y > 1.0f, coarse_region_);
+  coarse_ = coarse_region_;
   if (s.robust_row_median) row_median();
-  quarter_area(coarse_, small_);
-  const int window = std::max(1, s.robust_window_px / 8) | 1;
+  quarter_area(coarse_region_, small_);
+  const int floor_window = std::max(1, s.robust_window_px / 8) | 1;
   // A closing (local maximum, then local minimum over the same window): the dilation fills every dark
   // shape narrower than the window with the floor around it, the erosion brings a shadow or a dark floor
   // region wider than the window back to its own level, so the floor follows a shadow's edge.
-  dilate_rect(small_, scratch_, window, window);
-  if (s.robust_floor_closing) erode_rect(scratch_, background_, window, window);
+  dilate_rect(small_, scratch_, floor_window, floor_window);
+  if (s.robust_floor_closing) erode_rect(scratch_, background_, floor_window, floor_window);
   else std::swap(scratch_, background_);
   cv::blur(background_, background_, cv::Size(3, 3));
-  cv::divide(small_, background_, ratio_, 255.0);
-  const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
-  threshold_ratio_ = std::clamp(otsu, s.robust_min_ratio, s.robust_max_ratio);
-  cv::resize(background_, coarse_floor_, coarse_.size(), 0, 0, cv::INTER_LINEAR);
+  if (level_ratio_ > 0.0) {
+    threshold_ratio_ = level_ratio_;
+  } else {
+    cv::divide(small_, background_, ratio_, 255.0);
+    const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
+    threshold_ratio_ = std::clamp(otsu, s.robust_min_ratio, s.robust_max_ratio);
+  }
+  // The search window on the half-resolution grid (whole coarse pixels), and the view cut to it.
+  const int sx = static_cast<int>(scale.x), sy = static_cast<int>(scale.y);
+  const cv::Rect coarse_window =
+      cv::Rect(cv::Point(window.x / sx, window.y / sy),
+               cv::Point((window.br().x + sx - 1) / sx, (window.br().y + sy - 1) / sy)) &
+      cv::Rect(0, 0, coarse_region_.cols, coarse_region_.rows);
+  upsample_floor(coarse_window);
+  coarse_ = coarse_region_(coarse_window);
+  view_ = view_(cv::Rect(coarse_window.x * sx, coarse_window.y * sy, coarse_window.width * sx, coarse_window.height * sy) &
+                cv::Rect(0, 0, view_.cols, view_.rows));
+  view_origin_ += cv::Point2f(static_cast<float>(coarse_window.x * sx), view_row_scale_ * coarse_window.y * sy);
 }
 
 void StarDetector::robust_threshold(double ratio) {
@@ -117,17 +160,29 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c, S
   return true;
 }
 
-std::vector<StarCandidate> StarDetector::detect_robust(DetectorTimes* times) {
+std::vector<StarCandidate> StarDetector::detect_robust(const cv::Mat& gray, const cv::Rect& roi, DetectorTimes* times) {
   // Two contrast levels: the image's own (Otsu) and a low one that only the darkest objects pass, so a
   // star inside a shadow or next to dark texture, merged with it at the first level, separates at the
-  // second. A star found at both levels is kept once (the better shape).
+  // second. A star found at both levels is kept once (the better shape). An ROI search measures the
+  // floor (and ρ) over the floor region around it, so it cuts the star as a full-frame search would.
   std::vector<StarCandidate> candidates;
   const Clock::time_point t0 = Clock::now();
+  const cv::Rect region = floor_region(roi, gray.size());
+  make_view(gray, region);
+  const cv::Rect window((roi.x - region.x), static_cast<int>((roi.y - region.y) / view_row_scale_), roi.width,
+                        static_cast<int>(std::ceil(roi.height / view_row_scale_)));
+  roi_border_[0] = roi.x > 0;
+  roi_border_[1] = roi.y > 0;
+  roi_border_[2] = roi.br().x < gray.cols;
+  roi_border_[3] = roi.br().y < gray.rows;
   if (settings_.robust_sync_repair) repair_sync_bands();
-  robust_floor();
+  robust_floor(window);
   double threshold_us = microseconds(t0, Clock::now()), refine_us = 0.0;
   const double levels[2] = {threshold_ratio_, std::max(settings_.robust_min_ratio, settings_.robust_low_ratio * threshold_ratio_)};
   for (double level : levels) {
+    // The low level separates a star that merged with dark texture at the first: not needed when the
+    // first found a star-shaped outline (unless robust_low_level_always).
+    if (level != levels[0] && !candidates.empty() && !settings_.robust_low_level_always) break;
     const Clock::time_point l0 = Clock::now();
     robust_threshold(level);
     level_ = level;

@@ -5,7 +5,10 @@
 #include <cmath>
 #include <limits>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "quad/vision/ideal_star.h"
 
 namespace quad::vision {
 namespace {
@@ -21,6 +24,12 @@ constexpr size_t kMaxCandidatesPerView = 3;
 
 // Contour points per view the pose is fitted to (star_pose.h).
 constexpr size_t kMaxPoseContourPoints = 240;
+
+double star_area(const StarShape& shape) {
+  std::vector<cv::Point2f> outline;
+  for (const cv::Point2d& p : star_vertices(shape)) outline.emplace_back(p);
+  return std::fabs(cv::contourArea(outline));
+}
 
 }  // namespace
 
@@ -39,7 +48,8 @@ StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const
       left_detector_(settings.detector, PointRectifier(calibration, 0, settings.undistort_iterations)),
       right_detector_(settings.detector, PointRectifier(calibration, 1, settings.undistort_iterations)),
       left_near_(calibration, 0),
-      right_near_(calibration, 1) {}
+      right_near_(calibration, 1),
+      star_area_m2_(star_area(StarShape{settings.pose.tip_radius_m, settings.detector.inner_ratio})) {}
 
 cv::Mat first_field(const cv::Mat& gray, const cv::Rect& region) {
   // The frame's even rows (the first field) as they are, each odd row interpolated from the four even rows
@@ -139,6 +149,47 @@ void StereoStarLocator::reset_tracking() {
   last_right_box_ = cv::Rect();
 }
 
+cv::Rect StereoStarLocator::right_search_window(const std::vector<StarCandidate>& left) const {
+  const cv::Matx34d& P1 = calibration_.P1;
+  const cv::Matx34d& P2 = calibration_.P2;
+  const double f = P1(0, 0), b = calibration_.baseline();
+  const double d_near = f * b / settings_.min_range_m, d_far = f * b / settings_.max_range_m;
+  // The window in the right view's rectified pixels, sampled along its outline and taken to raw pixels
+  // through the right camera's lens (a straight rectified edge is bent by the distortion).
+  std::vector<cv::Point3f> rays;
+  const size_t n = std::min(left.size(), kMaxCandidatesPerView);
+  for (size_t i = 0; i < n; ++i) {
+    const StarCandidate& c = left[i];
+    if (c.rectified.empty() || !(c.area > 0.0)) continue;
+    // Area A px² of a star of area S m² at depth Z: A = S f² / Z², so d = f b / Z = b √(A / S).
+    const double d = b * std::sqrt(c.area / star_area_m2_);
+    const double d_min = std::max(settings_.guided_min_scale * d, d_far);
+    const double d_max = std::min(settings_.guided_max_scale * d, d_near);
+    if (!(d_min <= d_max)) continue;
+    // The star's rectified box, grown like a tracking ROI (LocatorSettings::roi_growth, roi_margin_px):
+    // the detector measures the floor around the star, and drops an outline that touches the window.
+    const cv::Rect2f box = cv::boundingRect(c.rectified);
+    const double gx = 0.5 * (settings_.roi_growth - 1.0) * box.width + settings_.roi_margin_px;
+    const double gy = 0.5 * (settings_.roi_growth - 1.0) * box.height + settings_.roi_margin_px + settings_.row_window_px;
+    // x_r − cx2 = (x_l − cx1) − d
+    const double x0 = box.x - gx - d_max - P1(0, 2) + P2(0, 2);
+    const double x1 = box.x + box.width + gx - d_min - P1(0, 2) + P2(0, 2);
+    const double y0 = box.y - gy, y1 = box.y + box.height + gy;
+    constexpr int kSteps = 4;
+    for (int k = 0; k <= kSteps; ++k) {
+      const double tx = x0 + (x1 - x0) * k / kSteps, ty = y0 + (y1 - y0) * k / kSteps;
+      for (const cv::Point2d& q : {cv::Point2d(tx, y0), cv::Point2d(tx, y1), cv::Point2d(x0, ty), cv::Point2d(x1, ty)}) {
+        const cv::Vec3d ray = calibration_.R2.t() * cv::Vec3d((q.x - P2(0, 2)) / P2(0, 0), (q.y - P2(1, 2)) / P2(1, 1), 1.0);
+        if (ray[2] > 1e-6) rays.emplace_back(static_cast<float>(ray[0]), static_cast<float>(ray[1]), static_cast<float>(ray[2]));
+      }
+    }
+  }
+  if (rays.empty()) return {};
+  std::vector<cv::Point2f> raw;
+  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), calibration_.rig.right.K, calibration_.rig.right.D, raw);
+  return cv::boundingRect(raw) & cv::Rect(cv::Point(0, 0), calibration_.rig.image_size);
+}
+
 StereoStarLocator::ViewResult StereoStarLocator::detect_view(StarDetector& detector, const cv::Mat& gray,
                                                              const cv::Rect& last_box, DetectorTimes* times) {
   ViewResult result;
@@ -167,7 +218,23 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   // Nothing in the whole left image (detect_view falls back to it): no pair can form, so the right
   // image is not searched; the outcome (no fix, tracking reset) is the same.
   ViewResult right;
-  if (!left.candidates.empty()) right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+  auto detect_right = [&] {
+    right = ViewResult();
+    if (left.candidates.empty()) return;
+    // The thesis pipeline (the documented baseline) searches the whole right frame.
+    if (!settings_.guided_search || settings_.detector.method == DetectorMethod::kThesis) {
+      right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+      return;
+    }
+    const cv::Rect window = right_search_window(left.candidates);
+    right.used_roi = left.used_roi;  // a fix from a tracked left ROI is a tracked fix
+    // At the left view's contrast level: both outlines cut at the same level have the same edge bias,
+    // which cancels in the disparity.
+    if (!window.empty()) {
+      right.candidates = right_detector_.detect(right_gray, window, &right_times, left_detector_.last_threshold_ratio());
+    }
+  };
+  detect_right();
 
   const cv::Matx34d& P1 = calibration_.P1;
   const cv::Matx34d& P2 = calibration_.P2;
@@ -243,7 +310,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // The tracked ROIs found something that does not pair up: search both full frames once.
     reset_tracking();
     left = detect_view(left_detector_, left_gray, last_left_box_, &left_times);
-    right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
+    detect_right();
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();

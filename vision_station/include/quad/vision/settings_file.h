@@ -5,12 +5,13 @@
 //   edge_margin_px min_area_px raw_area_prefilter min_aspect ideal_vertex_count vertex_count_tolerance
 //   polygon_epsilon min_hu_distance max_hu_distance inner_ratio min_solidity max_solidity
 //   max_row_difference_px min_range_m max_range_m centroid_sigma_px track_roi roi_growth roi_margin_px
+//   guided_search row_window_px guided_min_scale guided_max_scale
 //   undistort_iterations estimate_pose pose_max_rms_px pose_min_edge_sigma_px
 //   send_covariance (1: LANDING_TARGET_COVARIANCE after each LANDING_TARGET)
 //   max_pair_skew_ms (left/right capture times further apart are no pair; 0: half the frame period)
 //   field_period_ms (interlaced sources: the time between the two fields of a frame)
 //   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
-//   robust_max_ratio robust_low_ratio max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
+//   robust_max_ratio robust_low_ratio robust_low_level_always max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
 //   max_shape_solidity robust_floor_closing robust_sync_repair robust_row_median robust_require_midlevel
 //   retry_max_profile_rms retry_min_fourfold retry_max_other_harmonic retry_min_solidity retry_max_solidity
 //   position_from_pose max_pose_offset require_pose_beyond_rad max_pose_size_error attitude_max_rms_px

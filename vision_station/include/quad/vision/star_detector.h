@@ -78,6 +78,7 @@ struct DetectorSettings {
   double robust_min_ratio = 0.25;
   double robust_max_ratio = 0.8;
   double robust_low_ratio = 0.55;  // second, lower level: this fraction of the first (not below min)
+  bool robust_low_level_always = false;  // search the second level even when the first found a candidate
   bool robust_floor_closing = true;  // floor = closing (max then min) over the window, else its maximum
   bool robust_sync_repair = true;    // interpolate the rows of lost-sync bands (sync_repair.cpp)
   bool robust_row_median = true;     // 3-row vertical median of the half-resolution copy (RF snow)
@@ -132,8 +133,10 @@ class StarDetector {
 
   // Finds the star candidates inside `roi` (clipped to the image; an empty rect means the whole image),
   // best first (smallest Hu distance). A contour touching an ROI border that is not an image border is
-  // dropped as possibly cut. `gray` must be CV_8UC1.
-  std::vector<StarCandidate> detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times = nullptr);
+  // dropped as possibly cut. `gray` must be CV_8UC1. level_ratio > 0 (robust method): the contrast level
+  // ρ to use instead of measuring it on the ROI (the other view's, so both views cut the star alike).
+  std::vector<StarCandidate> detect(const cv::Mat& gray, cv::Rect roi, DetectorTimes* times = nullptr,
+                                    double level_ratio = 0.0);
 
   const DetectorSettings& settings() const { return settings_; }
 
@@ -154,7 +157,13 @@ class StarDetector {
   bool touches_border(const cv::Rect& box, cv::Size view_size, int margin) const;
 
   std::vector<StarCandidate> detect_thesis(DetectorTimes* times);
-  std::vector<StarCandidate> detect_robust(DetectorTimes* times);
+  std::vector<StarCandidate> detect_robust(const cv::Mat& gray, const cv::Rect& roi, DetectorTimes* times);
+  // The frame region whose floor the robust method measures for a search of `roi`: the ROI grown by the
+  // floor's reach, on the full frame's grid of 8 × 8 pixels (its 1/8-size copy), within the image.
+  cv::Rect floor_region(const cv::Rect& roi, cv::Size image) const;
+  // The local floor at half resolution over `window` (coarse pixels of the floor region), interpolated
+  // from the 1/8-size floor exactly as for the whole region.
+  void upsample_floor(const cv::Rect& window);
   cv::Point2f coarse_scale() const;  // view pixels per pixel of the half-resolution copy (x, y)
   // Lost-sync bands (sync_repair.cpp): rows [a, b) of `view` shifted or blanked as a whole, at most
   // max_band rows each; repair_sync_bands interpolates them in a copy of view_ and points view_ at it.
@@ -163,7 +172,9 @@ class StarDetector {
   double unexplained_jump(const cv::Mat& image, int a, int b);
   // The half-resolution copy's vertical 3-row median (RF snow is streaks one line high).
   void row_median();
-  void robust_floor();
+  // The floor over the view (the floor region), then the view and the half-resolution copy cut to the
+  // search window (`window`, view pixels).
+  void robust_floor(const cv::Rect& window);
   void robust_threshold(double ratio);
   void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
   // The candidate's mid-level outline at full resolution (false: none that passes the shape test; its
@@ -196,6 +207,7 @@ class StarDetector {
   bool roi_border_[4] = {};        // left, top, right, bottom edges of the view are ROI (not image) edges
   bool image_border_[4] = {};
   cv::Mat coarse_, coarse_floor_, coarse_threshold_;
+  cv::Mat coarse_region_;          // the half-resolution copy of the whole floor region (coarse_ is inside it)
   std::vector<cv::Point2f> frame_points_;
   std::array<double, 7> ideal_hu_log_{};  // sign(h)·log10|h| of the ideal star, 0 where |h| is negligible
   cv::Mat kernel_;
@@ -209,6 +221,7 @@ class StarDetector {
   std::vector<cv::Vec2i> sync_bands_;
   std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
+  double level_ratio_ = 0.0;  // detect's level_ratio
   std::vector<std::vector<cv::Point>> contours_;
   std::vector<TracedContour>* trace_ = nullptr;
   double level_ = 0.0;  // the threshold ratio of the binary image being searched

@@ -23,6 +23,14 @@ struct LocatorSettings {
   bool track_roi = true;               // search around the last fix first, full frame as fallback
   double roi_growth = 1.6;             // ROI = last contour box scaled by this about its centre ...
   int roi_margin_px = 24;              // ... plus this margin on every side
+  // The right view is searched only where the left view's candidates can appear in it: their rectified
+  // rows (± row_window_px), at disparities between guided_min_scale and guided_max_scale times the one
+  // their area implies for a star of pose.tip_radius_m (a tilted star looks smaller, so farther), within
+  // the range limits. Off (and for the thesis method): the whole right frame.
+  bool guided_search = true;
+  double row_window_px = 8.0;
+  double guided_min_scale = 0.6;
+  double guided_max_scale = 1.5;
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
@@ -123,6 +131,9 @@ class StereoStarLocator {
   };
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
                          DetectorTimes* times);
+  // The right frame's pixels where the star of one of the left candidates can appear
+  // (LocatorSettings::guided_search); empty when none can.
+  cv::Rect right_search_window(const std::vector<StarCandidate>& left) const;
 
   // The star's pose from the paired candidates, and the fix's position from it (LocatorSettings).
   void add_pose(const std::vector<cv::Point2f>& left_edges, const std::vector<cv::Point2f>& right_edges,
@@ -144,6 +155,7 @@ class StereoStarLocator {
   cv::Rect last_left_box_;
   cv::Rect last_right_box_;
   NearRectifier left_near_, right_near_;
+  double star_area_m2_;  // the marker's area (pose.tip_radius_m, detector.inner_ratio)
 };
 
 }  // namespace quad::vision
