@@ -52,10 +52,12 @@ def load(sets_dir, detect_dir, condition):
         row["ms"] = d.get("ms")
         row["error"] = None
         row["tilt_error"] = None
+        row["tilt_predicted"] = None
         if row["found"] and row["in_view"]:
             err = math.dist((d["x"], d["y"], d["z"]), (float(t["x"]), float(t["y"]), float(t["z"])))
             row["error"] = err / float(t["range_m"])
             row["tilt_error"] = tilt_error(t, d)
+            row["tilt_predicted"] = tilt_predicted(d)
         rows.append(row)
     return rows
 
@@ -71,8 +73,18 @@ def tilt_error(truth, fix):
     return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
 
 
-TILT_HEADER = ("| range | stars found | with a pose | median tilt error | p95 tilt error |\n"
-               "| --- | ---: | ---: | ---: | ---: |")
+def tilt_predicted(fix):
+    """The median tilt error (degrees) the pose fit's own covariance predicts: its roll and pitch σ come
+    from the residual of the edge points (σ̂² (JᵀJ)⁻¹), and the median length of a 2-D normal error with
+    per-axis σ is σ·√(2 ln 2) (the RMS of the two σ for unequal ones)."""
+    s = fix.get("attitude_sigma_rad")
+    if not s or fix.get("normal_camera") is None:
+        return None
+    return math.degrees(math.sqrt(2.0 * math.log(2.0)) * math.sqrt((s[0] ** 2 + s[1] ** 2) / 2.0))
+
+
+TILT_HEADER = ("| range | stars found | with a pose | median tilt error | p95 tilt error | median predicted by the fit |\n"
+               "| --- | ---: | ---: | ---: | ---: | ---: |")
 
 
 def tilt_report(name, rows):
@@ -86,7 +98,10 @@ def tilt_report(name, rows):
         group = [r for r in hits if level == "all" or key(r) == level]
         tilts = [r["tilt_error"] for r in group if r["tilt_error"] is not None]
         median = statistics.median(tilts) if tilts else float("nan")
-        out.append(f"| {level} | {len(group)} | {len(tilts)} | {median:.3f}° | {percentile(tilts, 0.95):.3f}° |")
+        predicted = [r["tilt_predicted"] for r in group if r["tilt_predicted"] is not None]
+        expected = statistics.median(predicted) if predicted else float("nan")
+        out.append(f"| {level} | {len(group)} | {len(tilts)} | {median:.3f}° | {percentile(tilts, 0.95):.3f}° |"
+                   f" {expected:.3f}° |")
     return out + [""]
 
 
