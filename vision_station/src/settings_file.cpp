@@ -51,7 +51,13 @@ StationSettings load_station_settings(const std::string& path) {
       {"retry_min_fourfold", &d.retry_shape.min_fourfold}, {"retry_max_other_harmonic", &d.retry_shape.max_other_harmonic},
       {"retry_min_solidity", &d.retry_shape.min_solidity}, {"retry_max_solidity", &d.retry_shape.max_solidity},
       {"robust_require_midlevel", &d.robust_require_midlevel}, {"robust_floor_closing", &d.robust_floor_closing},
-      {"robust_sync_repair", &d.robust_sync_repair}, {"robust_row_median", &d.robust_row_median}};
+      {"robust_sync_repair", &d.robust_sync_repair}, {"robust_row_median", &d.robust_row_median},
+      {"guided_acceptance", &l.guided_acceptance}, {"guided_min_area_ratio", &l.guided_min_area_ratio},
+      {"guided_max_area_ratio", &l.guided_max_area_ratio}, {"guided_max_residual_px", &l.guided_max_residual_px},
+      {"guided_max_row_difference_px", &l.guided_max_row_difference_px}, {"guided_max_elongation", &d.near_miss_shape.max_elongation},
+      {"guided_max_profile_rms", &d.near_miss_shape.max_profile_rms}, {"guided_min_fourfold", &d.near_miss_shape.min_fourfold},
+      {"guided_max_other_harmonic", &d.near_miss_shape.max_other_harmonic},
+      {"guided_min_solidity", &d.near_miss_shape.min_solidity}, {"guided_max_solidity", &d.near_miss_shape.max_solidity}};
   for (const cv::FileNode& node : fs.root()) {
     const std::string key = node.name();
     if (key == "camera_to_body_R" || key == "camera_to_body_t") {

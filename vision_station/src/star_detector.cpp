@@ -89,11 +89,13 @@ StarDetector::StarDetector(const DetectorSettings& settings, const PointRectifie
       shape_test_(settings.inner_ratio, settings.shape),
       kernel_(cv::getStructuringElement(cv::MORPH_RECT,
                                         cv::Size(settings.morphology_kernel_px, settings.morphology_kernel_px))) {
-  const StarShapeLimits& a = settings.shape;
-  const StarShapeLimits& b = settings.retry_shape;
-  loosest_shape_ = {std::max(a.max_elongation, b.max_elongation), std::max(a.max_profile_rms, b.max_profile_rms),
-                    std::min(a.min_fourfold, b.min_fourfold), std::max(a.max_other_harmonic, b.max_other_harmonic),
-                    std::min(a.min_solidity, b.min_solidity), std::max(a.max_solidity, b.max_solidity)};
+  auto loosest = [](const StarShapeLimits& a, const StarShapeLimits& b) {
+    return StarShapeLimits{std::max(a.max_elongation, b.max_elongation), std::max(a.max_profile_rms, b.max_profile_rms),
+                           std::min(a.min_fourfold, b.min_fourfold), std::max(a.max_other_harmonic, b.max_other_harmonic),
+                           std::min(a.min_solidity, b.min_solidity), std::max(a.max_solidity, b.max_solidity)};
+  };
+  loosest_shape_ = settings.refine_midpoint ? loosest(settings.shape, settings.retry_shape) : settings.shape;
+  if (settings.keep_near_misses) loosest_shape_ = loosest(loosest_shape_, settings.near_miss_shape);
   ideal_hu_log_ = hu_log(cv::moments(ideal_star_contour(settings.inner_ratio)));
 }
 
@@ -225,12 +227,14 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
   if (roi.width < 8 || roi.height < 8) return {};
   if (table_.image_size() != gray.size()) table_ = RectifyTable(rectifier_, gray.size());
   level_ratio_ = level_ratio;
+  near_misses_.clear();
   std::vector<StarCandidate> candidates;
   if (settings_.method == DetectorMethod::kThesis) {
     make_view(gray, roi);
     candidates = detect_thesis(times);
   } else {
     candidates = detect_robust(gray, roi, times);
+    prune_near_misses(candidates);
   }
   std::sort(candidates.begin(), candidates.end(),
             [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });

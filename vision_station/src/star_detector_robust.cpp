@@ -237,11 +237,12 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
   // small or blurred star keeps its thin tips and inner corners (the coarse copy and its opening round
   // them off). A second-chance candidate must pass the full test on its mid-level outline.
   // The hull is computed only for outlines within the looser of the two limit sets.
-  const StarShapeScore score = shape_test_.score(c.rectified, m, settings_.refine_midpoint ? loosest_shape_ : settings_.shape);
+  const StarShapeScore score = shape_test_.score(c.rectified, m, loosest_shape_);
   const bool retry = !score.is_star && settings_.refine_midpoint &&
                      StarShapeTest::within(score, settings_.retry_shape);
   if (!score.is_star && !retry) {
     note(box, ContourFate::kShape, c.area, score);
+    keep_near_miss(contour, score, c);
     return;
   }
   StarShapeScore refined_score;
@@ -250,6 +251,7 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
     refined = robust_refine(box, c, refined_score);
     if (!refined) {
       note(box, ContourFate::kShape, c.area, score);
+      keep_near_miss(contour, score, c);
       return;
     }
   }
@@ -279,6 +281,39 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
   c.box = cv::boundingRect(c.contour);
   if (same != candidates.end()) *same = std::move(c);
   else candidates.push_back(std::move(c));
+}
+
+void StarDetector::keep_near_miss(const std::vector<cv::Point>& contour, const StarShapeScore& score, StarCandidate& c) {
+  if (!settings_.keep_near_misses || !StarShapeTest::within(score, settings_.near_miss_shape)) return;
+  c.hu_distance = score.profile_rms;
+  c.solidity = score.solidity;
+  c.strict = false;
+  to_frame(contour, coarse_scale(), frame_points_);
+  for (const cv::Point2f& p : frame_points_) c.contour.emplace_back(cvRound(p.x), cvRound(p.y));
+  c.box = cv::boundingRect(c.contour);
+  near_misses_.push_back(std::move(c));
+}
+
+void StarDetector::prune_near_misses(const std::vector<StarCandidate>& candidates) {
+  // The pairing considers the best few of a view; one outline found at both levels counts once.
+  constexpr size_t kMaxNearMisses = 3;
+  std::sort(near_misses_.begin(), near_misses_.end(),
+            [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
+  auto near = [](const StarCandidate& a, const StarCandidate& b) {
+    return cv::norm(a.centroid - b.centroid) < 0.25 * std::sqrt(std::min(a.area, b.area));
+  };
+  size_t kept = 0;
+  for (size_t i = 0; i < near_misses_.size() && kept < kMaxNearMisses; ++i) {
+    const StarCandidate& c = near_misses_[i];
+    const auto seen = [&](const StarCandidate& o) { return near(o, c); };
+    if (std::any_of(candidates.begin(), candidates.end(), seen) ||
+        std::any_of(near_misses_.begin(), near_misses_.begin() + kept, seen)) {
+      continue;
+    }
+    if (kept != i) near_misses_[kept] = std::move(near_misses_[i]);
+    ++kept;
+  }
+  near_misses_.resize(kept);
 }
 
 void StarDetector::note(const cv::Rect& coarse_box, ContourFate fate, double area, const StarShapeScore& shape,

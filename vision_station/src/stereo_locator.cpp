@@ -45,11 +45,26 @@ cv::Vec3d vehicle_position_from_star(const cv::Matx33d& R_IB, const CameraMount&
 StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const LocatorSettings& settings)
     : calibration_(calibration),
       settings_(settings),
-      left_detector_(settings.detector, PointRectifier(calibration, 0, settings.undistort_iterations)),
-      right_detector_(settings.detector, PointRectifier(calibration, 1, settings.undistort_iterations)),
+      left_detector_(detector_settings(settings), PointRectifier(calibration, 0, settings.undistort_iterations)),
+      right_detector_(detector_settings(settings), PointRectifier(calibration, 1, settings.undistort_iterations)),
       left_near_(calibration, 0),
       right_near_(calibration, 1),
       star_area_m2_(star_area(StarShape{settings.pose.tip_radius_m, settings.detector.inner_ratio})) {}
+
+DetectorSettings StereoStarLocator::detector_settings(const LocatorSettings& settings) {
+  DetectorSettings d = settings.detector;
+  d.keep_near_misses = settings.guided_acceptance && d.method == DetectorMethod::kRobust;
+  return d;
+}
+
+bool StereoStarLocator::guided_pair(const StarCandidate& strict, const StarCandidate& loose, double disparity) const {
+  // The near miss must be the same star: as large as the passing one, and at the depth its size implies
+  // (d = b √(A / S), right_search_window), so a decoy on the same row at another depth is not taken.
+  const double area_ratio = loose.area / strict.area;
+  if (!(area_ratio >= settings_.guided_min_area_ratio && area_ratio <= settings_.guided_max_area_ratio)) return false;
+  const double d = calibration_.baseline() * std::sqrt(strict.area / star_area_m2_);
+  return disparity >= settings_.guided_min_scale * d && disparity <= settings_.guided_max_scale * d;
+}
 
 cv::Mat first_field(const cv::Mat& gray, const cv::Rect& region) {
   // The frame's even rows (the first field) as they are, each odd row interpolated from the four even rows
@@ -202,10 +217,12 @@ StereoStarLocator::ViewResult StereoStarLocator::detect_view(StarDetector& detec
     result.candidates = detector.detect(gray, roi, times);
     if (!result.candidates.empty()) {
       result.used_roi = true;
+      result.near_misses = detector.near_misses();
       return result;
     }
   }
   result.candidates = detector.detect(gray, cv::Rect(), times);
+  result.near_misses = detector.near_misses();
   return result;
 }
 
@@ -220,18 +237,21 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   ViewResult right;
   auto detect_right = [&] {
     right = ViewResult();
-    if (left.candidates.empty()) return;
+    // A left view with near misses only: the right is searched where they can appear, for a passing star.
+    const std::vector<StarCandidate>& placing = left.candidates.empty() ? left.near_misses : left.candidates;
+    if (placing.empty()) return;
     // The thesis pipeline (the documented baseline) searches the whole right frame.
     if (!settings_.guided_search || settings_.detector.method == DetectorMethod::kThesis) {
       right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
       return;
     }
-    const cv::Rect window = right_search_window(left.candidates);
+    const cv::Rect window = right_search_window(placing);
     right.used_roi = left.used_roi;  // a fix from a tracked left ROI is a tracked fix
     // At the left view's contrast level: both outlines cut at the same level have the same edge bias,
     // which cancels in the disparity.
     if (!window.empty()) {
       right.candidates = right_detector_.detect(right_gray, window, &right_times, left_detector_.last_threshold_ratio());
+      right.near_misses = right_detector_.near_misses();
     }
   };
   detect_right();
@@ -245,35 +265,46 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   const double b = calibration_.baseline();
 
   // Pair the candidates: rows must agree after rectification, the depth must be plausible; among the
-  // valid pairs the best (smallest summed Hu distance) wins, not the first.
+  // valid pairs the best (smallest summed Hu distance) wins, not the first. Two passing stars are
+  // preferred; without such a pair, a passing star with a near miss of the other view (guided_pair).
   auto try_pairs = [&](const ViewResult& l, const ViewResult& r) {
     const Clock::time_point t1 = Clock::now();
-    const size_t nl = std::min(l.candidates.size(), kMaxCandidatesPerView);
-    const size_t nr = std::min(r.candidates.size(), kMaxCandidatesPerView);
-    std::vector<cv::Point2d> cl(nl), cr(nr);
-    for (size_t i = 0; i < nl; ++i) cl[i] = l.candidates[i].centroid;
-    for (size_t j = 0; j < nr; ++j) cr[j] = r.candidates[j].centroid;
-
     double best_score = std::numeric_limits<double>::infinity();
-    size_t best_i = 0, best_j = 0;
-    for (size_t i = 0; i < nl; ++i) {
-      for (size_t j = 0; j < nr; ++j) {
-        const double row_difference = std::fabs(cl[i].y - cr[j].y);
-        const double disparity = (cl[i].x - cx1) - (cr[j].x - cx2);
-        if (!(row_difference <= settings_.max_row_difference_px) || !(disparity > 0.0)) continue;
-        const double z = f * b / disparity;  // thesis eq. 8.3
-        if (z < settings_.min_range_m || z > settings_.max_range_m) continue;
-        const double score = l.candidates[i].hu_distance + r.candidates[j].hu_distance;
-        if (score < best_score) {
-          best_score = score;
-          best_i = i;
-          best_j = j;
+    const StarCandidate* best_l = nullptr;
+    const StarCandidate* best_r = nullptr;
+    // guided: which of the two is the near miss (0: neither, 1: left, 2: right).
+    auto consider = [&](const std::vector<StarCandidate>& ls, const std::vector<StarCandidate>& rs, int guided) {
+      const size_t nl = std::min(ls.size(), kMaxCandidatesPerView);
+      const size_t nr = std::min(rs.size(), kMaxCandidatesPerView);
+      for (size_t i = 0; i < nl; ++i) {
+        for (size_t j = 0; j < nr; ++j) {
+          const cv::Point2d& cl = ls[i].centroid;
+          const cv::Point2d& cr = rs[j].centroid;
+          const double row_difference = std::fabs(cl.y - cr.y);
+          const double disparity = (cl.x - cx1) - (cr.x - cx2);
+          const double max_rows = guided ? settings_.guided_max_row_difference_px : settings_.max_row_difference_px;
+          if (!(row_difference <= max_rows) || !(disparity > 0.0)) continue;
+          const double z = f * b / disparity;  // thesis eq. 8.3
+          if (z < settings_.min_range_m || z > settings_.max_range_m) continue;
+          if (guided == 1 && !guided_pair(rs[j], ls[i], disparity)) continue;
+          if (guided == 2 && !guided_pair(ls[i], rs[j], disparity)) continue;
+          const double score = ls[i].hu_distance + rs[j].hu_distance;
+          if (score < best_score) {
+            best_score = score;
+            best_l = &ls[i];
+            best_r = &rs[j];
+          }
         }
       }
+    };
+    consider(l.candidates, r.candidates, 0);
+    if (!std::isfinite(best_score)) {
+      consider(l.candidates, r.near_misses, 2);
+      consider(l.near_misses, r.candidates, 1);
     }
     if (std::isfinite(best_score)) {
-      const cv::Point2d pl = cl[best_i];
-      const cv::Point2d pr = cr[best_j];
+      const cv::Point2d pl = best_l->centroid;
+      const cv::Point2d pr = best_r->centroid;
       const double d = (pl.x - cx1) - (pr.x - cx2);
       const cv::Vec3d rectified = rectified_point(pl, d);
       const double x = rectified[0], y = rectified[1], z = rectified[2];
@@ -293,14 +324,15 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.right_rectified = pr;
       fix.disparity_px = d;
       fix.row_difference_px = std::fabs(pl.y - pr.y);
-      fix.left_contour = l.candidates[best_i].contour;
-      fix.right_contour = r.candidates[best_j].contour;
-      fix.left_candidate = l.candidates[best_i];
-      fix.right_candidate = r.candidates[best_j];
+      fix.left_contour = best_l->contour;
+      fix.right_contour = best_r->contour;
+      fix.left_candidate = *best_l;
+      fix.right_candidate = *best_r;
+      fix.guided = !best_l->strict || !best_r->strict;
       fix.used_roi = l.used_roi && r.used_roi;
       fix.found = true;
-      last_left_box_ = l.candidates[best_i].box;
-      last_right_box_ = r.candidates[best_j].box;
+      last_left_box_ = best_l->box;
+      last_right_box_ = best_r->box;
     }
     fix.times.triangulation_us += microseconds(t1, Clock::now());
   };
@@ -314,6 +346,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();
+  if (fix.found && fix.guided && !settings_.estimate_pose) {
+    fix.found = false;  // a near miss's fix needs the outline check (LocatorSettings::guided_acceptance)
+    reset_tracking();
+  }
   if (fix.found && settings_.estimate_pose) {
     const Clock::time_point t0 = Clock::now();
     const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);
@@ -334,7 +370,9 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
     const bool contradicted = fix.pose.valid && std::fabs(fix.pose.size_ratio - 1.0) > settings_.max_pose_size_error;
-    if (contradicted || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) ||
+    const bool misaligned = fix.guided && !(fix.outline.valid && fix.outline.residual_px <= settings_.guided_max_residual_px &&
+                                            std::fabs(fix.outline.shift.y) <= settings_.max_row_difference_px);
+    if (contradicted || misaligned || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) ||
         off_axis > settings_.max_off_axis_rad) {
       fix.found = false;
       reset_tracking();

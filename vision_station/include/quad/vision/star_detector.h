@@ -88,6 +88,11 @@ struct DetectorSettings {
   StarShapeLimits retry_shape{2.6, 0.3, 0.12, 1.5, 0.35, 0.92};
   // A candidate without a mid-level outline that passes the shape test is dropped (with refine_midpoint).
   bool robust_require_midlevel = false;
+  // (robust) An outline that fails the shape test (and its second chance) but is within near_miss_shape
+  // is kept apart (StarDetector::near_misses): the locator may pair it with a star that passes the test
+  // in the other view (LocatorSettings::guided_acceptance sets keep_near_misses).
+  bool keep_near_misses = false;
+  StarShapeLimits near_miss_shape{2.6, 0.3, 0.15, 1.5, 0.4, 0.9};
 };
 
 // One contour that passed every filter.
@@ -101,6 +106,7 @@ struct StarCandidate {
   double solidity = 0.0;
   int vertices = 0;
   bool refined = false;                 // (robust) the outline is the full-resolution mid-level one
+  bool strict = true;                   // passed the shape test (false: a near miss, the coarse outline)
 };
 
 // What became of one contour of the robust method (failure analysis: tools/vision_eval explain).
@@ -139,6 +145,10 @@ class StarDetector {
                                     double level_ratio = 0.0);
 
   const DetectorSettings& settings() const { return settings_; }
+
+  // The last call's near misses (DetectorSettings::keep_near_misses), best first, none where a candidate
+  // is; empty without keep_near_misses.
+  const std::vector<StarCandidate>& near_misses() const { return near_misses_; }
 
   // Record every contour's fate into `trace` (appended; nullptr stops). For analysis, not for speed.
   void set_trace(std::vector<TracedContour>* trace) { trace_ = trace; }
@@ -187,6 +197,10 @@ class StarDetector {
   // (m: the moments of its rectified outline, c.rectified).
   void robust_accept(const std::vector<cv::Point>& contour, const cv::Rect& box, const cv::Moments& m,
                      StarCandidate& c, std::vector<StarCandidate>& candidates);
+  // Keeps a contour that failed the shape test with `score` as a near miss when within near_miss_shape.
+  void keep_near_miss(const std::vector<cv::Point>& contour, const StarShapeScore& score, StarCandidate& c);
+  // Drops near misses where a candidate (or a better near miss) is, keeps the best few, best first.
+  void prune_near_misses(const std::vector<StarCandidate>& candidates);
   // The largest outline of refine_binary_ (the pixels of `region` below the mid-level), smoothed.
   const std::vector<cv::Point>* mid_level_outline(const cv::Rect& region);
 
@@ -199,7 +213,8 @@ class StarDetector {
   PointRectifier rectifier_;
   RectifyTable table_;
   StarShapeTest shape_test_;
-  StarShapeLimits loosest_shape_;  // each limit the looser of `shape` and `retry_shape`
+  StarShapeLimits loosest_shape_;  // each limit the loosest of `shape`, `retry_shape` (and near_miss_shape)
+  std::vector<StarCandidate> near_misses_;
   cv::Mat view_;                   // deinterlaced gray(roi)
   cv::Mat blend_;                  // storage of the blended view
   cv::Point2f view_origin_;        // frame pixel of view pixel (0, 0)

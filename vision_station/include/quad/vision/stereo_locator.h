@@ -31,6 +31,21 @@ struct LocatorSettings {
   double row_window_px = 8.0;
   double guided_min_scale = 0.6;
   double guided_max_scale = 1.5;
+  // Guided acceptance (robust method): an outline that fails the shape test but is within
+  // detector.near_miss_shape (a near miss: a tip notched, blurred or faulted in one view) pairs with a star
+  // that passes it in the other view, never with another near miss, when no two passing stars pair up.
+  // Its area must be within [guided_min_area_ratio, guided_max_area_ratio] of the star's, the disparity
+  // within [guided_min_scale, guided_max_scale] of the one the star's area implies, and the centroids'
+  // rows within guided_max_row_difference_px (the defect moves the near miss's centroid). A left view with
+  // near misses only places the right search at them. The fix stands only if the two outlines lay onto
+  // each other (outline_alignment.h) within guided_max_residual_px RMS, at rows within
+  // max_row_difference_px: a defect confined to a tip leaves the rest of the outline aligned, a torn or
+  // merged outline or another shape does not. Needs estimate_pose (the edge points).
+  bool guided_acceptance = true;
+  double guided_min_area_ratio = 0.7;
+  double guided_max_area_ratio = 1.4;
+  double guided_max_row_difference_px = 6.0;
+  double guided_max_residual_px = 1.0;
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
@@ -87,6 +102,7 @@ struct StarFix {
   std::vector<cv::Point> left_contour;   // raw image pixels, for display
   std::vector<cv::Point> right_contour;
   StarCandidate left_candidate, right_candidate;  // the paired candidates (areas, shape distances)
+  bool guided = false;                // one of them is a near miss (LocatorSettings::guided_acceptance)
   bool used_roi = false;
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
   cv::Vec3d p_centroids;              // the triangulated centroids (p_left unless from the pose)
@@ -127,8 +143,13 @@ class StereoStarLocator {
  private:
   struct ViewResult {
     std::vector<StarCandidate> candidates;
+    std::vector<StarCandidate> near_misses;  // LocatorSettings::guided_acceptance
     bool used_roi = false;
   };
+  // The detector's settings for the locator's (near misses kept with guided acceptance).
+  static DetectorSettings detector_settings(const LocatorSettings& settings);
+  // A near miss `loose` may pair with the star `strict` at `disparity` (LocatorSettings::guided_acceptance).
+  bool guided_pair(const StarCandidate& strict, const StarCandidate& loose, double disparity) const;
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
                          DetectorTimes* times);
   // The right frame's pixels where the star of one of the left candidates can appear
