@@ -19,6 +19,12 @@ double microseconds(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::micro>(b - a).count();
 }
 
+// One outline found twice (at both levels, or a near miss where a candidate is): centroids within a
+// quarter of the smaller outline's size.
+bool same_outline(const StarCandidate& a, const StarCandidate& b) {
+  return cv::norm(a.centroid - b.centroid) < 0.25 * std::sqrt(std::min(a.area, b.area));
+}
+
 }  // namespace
 
 cv::Point2f StarDetector::coarse_scale() const {
@@ -260,9 +266,7 @@ void StarDetector::robust_accept(const std::vector<cv::Point>& contour, const cv
   c.solidity = used.solidity;
   c.vertices = 8;
   // The same star from the other level: keep the better shape.
-  auto same = std::find_if(candidates.begin(), candidates.end(), [&](const StarCandidate& o) {
-    return cv::norm(o.centroid - c.centroid) < 0.25 * std::sqrt(std::min(o.area, c.area));
-  });
+  auto same = std::find_if(candidates.begin(), candidates.end(), [&](const StarCandidate& o) { return same_outline(o, c); });
   if (same != candidates.end() && same->hu_distance <= c.hu_distance) {
     note(box, ContourFate::kDuplicate, c.area, used);
     return;
@@ -299,13 +303,10 @@ void StarDetector::prune_near_misses(const std::vector<StarCandidate>& candidate
   constexpr size_t kMaxNearMisses = 3;
   std::sort(near_misses_.begin(), near_misses_.end(),
             [](const StarCandidate& a, const StarCandidate& b) { return a.hu_distance < b.hu_distance; });
-  auto near = [](const StarCandidate& a, const StarCandidate& b) {
-    return cv::norm(a.centroid - b.centroid) < 0.25 * std::sqrt(std::min(a.area, b.area));
-  };
   size_t kept = 0;
   for (size_t i = 0; i < near_misses_.size() && kept < kMaxNearMisses; ++i) {
     const StarCandidate& c = near_misses_[i];
-    const auto seen = [&](const StarCandidate& o) { return near(o, c); };
+    const auto seen = [&](const StarCandidate& o) { return same_outline(o, c); };
     if (std::any_of(candidates.begin(), candidates.end(), seen) ||
         std::any_of(near_misses_.begin(), near_misses_.begin() + kept, seen)) {
       continue;
