@@ -83,6 +83,12 @@ TEST_F(GuidedLocatorTest, NearMissAtAnotherRowIsNotPaired) {
   cv::Mat moved;
   cv::warpAffine(notched_right(), moved, cv::Matx23d(1, 0, 0, 0, 1, 12.0), scene.right.size(), cv::INTER_LINEAR,
                  cv::BORDER_REPLICATE);
+  // The moved outline is a near miss the pairing sees (else the expectations below would hold vacuously).
+  DetectorSettings keep;
+  keep.keep_near_misses = true;
+  StarDetector detector(keep, PointRectifier(calibration, 1, 40));
+  EXPECT_TRUE(detector.detect(moved, cv::Rect()).empty());
+  ASSERT_FALSE(detector.near_misses().empty());
   EXPECT_FALSE(locate(scene.left, moved, true).found);
   EXPECT_FALSE(locate(scene.left, moved, false).found);
 }

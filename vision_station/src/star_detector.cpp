@@ -187,10 +187,6 @@ void StarDetector::make_view(const cv::Mat& gray, const cv::Rect& roi) {
       view_origin_ = cv::Point2f(static_cast<float>(roi.x), first + 0.5f);
       break;
   }
-  roi_border_[0] = roi.x > 0;
-  roi_border_[1] = roi.y > 0;
-  roi_border_[2] = roi.br().x < gray.cols;
-  roi_border_[3] = roi.br().y < gray.rows;
 }
 
 void StarDetector::to_frame(const std::vector<cv::Point>& view_points, cv::Point2f view_scale,
@@ -226,14 +222,17 @@ std::vector<StarCandidate> StarDetector::detect(const cv::Mat& gray, cv::Rect ro
   roi = roi.empty() ? image_rect : (roi & image_rect);
   if (roi.width < 8 || roi.height < 8) return {};
   if (table_.image_size() != gray.size()) table_ = RectifyTable(rectifier_, gray.size());
-  level_ratio_ = level_ratio;
   near_misses_.clear();
+  roi_border_[0] = roi.x > 0;  // the searched ROI's edges that are not the image's (touches_border)
+  roi_border_[1] = roi.y > 0;
+  roi_border_[2] = roi.br().x < gray.cols;
+  roi_border_[3] = roi.br().y < gray.rows;
   std::vector<StarCandidate> candidates;
   if (settings_.method == DetectorMethod::kThesis) {
     make_view(gray, roi);
     candidates = detect_thesis(times);
   } else {
-    candidates = detect_robust(gray, roi, times);
+    candidates = detect_robust(gray, roi, level_ratio, times);
     prune_near_misses(candidates);
   }
   std::sort(candidates.begin(), candidates.end(),

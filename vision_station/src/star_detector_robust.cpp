@@ -62,7 +62,7 @@ void StarDetector::upsample_floor(const cv::Rect& window) {
   scratch_(window - cv::Point(4 * x0, 4 * y0)).copyTo(coarse_floor_);
 }
 
-void StarDetector::robust_floor(const cv::Rect& window) {
+void StarDetector::robust_floor(const cv::Rect& window, double level_ratio) {
   // The floor brightness: the local maximum over a window wider than the star's dark core (the floor is
   // the brightest surface), on a 1/8-size copy, smoothed and brought back to the half-resolution copy.
   // The contrast level ρ comes from the image (Otsu on the image/floor ratio), clamped.
@@ -80,8 +80,8 @@ void StarDetector::robust_floor(const cv::Rect& window) {
   if (s.robust_floor_closing) erode_rect(scratch_, background_, floor_window, floor_window);
   else std::swap(scratch_, background_);
   cv::blur(background_, background_, cv::Size(3, 3));
-  if (level_ratio_ > 0.0) {
-    threshold_ratio_ = level_ratio_;
+  if (level_ratio > 0.0) {
+    threshold_ratio_ = level_ratio;
   } else {
     cv::divide(small_, background_, ratio_, 255.0);
     const double otsu = cv::threshold(ratio_, scratch_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
@@ -166,7 +166,8 @@ bool StarDetector::robust_refine(const cv::Rect& coarse_box, StarCandidate& c, S
   return true;
 }
 
-std::vector<StarCandidate> StarDetector::detect_robust(const cv::Mat& gray, const cv::Rect& roi, DetectorTimes* times) {
+std::vector<StarCandidate> StarDetector::detect_robust(const cv::Mat& gray, const cv::Rect& roi, double level_ratio,
+                                                       DetectorTimes* times) {
   // Two contrast levels: the image's own (Otsu) and a low one that only the darkest objects pass, so a
   // star inside a shadow or next to dark texture, merged with it at the first level, separates at the
   // second. A star found at both levels is kept once (the better shape). An ROI search measures the
@@ -177,12 +178,8 @@ std::vector<StarCandidate> StarDetector::detect_robust(const cv::Mat& gray, cons
   make_view(gray, region);
   const cv::Rect window((roi.x - region.x), static_cast<int>((roi.y - region.y) / view_row_scale_), roi.width,
                         static_cast<int>(std::ceil(roi.height / view_row_scale_)));
-  roi_border_[0] = roi.x > 0;
-  roi_border_[1] = roi.y > 0;
-  roi_border_[2] = roi.br().x < gray.cols;
-  roi_border_[3] = roi.br().y < gray.rows;
   if (settings_.robust_sync_repair) repair_sync_bands();
-  robust_floor(window);
+  robust_floor(window, level_ratio);
   double threshold_us = microseconds(t0, Clock::now()), refine_us = 0.0;
   const double levels[2] = {threshold_ratio_, std::max(settings_.robust_min_ratio, settings_.robust_low_ratio * threshold_ratio_)};
   for (double level : levels) {

@@ -53,16 +53,21 @@ StereoStarLocator::StereoStarLocator(const StereoCalibration& calibration, const
 
 DetectorSettings StereoStarLocator::detector_settings(const LocatorSettings& settings) {
   DetectorSettings d = settings.detector;
-  d.keep_near_misses = settings.guided_acceptance && d.method == DetectorMethod::kRobust;
+  // A near miss's fix stands only on the outlines' alignment, which needs the edge points (estimate_pose).
+  d.keep_near_misses = settings.guided_acceptance && settings.estimate_pose && d.method == DetectorMethod::kRobust;
   return d;
+}
+
+double StereoStarLocator::disparity_for_area(double area_px) const {
+  return calibration_.baseline() * std::sqrt(area_px / star_area_m2_);
 }
 
 bool StereoStarLocator::guided_pair(const StarCandidate& strict, const StarCandidate& loose, double disparity) const {
   // The near miss must be the same star: as large as the passing one, and at the depth its size implies
-  // (d = b √(A / S), right_search_window), so a decoy on the same row at another depth is not taken.
+  // (disparity_for_area), so a decoy on the same row at another depth is not taken.
   const double area_ratio = loose.area / strict.area;
   if (!(area_ratio >= settings_.guided_min_area_ratio && area_ratio <= settings_.guided_max_area_ratio)) return false;
-  const double d = calibration_.baseline() * std::sqrt(strict.area / star_area_m2_);
+  const double d = disparity_for_area(strict.area);
   return disparity >= settings_.guided_min_scale * d && disparity <= settings_.guided_max_scale * d;
 }
 
@@ -176,8 +181,7 @@ cv::Rect StereoStarLocator::right_search_window(const std::vector<StarCandidate>
   for (size_t i = 0; i < n; ++i) {
     const StarCandidate& c = left[i];
     if (c.rectified.empty() || !(c.area > 0.0)) continue;
-    // Area A px² of a star of area S m² at depth Z: A = S f² / Z², so d = f b / Z = b √(A / S).
-    const double d = b * std::sqrt(c.area / star_area_m2_);
+    const double d = disparity_for_area(c.area);
     const double d_min = std::max(settings_.guided_min_scale * d, d_far);
     const double d_max = std::min(settings_.guided_max_scale * d, d_near);
     if (!(d_min <= d_max)) continue;
@@ -346,10 +350,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   if (!fix.found) reset_tracking();
-  if (fix.found && fix.guided && !settings_.estimate_pose) {
-    fix.found = false;  // a near miss's fix needs the outline check (LocatorSettings::guided_acceptance)
-    reset_tracking();
-  }
   if (fix.found && settings_.estimate_pose) {
     const Clock::time_point t0 = Clock::now();
     const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);

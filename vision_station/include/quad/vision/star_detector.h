@@ -167,7 +167,7 @@ class StarDetector {
   bool touches_border(const cv::Rect& box, cv::Size view_size, int margin) const;
 
   std::vector<StarCandidate> detect_thesis(DetectorTimes* times);
-  std::vector<StarCandidate> detect_robust(const cv::Mat& gray, const cv::Rect& roi, DetectorTimes* times);
+  std::vector<StarCandidate> detect_robust(const cv::Mat& gray, const cv::Rect& roi, double level_ratio, DetectorTimes* times);
   // The frame region whose floor the robust method measures for a search of `roi`: the ROI grown by the
   // floor's reach, on the full frame's grid of 8 × 8 pixels (its 1/8-size copy), within the image.
   cv::Rect floor_region(const cv::Rect& roi, cv::Size image) const;
@@ -182,9 +182,9 @@ class StarDetector {
   double unexplained_jump(const cv::Mat& image, int a, int b);
   // The half-resolution copy's vertical 3-row median (RF snow is streaks one line high).
   void row_median();
-  // The floor over the view (the floor region), then the view and the half-resolution copy cut to the
-  // search window (`window`, view pixels).
-  void robust_floor(const cv::Rect& window);
+  // The floor over the view (the floor region) and the level ρ (level_ratio when > 0, else Otsu), then
+  // the view and the half-resolution copy cut to the search window (`window`, view pixels).
+  void robust_floor(const cv::Rect& window, double level_ratio);
   void robust_threshold(double ratio);
   void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
   // The candidate's mid-level outline at full resolution (false: none that passes the shape test; its
@@ -219,7 +219,7 @@ class StarDetector {
   cv::Mat blend_;                  // storage of the blended view
   cv::Point2f view_origin_;        // frame pixel of view pixel (0, 0)
   float view_row_scale_ = 1.0f;    // frame rows per view row
-  bool roi_border_[4] = {};        // left, top, right, bottom edges of the view are ROI (not image) edges
+  bool roi_border_[4] = {};        // left, top, right, bottom edges of the searched ROI are not image edges
   bool image_border_[4] = {};
   cv::Mat coarse_, coarse_floor_, coarse_threshold_;
   cv::Mat coarse_region_;          // the half-resolution copy of the whole floor region (coarse_ is inside it)
@@ -236,7 +236,6 @@ class StarDetector {
   std::vector<cv::Vec2i> sync_bands_;
   std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
-  double level_ratio_ = 0.0;  // detect's level_ratio
   std::vector<std::vector<cv::Point>> contours_;
   std::vector<TracedContour>* trace_ = nullptr;
   double level_ = 0.0;  // the threshold ratio of the binary image being searched

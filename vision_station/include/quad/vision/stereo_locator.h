@@ -148,6 +148,8 @@ class StereoStarLocator {
   };
   // The detector's settings for the locator's (near misses kept with guided acceptance).
   static DetectorSettings detector_settings(const LocatorSettings& settings);
+  // The disparity of a star whose rectified outline has this area (A = S f² / Z², so d = f b / Z = b √(A / S)).
+  double disparity_for_area(double area_px) const;
   // A near miss `loose` may pair with the star `strict` at `disparity` (LocatorSettings::guided_acceptance).
   bool guided_pair(const StarCandidate& strict, const StarCandidate& loose, double disparity) const;
   ViewResult detect_view(StarDetector& detector, const cv::Mat& gray, const cv::Rect& last_box,
