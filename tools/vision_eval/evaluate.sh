@@ -3,7 +3,7 @@
 # "Evaluation on independent sets"): renders chessboards and calibrates the station from them
 # (`vision_station calibrate`), renders the sets, runs `vision_station detect` with each configuration
 # and scores the fixes against the truth.
-#   tools/vision_eval/evaluate.sh [--split heldout|tune] [--stars N] [--data DIR] [--bin DIR]
+#   tools/vision_eval/evaluate.sh [--split heldout|tune] [--stars N] [--data DIR] [--bin DIR] [--views N]
 #                                 [--runs "default thesis ..."] [--markdown OUT.md]
 #                                 [--check MIN_RATE,MAX_FALSE,MAX_MEDIAN] [--doc docs/vision_station.md]
 #                                 [--prepare]
@@ -13,8 +13,9 @@
 # stars in full view, makes more than MAX_FALSE false fixes or has a median error above MAX_MEDIAN %.
 # --prepare renders the calibration and the sets when they are missing, and stops there (the speed
 # benchmark's input: sim/campaigns/vision_speed.yaml).
-# Defaults: held-out split, 520 stars in full view per condition (+ 1/3 as many pairs without), data in
-# build/host/vision_eval, binaries in build/host/bin. Sets and calibration are reused when present.
+# Defaults: held-out split, 520 stars in full view per condition (+ 1/3 as many pairs without), 96
+# chessboard pairs for the calibration, data in build/host/vision_eval, binaries in build/host/bin. Sets
+# and calibration are reused when present (the calibration is made again for another --views).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
@@ -27,6 +28,7 @@ markdown=""
 check=""
 doc=""
 prepare=""
+views=96
 args="$*"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -34,6 +36,7 @@ while [ $# -gt 0 ]; do
     --stars) stars=$2; shift 2 ;;
     --data) data=$2; shift 2 ;;
     --bin) bin=$2; shift 2 ;;
+    --views) views=$2; shift 2 ;;
     --runs) runs=$2; shift 2 ;;
     --markdown) markdown=$2; shift 2 ;;
     --check) check=$2; shift 2 ;;
@@ -46,9 +49,12 @@ for exe in vision_eval_gen vision_station; do
   [ -x "$bin/$exe" ] || { echo "evaluate.sh: $bin/$exe missing (build it first)" >&2; exit 1; }
 done
 mkdir -p "$data"
-if [ ! -f "$data/calib.yaml" ]; then
-  "$bin/vision_eval_gen" chessboards --out "$data/calib" --views 24
+# calib.views records how many chessboard pairs calib.yaml was estimated from.
+if [ ! -f "$data/calib.yaml" ] || [ "$(cat "$data/calib.views" 2>/dev/null)" != "$views" ]; then
+  rm -rf "$data/calib" "$data/calib.yaml" "$data/calib.views"
+  "$bin/vision_eval_gen" chessboards --out "$data/calib" --views "$views"
   "$bin/vision_station" calibrate --images "$data/calib" --board 9x6 --square 0.03 --out "$data/calib.yaml" 2>/dev/null
+  echo "$views" > "$data/calib.views"
 fi
 sets="$data/$split-$stars"
 if [ ! -f "$sets/.complete" ]; then

@@ -170,6 +170,13 @@ class Explainer {
     if (fix.found) return "lost_to_false";
     if (std::max(views[0].rank, views[1].rank) >= 3) return "rank";
     if (std::fabs(views[0].centroid.y - views[1].centroid.y) > settings_.max_row_difference_px) return "row_gate";
+    if (fix.refused != nullptr) {
+      char text[160];
+      std::snprintf(text, sizeof text, " [refused: %s; off the axis %.1f°, pose valid %d, size ratio %.3f, rms %.2f px]", fix.refused,
+                    std::acos(std::clamp(t.p[2] / t.range, -1.0, 1.0)) * 180.0 / CV_PI, fix.pose.valid ? 1 : 0,
+                    fix.pose.size_ratio, fix.pose.rms_px);
+      details = text;
+    }
     return "range";
   }
 

@@ -1,7 +1,7 @@
 // vision_eval_gen: stereo sets for measuring the vision station, drawn by a model that shares no code with
 // it (eval_camera.h).
 //   vision_eval_gen sets --out DIR --split tune|heldout --stars N [--conditions a,b,..] [--photos DIR]
-//   vision_eval_gen chessboards --out DIR [--views 24]
+//   vision_eval_gen chessboards --out DIR [--views 96]
 // sets: per condition DIR/<condition>/ with NNNNN_left/right images (PNG, JPEG for JPEG conditions),
 // pairs.csv (left,right: the station's pair list) and truth.csv; N pairs with the star in full view plus
 // N/3 without (none, or cut by an image edge). chessboards: DIR/pairs.csv of 9 × 6 boards, 30 mm squares.
@@ -104,7 +104,7 @@ int make_sets(const std::map<std::string, std::string>& o) {
 
 int make_chessboards(const std::map<std::string, std::string>& o) {
   const fs::path out = get(o, "--out", "");
-  const int views = std::stoi(get(o, "--views", "24"));
+  const int views = std::stoi(get(o, "--views", "96"));
   fs::create_directories(out);
   std::ofstream pairs(out / "pairs.csv");
   pairs << "left,right\n";
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
     if (command == "sets") return make_sets(options(argc, argv));
     if (command == "chessboards") return make_chessboards(options(argc, argv));
     std::cerr << "usage: vision_eval_gen sets --out DIR --split tune|heldout --stars N [--conditions a,b]"
-                 " [--photos DIR]\n       vision_eval_gen chessboards --out DIR [--views 24]\n";
+                 " [--photos DIR]\n       vision_eval_gen chessboards --out DIR [--views 96]\n";
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "vision_eval_gen: " << e.what() << "\n";

@@ -193,9 +193,10 @@ int calibrate(const std::map<std::string, std::string>& options) {
   const StereoCalibrationResult result = calibrate_stereo(left, right, size, board);
   save_calibration(result.calibration, out);
   std::printf("calibrated from %d views: RMS reprojection left %.3f px, right %.3f px, stereo %.3f px; "
-              "baseline %.4f m; rectified focal %.1f px; written to %s\n",
+              "baseline %.4f m; rectified focal %.1f px; corners seen up to %.1f deg off the left axis; written to %s\n",
               result.pairs, result.rms_left_px, result.rms_right_px, result.rms_stereo_px,
-              cv::norm(result.calibration.rig.T), result.calibration.rectified_focal(), out.c_str());
+              cv::norm(result.calibration.rig.T), result.calibration.rectified_focal(),
+              result.widest_off_axis_rad * 180.0 / CV_PI, out.c_str());
   return 0;
 }
 

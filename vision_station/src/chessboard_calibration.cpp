@@ -24,6 +24,17 @@ int covered_cells(const std::vector<std::vector<cv::Point2f>>& views, cv::Size s
   return static_cast<int>(hit.size());
 }
 
+// The largest angle off the camera's axis of any corner seen, through the calibrated lens.
+double widest_off_axis(const std::vector<std::vector<cv::Point2f>>& views, const CameraIntrinsics& camera) {
+  double widest = 0.0;
+  for (const std::vector<cv::Point2f>& corners : views) {
+    std::vector<cv::Point2f> rays;
+    cv::undistortPoints(corners, rays, camera.K, camera.D);
+    for (const cv::Point2f& r : rays) widest = std::max(widest, std::atan(std::hypot(double{r.x}, double{r.y})));
+  }
+  return widest;
+}
+
 }  // namespace
 
 std::vector<cv::Point3f> board_points(const ChessboardSpec& board) {
@@ -130,6 +141,7 @@ StereoCalibrationResult calibrate_stereo(const std::vector<std::vector<cv::Point
                               " m): swap the left and right images or cameras");
   }
   result.calibration = rectify(rig);
+  result.widest_off_axis_rad = widest_off_axis(left, rig.left);
   return result;
 }
 

@@ -170,9 +170,9 @@ struct StarOutline {
   }
 };
 
-bool find_outline(const std::vector<cv::Point2f>& contour, StarOutline& outline) {
+bool find_outline(const std::vector<cv::Point2f>& contour, StarOutline& outline, bool by_radius = false) {
   if (contour.size() < 24) return false;
-  const std::vector<int> corner = octagon_indices(contour);
+  const std::vector<int> corner = by_radius ? octagon_by_radius(contour) : octagon_indices(contour);
   if (corner.size() != 8) return false;
   std::array<Line, 8> edges;  // edge k runs from corner k to corner k+1
   for (int k = 0; k < 8; ++k) edges[k] = fit_edge(contour, corner[k], corner[(k + 1) % 8], outline.edges[k]);
@@ -314,8 +314,8 @@ namespace {
 
 // Both outlines, read in the model's direction and with the same tip first.
 bool matched_outlines(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right, StarOutline& l,
-                      StarOutline& r) {
-  if (!find_outline(left, l) || !find_outline(right, r)) return false;
+                      StarOutline& r, bool left_by_radius, bool right_by_radius) {
+  if (!find_outline(left, l, left_by_radius) || !find_outline(right, r, right_by_radius)) return false;
   // The model runs from x towards y about a z pointing away from the cameras, which in the image is
   // from u towards v (positive shoelace area): a contour running the other way is read backwards.
   if (l.signed_area() < 0.0) l.reverse();
@@ -508,12 +508,38 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
   StarOutline l, r;
   const std::array<cv::Point3d, 8> model = star_model(settings);
   Placement p;
-  if (!matched_outlines(left, right, l, r) || !initial_placement(l, r, calibration, model, p)) return pose;
   Normal n;
-  // Vertices first (a good start from the triangulation), then every edge point.
-  auto vertices = [&](const Placement& q) { return linearise_vertices(q, l, r, calibration, model); };
-  if (!gauss_newton(p, vertices, n)) return pose;
-  pose.rms_px = std::sqrt(n.rss / 32.0);
+  // Vertices first (a good start from the triangulation), then every edge point. The polygon's vertices
+  // are tried first; when their fit is too poor, the radius method's in either view: far off the axis the
+  // star's image is sheared and stretched, and the polygon may put a vertex on a long tip's flank (on the
+  // tuning split three stars beyond 45° fitted to 8–10 px with the polygons and to 2 px with the radii).
+  pose.rms_px = std::numeric_limits<double>::infinity();
+  for (int attempt = 0; attempt < 4 && !(pose.rms_px <= settings.max_rms_px); ++attempt) {
+    const bool left_by_radius = attempt & 1, right_by_radius = attempt & 2;
+    StarOutline la, ra;
+    Placement pa;
+    Normal na;
+    if (!matched_outlines(left, right, la, ra, left_by_radius, right_by_radius) ||
+        !initial_placement(la, ra, calibration, model, pa)) {
+      continue;
+    }
+    auto vertices = [&](const Placement& q) { return linearise_vertices(q, la, ra, calibration, model); };
+    if (!gauss_newton(pa, vertices, na)) continue;
+    const double rms = std::sqrt(na.rss / 32.0);
+    if (rms < pose.rms_px) {
+      pose.rms_px = rms;
+      pose.left_vertices_by_radius = left_by_radius;
+      pose.right_vertices_by_radius = right_by_radius;
+      l = la;
+      r = ra;
+      p = pa;
+      n = na;
+    }
+  }
+  if (!std::isfinite(pose.rms_px)) {
+    pose.rms_px = 0.0;  // no outline of eight vertices in a view
+    return pose;
+  }
   if (!(pose.rms_px <= settings.max_rms_px) || !(p.t[2] > 0.0)) return pose;
   auto edges = [&](const Placement& q) { return linearise_edges(q, l, r, calibration, model); };
   if (!gauss_newton(p, edges, n) || n.rows <= 7 || !(p.t[2] > 0.0)) return pose;

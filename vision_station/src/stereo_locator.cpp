@@ -158,10 +158,14 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
   const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
   if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
-      !(coarse && disagrees)) {
+      !(coarse && (disagrees || wrong_size(fix.pose)))) {
     fix.p_left = fix.pose.t_C;
     fix.position_from_pose = true;
   }
+}
+
+bool StereoStarLocator::wrong_size(const StarPose& pose) const {
+  return std::fabs(pose.size_ratio - 1.0) > settings_.max_pose_size_error;
 }
 
 void StereoStarLocator::reset_tracking() {
@@ -369,11 +373,14 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
-    const bool contradicted = fix.pose.valid && std::fabs(fix.pose.size_ratio - 1.0) > settings_.max_pose_size_error;
+    const bool contradicted = fix.pose.valid && fix.pose.rms_px <= settings_.attitude_max_rms_px && wrong_size(fix.pose);
     const bool misaligned = fix.guided && !(fix.outline.valid && fix.outline.residual_px <= settings_.guided_max_residual_px &&
                                             std::fabs(fix.outline.shift.y) <= settings_.max_row_difference_px);
-    if (contradicted || misaligned || (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) ||
-        off_axis > settings_.max_off_axis_rad) {
+    if (contradicted) fix.refused = "pose size";
+    else if (misaligned) fix.refused = "guided outlines misaligned";
+    else if (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) fix.refused = "no pose off the axis";
+    else if (off_axis > settings_.max_off_axis_rad) fix.refused = "off the axis";
+    if (fix.refused != nullptr) {
       fix.found = false;
       reset_tracking();
     }

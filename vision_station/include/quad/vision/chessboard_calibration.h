@@ -42,6 +42,9 @@ struct StereoCalibrationResult {
   double rms_right_px = 0.0;
   double rms_stereo_px = 0.0;  // stereoCalibrate RMS
   int pairs = 0;
+  // The largest angle off the left camera's axis at which a corner was seen: beyond it the lens model is
+  // extrapolated (LocatorSettings::max_off_axis_rad).
+  double widest_off_axis_rad = 0.0;
 };
 
 // Chessboard inner corners, sub-pixel refined; nullopt when the board is not found whole.

@@ -41,6 +41,9 @@ struct StarPose {
   double size_ratio = 1.0;                     // fitted tip radius / tip_radius_m
   double rms_px = 0.0;                         // vertex reprojection RMS after the fit
   double edge_sigma_px = 0.0;                  // the edge-point error the covariance assumes
+  // The vertices of that view came from the outline's radius (octagon by the farthest and nearest
+  // points), not from its polygon: the polygon's fit was beyond max_rms_px.
+  bool left_vertices_by_radius = false, right_vertices_by_radius = false;
 };
 
 // The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile

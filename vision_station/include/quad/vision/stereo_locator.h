@@ -58,9 +58,12 @@ struct LocatorSettings {
   // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
   double require_pose_beyond_rad = 0.785;
   double max_pose_offset = 0.2;
-  // A valid pose whose fitted size differs from the star's (pose.tip_radius_m) by more than this fraction
-  // contradicts the fix (no fix then): the fit's size scales with its depth, so a size 7 % off is a range
-  // 7 % off (the outline of one view cut into or grown by a shadow, a merge or a fault).
+  // A close pose fit (vertex RMS up to attitude_max_rms_px) whose fitted size differs from the star's
+  // (pose.tip_radius_m) by more than this fraction contradicts the fix (no fix then): the fit's size
+  // scales with its depth, so a size 7 % off is a range 7 % off (the outline of one view cut into or grown
+  // by a shadow, a merge or a fault). A coarse fit of the wrong size is only not used for the position:
+  // its vertices are off, not the star (on the tuning split the outlines of such fixes were within
+  // 1.4 % of the range, the fits' centres up to 3 % off).
   double max_pose_size_error = 0.07;
   // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
   // pose.max_rms_px still gives the position and the checks above.
@@ -72,9 +75,13 @@ struct LocatorSettings {
   // A coarse pose (vertex RMS above attitude_max_rms_px) whose centre's disparity differs from the
   // outline's by more than this (pixels) is not used for the position: the outline's is.
   double coarse_pose_max_disparity_px = 0.6;
-  // No fix beyond this angle off the left camera's axis: there the calibrated lens model is extrapolated
-  // beyond the chessboard corners it was estimated from, and every position is off alike.
-  double max_off_axis_rad = 0.785;
+  // No fix beyond this angle off the left camera's axis. The default, 55°, is beyond the corners of a
+  // 720 × 480 FPV image (54°): a calibration from chessboards seen up to the image's edges put the tuning
+  // split's stars 43–48° off the axis within 2 % of the range. Lower it to about the angle `calibrate`
+  // prints (StereoCalibrationResult::widest_off_axis_rad) plus a few degrees when the chessboards did not
+  // reach the edges: beyond, the lens model is extrapolated (a calibration whose corners reached 42° put
+  // stars 46° off the axis 4–6 % off).
+  double max_off_axis_rad = 0.96;
 };
 
 // Wall time of each stage of one stereo frame, microseconds.
@@ -111,6 +118,7 @@ struct StarFix {
   double outline_disparity_px = 0.0;  // the disparity that alignment gives (valid outline only)
   cv::Vec3d p_outline;                // the star triangulated with it (p_centroids without it)
   double pose_disparity_px = 0.0;     // the pose centre's disparity (valid pose only)
+  const char* refused = nullptr;      // why a paired star gave no fix (the checks after the pose step)
   StageTimes times;
 };
 
@@ -136,6 +144,7 @@ class StereoStarLocator {
 
   // Forget the last fix: the next frame searches the full images.
   void reset_tracking();
+  bool wrong_size(const StarPose& pose) const;  // the fitted size off by more than max_pose_size_error
 
   const StereoCalibration& calibration() const { return calibration_; }
   const LocatorSettings& settings() const { return settings_; }
