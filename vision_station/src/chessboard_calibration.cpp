@@ -24,12 +24,14 @@ int covered_cells(const std::vector<std::vector<cv::Point2f>>& views, cv::Size s
   return static_cast<int>(hit.size());
 }
 
-// The largest angle off the camera's axis of any corner seen, through the calibrated lens.
+// The largest angle off the camera's axis of any corner seen, through the calibrated lens (iterated as
+// PointRectifier does: OpenCV's default of 5 iterations is off at a wide lens's edge).
 double widest_off_axis(const std::vector<std::vector<cv::Point2f>>& views, const CameraIntrinsics& camera) {
   double widest = 0.0;
   for (const std::vector<cv::Point2f>& corners : views) {
     std::vector<cv::Point2f> rays;
-    cv::undistortPoints(corners, rays, camera.K, camera.D);
+    cv::undistortPoints(corners, rays, camera.K, camera.D, cv::noArray(), cv::noArray(),
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 40, 1e-10));
     for (const cv::Point2f& r : rays) widest = std::max(widest, std::atan(std::hypot(double{r.x}, double{r.y})));
   }
   return widest;

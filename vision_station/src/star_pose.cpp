@@ -513,8 +513,8 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
   // are tried first; when their fit is too poor, the radius method's in either view: far off the axis the
   // star's image is sheared and stretched, and the polygon may put a vertex on a long tip's flank (on the
   // tuning split three stars beyond 45° fitted to 8–10 px with the polygons and to 2 px with the radii).
-  pose.rms_px = std::numeric_limits<double>::infinity();
-  for (int attempt = 0; attempt < 4 && !(pose.rms_px <= settings.max_rms_px); ++attempt) {
+  double best_rms = std::numeric_limits<double>::infinity();
+  for (int attempt = 0; attempt < 4 && !(best_rms <= settings.max_rms_px); ++attempt) {
     const bool left_by_radius = attempt & 1, right_by_radius = attempt & 2;
     StarOutline la, ra;
     Placement pa;
@@ -526,8 +526,8 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
     auto vertices = [&](const Placement& q) { return linearise_vertices(q, la, ra, calibration, model); };
     if (!gauss_newton(pa, vertices, na)) continue;
     const double rms = std::sqrt(na.rss / 32.0);
-    if (rms < pose.rms_px) {
-      pose.rms_px = rms;
+    if (rms < best_rms) {
+      best_rms = rms;
       pose.left_vertices_by_radius = left_by_radius;
       pose.right_vertices_by_radius = right_by_radius;
       l = la;
@@ -536,10 +536,8 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
       n = na;
     }
   }
-  if (!std::isfinite(pose.rms_px)) {
-    pose.rms_px = 0.0;  // no outline of eight vertices in a view
-    return pose;
-  }
+  if (!std::isfinite(best_rms)) return pose;  // no outline of eight vertices in a view
+  pose.rms_px = best_rms;
   if (!(pose.rms_px <= settings.max_rms_px) || !(p.t[2] > 0.0)) return pose;
   auto edges = [&](const Placement& q) { return linearise_edges(q, l, r, calibration, model); };
   if (!gauss_newton(p, edges, n) || n.rows <= 7 || !(p.t[2] > 0.0)) return pose;

@@ -154,7 +154,7 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   if (!fix.pose.valid) return;
   const double z_rectified = (calibration_.R1 * fix.pose.t_C)[2];
   fix.pose_disparity_px = calibration_.P1(0, 0) * calibration_.baseline() / z_rectified;
-  const bool coarse = fix.pose.rms_px > settings_.attitude_max_rms_px;
+  const bool coarse = coarse_fit(fix.pose);
   const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
   const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
   if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
@@ -163,6 +163,8 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
     fix.position_from_pose = true;
   }
 }
+
+bool StereoStarLocator::coarse_fit(const StarPose& pose) const { return pose.rms_px > settings_.attitude_max_rms_px; }
 
 bool StereoStarLocator::wrong_size(const StarPose& pose) const {
   return std::fabs(pose.size_ratio - 1.0) > settings_.max_pose_size_error;
@@ -388,7 +390,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
-    const bool contradicted = fix.pose.valid && fix.pose.rms_px <= settings_.attitude_max_rms_px && wrong_size(fix.pose);
+    const bool contradicted = fix.pose.valid && !coarse_fit(fix.pose) && wrong_size(fix.pose);
     const bool misaligned = fix.guided && !(fix.outline.valid && fix.outline.residual_px <= settings_.guided_max_residual_px &&
                                             std::fabs(fix.outline.shift.y) <= settings_.max_row_difference_px);
     if (contradicted) fix.refused = "pose size";
@@ -400,7 +402,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       reset_tracking();
     }
     // A fit good enough for the position and the checks above may still be too coarse for the attitude.
-    if (fix.pose.rms_px > settings_.attitude_max_rms_px) fix.pose.valid = false;
+    if (coarse_fit(fix.pose)) fix.pose.valid = false;
   }
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
   fix.times.contours_filters_us = left_times.contours_filters_us + right_times.contours_filters_us;
