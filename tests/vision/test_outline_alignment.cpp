@@ -2,12 +2,15 @@
 // 0.4 of that), sampled densely along its edges, the right copy shifted by a known disparity and row
 // offset. A blob grown onto one tip of the right view moves that view's area centroid by about a pixel;
 // the alignment must still give the shift within 0.05 px. A five-pointed star against a four-pointed one
-// must not align well (large residual).
+// must not align well (large residual). A tilted star seen by two rectified cameras (projected by
+// cv::projectPoints): its disparity varies across the outline, and the alignment must give the one of
+// its centre.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "quad/vision/outline_alignment.h"
@@ -67,6 +70,40 @@ TEST(OutlineAlignment, ExactCopiesAlignExactly) {
   ASSERT_TRUE(a.valid);
   EXPECT_NEAR(a.shift.x, 19.5, 0.02);
   EXPECT_NEAR(a.shift.y, 0.75, 0.02);
+}
+
+TEST(OutlineAlignment, ATiltedStarGivesTheDisparityOfItsCentre) {
+  // A 0.2 m star 0.9 m away, 0.25 m off the axis, its plane turned 40° about an axis between x and y:
+  // the disparity changes by several pixels from tip to tip.
+  const double f = 450.0, baseline = 0.12;
+  const cv::Point3d centre(0.25, -0.1, 0.9);
+  const cv::Matx33d turn = [] {
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Vec3d(0.5, 0.45, 0.2) * (40.0 * CV_PI / 180.0 / std::hypot(0.5, 0.45, 0.2)), R);
+    return R;
+  }();
+  std::vector<cv::Point3d> star;
+  for (const cv::Point2f& p : star_outline(4, 0.2, 0.08, {0.0, 0.0}, 0.4, 0.002)) {
+    star.push_back(centre + cv::Point3d(turn * cv::Vec3d(p.x, p.y, 0.0)));
+  }
+  const cv::Matx33d K(f, 0.0, 360.0, 0.0, f, 240.0, 0.0, 0.0, 1.0);
+  auto project = [&](const std::vector<cv::Point3d>& points, double camera_x) {
+    std::vector<cv::Point2d> image;
+    cv::projectPoints(points, cv::Vec3d(0.0, 0.0, 0.0), cv::Vec3d(-camera_x, 0.0, 0.0), K, cv::noArray(), image);
+    return std::vector<cv::Point2f>(image.begin(), image.end());
+  };
+  const std::vector<cv::Point2f> left = project(star, 0.0), right = project(star, baseline);
+  const cv::Point2f left_centre = project({centre}, 0.0)[0];
+  const double truth = f * baseline / centre.z;
+  const cv::Point2d centroid_shift = centroid(left) - centroid(right);
+  const OutlineAlignment a = align_outlines(left, right, centroid_shift);
+  ASSERT_TRUE(a.valid);
+  EXPECT_NEAR(a.shift_at(left_centre).x, truth, 0.02);
+  EXPECT_NEAR(a.shift_at(left_centre).y, 0.0, 0.02);
+  EXPECT_LT(a.residual_px, 0.05);
+  EXPECT_GT(std::fabs(a.gradient[0]) + std::fabs(a.gradient[1]), 0.01) << "the test must tilt the star";
+  std::printf("[vision] tilted star: disparity %.3f px, centroids' %.3f px, aligned %.3f px (gradient %.4f %.4f)\n",
+              truth, centroid_shift.x, a.shift_at(left_centre).x, a.gradient[0], a.gradient[1]);
 }
 
 TEST(OutlineAlignment, DifferentShapesLeaveALargeResidual) {

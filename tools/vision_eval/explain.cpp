@@ -11,8 +11,9 @@
 // three of its view), lost_to_false (another pair won), range, inaccurate (found beyond 5 % of range).
 //   vision_eval_explain --sets DIR --calib calib.yaml [--settings S.yaml] [--conditions a,b] [--list]
 //                       [--crops DIR]   (both views around each lost star, enlarged, for looking at)
-//                       [--features F.csv]  (one line per fix: what the station measured, and its error;
-//                                            guided: one view's outline a near miss)
+//                       [--features F.csv]  (one line per fix or refused pair: what the station measured, and its error;
+//                                            guided: one view's outline a near miss;
+//                                            refused: why the station dropped it)
 // Use on the tuning split only: the held-out split is for the final measurement.
 #include <algorithm>
 #include <cmath>
@@ -144,7 +145,7 @@ class Explainer {
                       const std::string& condition = "") {
     details.clear();
     const StarFix fix = locator_.locate(left, right);
-    if (features != nullptr && fix.found) write_features(features, condition, t, fix);
+    if (features != nullptr && (fix.found || fix.refused != nullptr)) write_features(features, condition, t, fix);
     const bool hit = fix.found && t.in_view && cv::norm(fix.p_left - t.p) <= kMatchFraction * t.range;
     if (hit) {
       centroid_errors.push_back(100.0 * cv::norm(fix.p_left - t.p) / t.range);
@@ -169,13 +170,22 @@ class Explainer {
     if (!why.empty()) return why;
     if (fix.found) return "lost_to_false";
     if (std::max(views[0].rank, views[1].rank) >= 3) return "rank";
-    if (std::fabs(views[0].centroid.y - views[1].centroid.y) > settings_.max_row_difference_px) return "row_gate";
     if (fix.refused != nullptr) {
-      char text[160];
-      std::snprintf(text, sizeof text, " [refused: %s; off the axis %.1f°, pose valid %d, size ratio %.3f, rms %.2f px]", fix.refused,
-                    std::acos(std::clamp(t.p[2] / t.range, -1.0, 1.0)) * 180.0 / CV_PI, fix.pose.valid ? 1 : 0,
-                    fix.pose.size_ratio, fix.pose.rms_px);
+      char text[240];
+      std::snprintf(text, sizeof text,
+                    " [refused: %s; off the axis %.1f°, pose valid %d, size ratio %.3f, rms %.2f px; outlines aligned %d,"
+                    " residual %.2f px, row shift %.2f px]",
+                    fix.refused, std::acos(std::clamp(t.p[2] / t.range, -1.0, 1.0)) * 180.0 / CV_PI,
+                    fix.pose.valid ? 1 : 0, fix.pose.size_ratio, fix.pose.rms_px, fix.outline.valid ? 1 : 0,
+                    fix.outline.residual_px, fix.outline.shift.y);
       details = text;
+      return "range";
+    }
+    if (std::fabs(views[0].centroid.y - views[1].centroid.y) > settings_.max_row_difference_px) {
+      char text[80];
+      std::snprintf(text, sizeof text, " [rows %.2f px apart]", std::fabs(views[0].centroid.y - views[1].centroid.y));
+      details = text;
+      return "row_gate";
     }
     return "range";
   }
@@ -203,7 +213,7 @@ class Explainer {
     };
     const double outline_dd = fix.outline.valid ? fix.outline_disparity_px - fix.disparity_px : 0.0;
     const double outline_dy = fix.outline.valid ? fix.outline.shift.y - (fix.left_rectified.y - fix.right_rectified.y) : 0.0;
-    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%d,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.5f,%.4f,%.3f,%d\n",
+    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%d,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.5f,%.4f,%.3f,%d,%s\n",
                  condition.c_str(), fs::path(t.left).filename().c_str(), t.in_view ? 1 : 0, error, range, off_axis,
                  fix.row_difference_px, fix.disparity_px, l.area / expected, r.area / expected, l.hu_distance,
                  r.hu_distance, l.solidity, r.solidity, l.refined ? 1 : 0, r.refined ? 1 : 0, fix.pose.valid ? 1 : 0,
@@ -211,7 +221,7 @@ class Explainer {
                  size_depth(l), size_depth(r), centroid_error, pose_error, fix.outline.valid ? 1 : 0, outline_dd,
                  outline_dy, fix.outline.residual_px, fix.outline.inlier_fraction, cv::norm(fix.p_centroids),
                  cv::norm(fix.pose.t_C), cv::norm(fix.p_outline), fix.pose_disparity_px - fix.outline_disparity_px,
-                 outline_error, fix.guided ? 1 : 0);
+                 outline_error, fix.guided ? 1 : 0, fix.refused != nullptr ? fix.refused : "");
   }
 
   static LocatorSettings no_tracking(LocatorSettings s) {
@@ -312,7 +322,7 @@ int main(int argc, char** argv) {
       std::fprintf(features, "condition,left,in_view,error_percent,range_m,off_axis_deg,row_difference_px,disparity_px,"
                              "area_left,area_right,profile_left,profile_right,solidity_left,solidity_right,"
                              "refined_left,refined_right,pose_valid,pose_rms_px,pose_offset,size_ratio,from_pose,size_depth_left,size_depth_right,centroid_error,pose_error,"
-                             "outline_valid,outline_dd,outline_dy,outline_residual,outline_inliers,range_centroids,range_pose,range_outline,pose_outline_dd,outline_error,guided\n");
+                             "outline_valid,outline_dd,outline_dy,outline_residual,outline_inliers,range_centroids,range_pose,range_outline,pose_outline_dd,outline_error,guided,refused\n");
     }
     std::vector<fs::path> dirs;
     for (const fs::directory_entry& d : fs::directory_iterator(o.at("--sets"))) {

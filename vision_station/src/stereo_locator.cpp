@@ -293,7 +293,9 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     double best_score = std::numeric_limits<double>::infinity();
     const StarCandidate* best_l = nullptr;
     const StarCandidate* best_r = nullptr;
-    // guided: which of the two is the near miss (0: neither, 1: left, 2: right).
+    bool best_guided = false;
+    // guided: which of the two is the near miss (0: neither, 1: left, 2: right; 3: neither, but their
+    // centroids' rows too far apart for the strict gate).
     auto consider = [&](const std::vector<StarCandidate>& ls, const std::vector<StarCandidate>& rs, int guided) {
       const size_t nl = std::min(ls.size(), kMaxCandidatesPerView);
       const size_t nr = std::min(rs.size(), kMaxCandidatesPerView);
@@ -305,15 +307,18 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
           const double disparity = (cl.x - cx1) - (cr.x - cx2);
           const double max_rows = guided ? settings_.guided_max_row_difference_px : settings_.max_row_difference_px;
           if (!(row_difference <= max_rows) || !(disparity > 0.0)) continue;
+          if (guided == 3 && row_difference <= settings_.max_row_difference_px) continue;  // tried strictly
           const double z = f * b / disparity;  // thesis eq. 8.3
           if (z < settings_.min_range_m || z > settings_.max_range_m) continue;
           if (guided == 1 && !guided_pair(rs[j], ls[i], disparity)) continue;
           if (guided == 2 && !guided_pair(ls[i], rs[j], disparity)) continue;
+          if (guided == 3 && !guided_pair(ls[i], rs[j], disparity)) continue;
           const double score = ls[i].hu_distance + rs[j].hu_distance;
           if (score < best_score) {
             best_score = score;
             best_l = &ls[i];
             best_r = &rs[j];
+            best_guided = guided != 0;
           }
         }
       }
@@ -322,6 +327,9 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     if (!std::isfinite(best_score)) {
       consider(l.candidates, r.near_misses, 2);
       consider(l.near_misses, r.candidates, 1);
+      // Two passing stars whose centroids' rows disagree: a defect of one view (a fault band, a shadow
+      // edge, a merged blob) moved its centroid; the outlines' alignment decides, as for a near miss.
+      if (settings_.guided_acceptance && settings_.estimate_pose) consider(l.candidates, r.candidates, 3);
     }
     if (std::isfinite(best_score)) {
       const cv::Point2d pl = best_l->centroid;
@@ -349,7 +357,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       fix.right_contour = best_r->contour;
       fix.left_candidate = *best_l;
       fix.right_candidate = *best_r;
-      fix.guided = !best_l->strict || !best_r->strict;
+      fix.guided = best_guided;
       fix.used_roi = l.used_roi && r.used_roi;
       fix.found = true;
       last_left_box_ = best_l->box;
@@ -378,7 +386,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     fix.outline = align_outlines(left_edges, right_edges, fix.left_rectified - fix.right_rectified);
     fix.p_outline = fix.p_centroids;
     if (fix.outline.valid) {
-      fix.outline_disparity_px = fix.outline.shift.x - P1(0, 2) + P2(0, 2);
+      fix.outline_disparity_px = fix.outline.shift_at(fix.left_rectified).x - P1(0, 2) + P2(0, 2);
       if (settings_.outline_disparity && fix.outline_disparity_px > 0.0) {
         fix.p_outline = triangulate(fix.left_rectified, fix.outline_disparity_px);
         fix.p_left = fix.p_outline;

@@ -45,7 +45,7 @@ struct LocatorSettings {
   double guided_min_area_ratio = 0.7;
   double guided_max_area_ratio = 1.4;
   double guided_max_row_difference_px = 6.0;
-  double guided_max_residual_px = 1.0;
+  double guided_max_residual_px = 1.3;
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
