@@ -52,7 +52,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"retry_min_solidity", &d.retry_shape.min_solidity}, {"retry_max_solidity", &d.retry_shape.max_solidity},
       {"robust_require_midlevel", &d.robust_require_midlevel}, {"robust_floor_closing", &d.robust_floor_closing},
       {"robust_sync_repair", &d.robust_sync_repair}, {"robust_row_median", &d.robust_row_median},
-      {"guided_acceptance", &l.guided_acceptance}, {"guided_min_area_ratio", &l.guided_min_area_ratio},
+      {"guided_acceptance", &l.guided_acceptance}, {"outline_transfer", &l.outline_transfer}, {"guided_min_area_ratio", &l.guided_min_area_ratio},
       {"guided_max_area_ratio", &l.guided_max_area_ratio}, {"guided_max_residual_px", &l.guided_max_residual_px},
       {"guided_max_row_difference_px", &l.guided_max_row_difference_px}, {"guided_max_elongation", &d.near_miss_shape.max_elongation},
       {"guided_max_profile_rms", &d.near_miss_shape.max_profile_rms}, {"guided_min_fourfold", &d.near_miss_shape.min_fourfold},

@@ -195,9 +195,6 @@ bool find_outline(const std::vector<cv::Point2f>& contour, StarOutline& outline,
 
 }  // namespace
 
-namespace {
-
-// Bilinear grey value, or −1 outside the image.
 double grey_at(const cv::Mat& gray, cv::Point2d p) {
   // A negative coordinate is outside, so for the rest truncation is the floor (and cheaper).
   if (!(p.x >= 0.0 && p.y >= 0.0)) return -1.0;
@@ -214,6 +211,8 @@ double grey_at(const cv::Mat& gray, cv::Point2d p) {
 // pixels that average their area (the mid-level crossing of interpolated samples is off by up to 0.08 px
 // depending on the edge's sub-pixel phase and direction, differently in the two views: a tilt of the star
 // of 0.2 deg at 1.5 m). The levels are the means of the window's two outermost samples on each side.
+namespace {
+
 cv::Point2d balanced_edge(const cv::Mat& gray, const cv::Point2d& c, const cv::Point2d& normal) {
   constexpr int kHalf = 8;       // samples each side, ...
   constexpr double kStep = 0.25;  // ... this far apart: W = 2 px
@@ -232,41 +231,45 @@ cv::Point2d balanced_edge(const cv::Mat& gray, const cv::Point2d& c, const cv::P
 
 }  // namespace
 
-std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour) {
+bool edge_near(const cv::Mat& gray, const cv::Point2d& p, const cv::Point2d& normal, cv::Point2d& edge,
+               double max_offset_px) {
   constexpr int kHalf = 6;         // samples each side, ...
   constexpr double kStep = 0.5;    // ... this far apart (±3 px)
+  double profile[2 * kHalf + 1];
+  double lo = 255.0, hi = 0.0;
+  for (int k = -kHalf; k <= kHalf; ++k) {
+    profile[k + kHalf] = grey_at(gray, p + k * kStep * normal);
+    if (profile[k + kHalf] < 0.0) return false;
+    lo = std::min(lo, profile[k + kHalf]);
+    hi = std::max(hi, profile[k + kHalf]);
+  }
+  if (!(hi - lo > 10.0)) return false;
+  // The edge is where the profile crosses the middle between star and floor; the crossing nearest p.
+  const double mid = 0.5 * (lo + hi);
+  double nearest = 1e9;
+  for (int k = 0; k < 2 * kHalf; ++k) {
+    const double a = profile[k] - mid, b = profile[k + 1] - mid;
+    if (a * b > 0.0 || a == b) continue;
+    const double s = (k - kHalf + a / (a - b)) * kStep;
+    if (std::fabs(s) < std::fabs(nearest)) nearest = s;
+  }
+  if (!(std::fabs(nearest) <= max_offset_px)) return false;
+  // The crossing refined by the profile's area around it.
+  edge = balanced_edge(gray, p + nearest * normal, normal);
+  return true;
+}
+
+std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour) {
   const int n = static_cast<int>(contour.size());
   std::vector<cv::Point2f> out;
   out.reserve(contour.size());
-  double profile[2 * kHalf + 1];
   for (int i = 0; i < n; ++i) {
     const cv::Point2d p = contour[i];
     const cv::Point2d t = cv::Point2d(contour[(i + 2) % n] - contour[(i + n - 2) % n]);
     const double length = cv::norm(t);
     cv::Point2d best = p;
-    if (length > 0.0) {
-      const cv::Point2d normal(t.y / length, -t.x / length);
-      double lo = 255.0, hi = 0.0;
-      bool inside = true;
-      for (int k = -kHalf; k <= kHalf && inside; ++k) {
-        profile[k + kHalf] = grey_at(gray, p + k * kStep * normal);
-        inside = profile[k + kHalf] >= 0.0;
-        lo = std::min(lo, profile[k + kHalf]);
-        hi = std::max(hi, profile[k + kHalf]);
-      }
-      // The edge is where the profile crosses the middle between star and floor; the crossing nearest
-      // the contour pixel (which lies just inside the star).
-      const double mid = 0.5 * (lo + hi);
-      double nearest = 1e9;
-      for (int k = 0; inside && hi - lo > 10.0 && k < 2 * kHalf; ++k) {
-        const double a = profile[k] - mid, b = profile[k + 1] - mid;
-        if (a * b > 0.0 || a == b) continue;
-        const double s = (k - kHalf + a / (a - b)) * kStep;
-        if (std::fabs(s) < std::fabs(nearest)) nearest = s;
-      }
-      // The crossing nearest the contour pixel, refined by the profile's area around it.
-      if (std::fabs(nearest) <= 2.0) best = balanced_edge(gray, p + nearest * normal, normal);
-    }
+    // The contour pixel lies just inside the star: its edge is within 2 px.
+    if (length > 0.0 && !edge_near(gray, p, cv::Point2d(t.y / length, -t.x / length), best, 2.0)) best = p;
     out.emplace_back(static_cast<float>(best.x), static_cast<float>(best.y));
   }
   return out;

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "quad/vision/ideal_star.h"
+#include "quad/vision/outline_transfer.h"
 
 namespace quad::vision {
 namespace {
@@ -236,6 +237,74 @@ StereoStarLocator::ViewResult StereoStarLocator::detect_view(StarDetector& detec
   return result;
 }
 
+StarCandidate StereoStarLocator::transfer_candidate(const StarCandidate& star, bool star_is_left,
+                                                    const cv::Mat& left_gray, const cv::Mat& right_gray) const {
+  StarCandidate other;
+  const cv::Matx34d& P1 = calibration_.P1;
+  const cv::Matx34d& P2 = calibration_.P2;
+  const double f = P1(0, 0), b = calibration_.baseline();
+  const double d = disparity_for_area(star.area);
+  const double d_min = std::max(settings_.guided_min_scale * d, f * b / settings_.max_range_m);
+  const double d_max = std::min(settings_.guided_max_scale * d, f * b / settings_.min_range_m);
+  if (!(d_min <= d_max)) return other;
+  // x_l − x_r = d + cx1 − cx2 (rectified pixels); the transfer's shift is other − found.
+  const double offset = P1(0, 2) - P2(0, 2);
+  OutlineTransferSearch search;
+  search.min_shift_x = star_is_left ? -(d_max + offset) : d_min + offset;
+  search.max_shift_x = star_is_left ? -(d_min + offset) : d_max + offset;
+  search.max_shift_y = settings_.guided_max_row_difference_px;
+  search.edge_margin_px = settings_.detector.edge_margin_px + 1.0;
+  const cv::Mat& found_gray = star_is_left ? left_gray : right_gray;
+  const cv::Mat& other_gray = star_is_left ? right_gray : left_gray;
+  const NearRectifier& found_view = star_is_left ? left_near_ : right_near_;
+  const NearRectifier& other_view = star_is_left ? right_near_ : left_near_;
+  const std::vector<cv::Point2f> edges = rectified_edges(found_gray, star, found_view);
+  TransferredOutline t;
+  if (settings_.detector.deinterlace == Deinterlace::kField && !edges.empty()) {
+    // The edges are the first field's (rectified_edges): so must the samples be. Only the pixels the
+    // transfer can read are filled: around the star, and around every shifted outline in the other view.
+    constexpr double kReach = 8.0;  // the edge search's reach from a point, and bilinear interpolation
+    const cv::Rect2f box = cv::boundingRect(edges);
+    auto raw_box = [&](const NearRectifier& view, double x0, double y0, double x1, double y1) {
+      std::vector<cv::Point2f> raw;
+      constexpr int kSteps = 8;  // the lens bends a rectified box's sides
+      for (int k = 0; k <= kSteps; ++k) {
+        const double tx = x0 + (x1 - x0) * k / kSteps, ty = y0 + (y1 - y0) * k / kSteps;
+        for (const cv::Point2d& q : {cv::Point2d(tx, y0), cv::Point2d(tx, y1), cv::Point2d(x0, ty), cv::Point2d(x1, ty)}) {
+          raw.emplace_back(view.raw(q));
+        }
+      }
+      const cv::Rect2f r = cv::boundingRect(raw);
+      return cv::Rect(cvFloor(r.x - kReach), cvFloor(r.y - kReach), cvCeil(r.width + 2 * kReach) + 1,
+                      cvCeil(r.height + 2 * kReach) + 1) & cv::Rect(cv::Point(0, 0), found_gray.size());
+    };
+    auto field_in = [](const cv::Mat& gray, const cv::Rect& region) {
+      cv::Mat field(gray.size(), CV_8UC1);
+      if (!region.empty()) first_field(gray, region).copyTo(field(region));
+      return field;
+    };
+    const cv::Rect found_region = raw_box(found_view, box.x, box.y, box.x + box.width, box.y + box.height);
+    const cv::Rect other_region = raw_box(other_view, box.x + search.min_shift_x, box.y - search.max_shift_y,
+                                          box.x + box.width + search.max_shift_x, box.y + box.height + search.max_shift_y);
+    t = transfer_outline(edges, field_in(found_gray, found_region), found_view, field_in(other_gray, other_region),
+                         other_view, search);
+  } else {
+    t = transfer_outline(edges, found_gray, found_view, other_gray, other_view, search);
+  }
+  if (!t.found) return other;
+  other.contour = std::move(t.contour);
+  other.rectified = std::move(t.rectified);
+  other.box = cv::boundingRect(other.contour);
+  const cv::Moments m = cv::moments(other.rectified);
+  if (!(std::fabs(m.m00) > 0.0)) return StarCandidate();
+  other.area = std::fabs(m.m00);
+  other.centroid = cv::Point2d(m.m10 / m.m00, m.m01 / m.m00);
+  other.hu_distance = 1.0 - t.edge_fraction;
+  other.vertices = 8;
+  other.strict = false;
+  return other;
+}
+
 StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right_gray) {
   CV_Assert(left_gray.type() == CV_8UC1 && right_gray.type() == CV_8UC1);
   CV_Assert(left_gray.size() == calibration_.rig.image_size && right_gray.size() == calibration_.rig.image_size);
@@ -252,12 +321,19 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   // and when what it finds pairs with nothing (on the tuning split 2 080 stars: six more found, no false
   // fix).
   bool right_at_left_level = false;
+  const bool transfer_enabled = settings_.outline_transfer && settings_.guided_acceptance && settings_.estimate_pose &&
+                                settings_.detector.method == DetectorMethod::kRobust;
   auto detect_right = [&](bool own_level) {
     right = ViewResult();
     right_at_left_level = false;
     // A left view with near misses only: the right is searched where they can appear, for a passing star.
     const std::vector<StarCandidate>& placing = left.candidates.empty() ? left.near_misses : left.candidates;
-    if (placing.empty()) return;
+    if (placing.empty()) {
+      // Nothing at all in the left view: a passing star of the right view may still find the left's
+      // outline (outline_transfer).
+      if (transfer_enabled) right = detect_view(right_detector_, right_gray, cv::Rect(), &right_times);
+      return;
+    }
     // The thesis pipeline (the documented baseline) searches the whole right frame.
     if (!settings_.guided_search || settings_.detector.method == DetectorMethod::kThesis) {
       right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
@@ -284,6 +360,40 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   const double cx1 = P1(0, 2);
   const double cx2 = P2(0, 2);
   const double b = calibration_.baseline();
+
+  // The fix from a pair of candidates (rectified centroids, thesis eq. 8.3-8.4).
+  auto make_fix = [&](const StarCandidate* best_l, const StarCandidate* best_r, bool guided, bool used_roi) {
+    const cv::Point2d pl = best_l->centroid;
+    const cv::Point2d pr = best_r->centroid;
+    const double d = (pl.x - cx1) - (pr.x - cx2);
+    const cv::Vec3d rectified = rectified_point(pl, d);
+    const double x = rectified[0], y = rectified[1], z = rectified[2];
+    // The triangulated point is in the rectified left frame; R1 rotated the left camera into it.
+    const cv::Matx33d R1t = calibration_.R1.t();
+    fix.p_left = R1t * rectified;
+    fix.p_centroids = fix.p_left;
+    // Uncertainty: first-order propagation of independent centroid noise on u_l, v_l, u_r.
+    const cv::Matx33d J(-x / d + z / f, 0.0, x / d,   // ∂X/∂(u_l, v_l, u_r)
+                        -y / d, z / fy, y / d,        // ∂Y/∂(...)
+                        -z / d, 0.0, z / d);          // ∂Z/∂(...)
+    const double s2 = settings_.centroid_sigma_px * settings_.centroid_sigma_px;
+    const cv::Matx33d cov = R1t * (s2 * J * J.t()) * R1t.t();
+    fix.sigma_left = cv::Vec3d(std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)));
+    fix.cov_left = cov;
+    fix.left_rectified = pl;
+    fix.right_rectified = pr;
+    fix.disparity_px = d;
+    fix.row_difference_px = std::fabs(pl.y - pr.y);
+    fix.left_contour = best_l->contour;
+    fix.right_contour = best_r->contour;
+    fix.left_candidate = *best_l;
+    fix.right_candidate = *best_r;
+    fix.guided = guided;
+    fix.used_roi = used_roi;
+    fix.found = true;
+    last_left_box_ = best_l->box;
+    last_right_box_ = best_r->box;
+  };
 
   // Pair the candidates: rows must agree after rectification, the depth must be plausible; among the
   // valid pairs the best (smallest summed Hu distance) wins, not the first. Two passing stars are
@@ -331,38 +441,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       // edge, a merged blob) moved its centroid; the outlines' alignment decides, as for a near miss.
       if (settings_.guided_acceptance && settings_.estimate_pose) consider(l.candidates, r.candidates, 3);
     }
-    if (std::isfinite(best_score)) {
-      const cv::Point2d pl = best_l->centroid;
-      const cv::Point2d pr = best_r->centroid;
-      const double d = (pl.x - cx1) - (pr.x - cx2);
-      const cv::Vec3d rectified = rectified_point(pl, d);
-      const double x = rectified[0], y = rectified[1], z = rectified[2];
-      // The triangulated point is in the rectified left frame; R1 rotated the left camera into it.
-      const cv::Matx33d R1t = calibration_.R1.t();
-      fix.p_left = R1t * rectified;
-      fix.p_centroids = fix.p_left;
-      // Uncertainty: first-order propagation of independent centroid noise on u_l, v_l, u_r.
-      const cv::Matx33d J(-x / d + z / f, 0.0, x / d,   // ∂X/∂(u_l, v_l, u_r)
-                          -y / d, z / fy, y / d,        // ∂Y/∂(...)
-                          -z / d, 0.0, z / d);          // ∂Z/∂(...)
-      const double s2 = settings_.centroid_sigma_px * settings_.centroid_sigma_px;
-      const cv::Matx33d cov = R1t * (s2 * J * J.t()) * R1t.t();
-      fix.sigma_left = cv::Vec3d(std::sqrt(cov(0, 0)), std::sqrt(cov(1, 1)), std::sqrt(cov(2, 2)));
-      fix.cov_left = cov;
-      fix.left_rectified = pl;
-      fix.right_rectified = pr;
-      fix.disparity_px = d;
-      fix.row_difference_px = std::fabs(pl.y - pr.y);
-      fix.left_contour = best_l->contour;
-      fix.right_contour = best_r->contour;
-      fix.left_candidate = *best_l;
-      fix.right_candidate = *best_r;
-      fix.guided = best_guided;
-      fix.used_roi = l.used_roi && r.used_roi;
-      fix.found = true;
-      last_left_box_ = best_l->box;
-      last_right_box_ = best_r->box;
-    }
+    if (std::isfinite(best_score)) make_fix(best_l, best_r, best_guided, l.used_roi && r.used_roi);
     fix.times.triangulation_us += microseconds(t1, Clock::now());
   };
 
@@ -377,6 +456,22 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   if (!fix.found && right_at_left_level) {
     detect_right(true);
     try_pairs(left, right);
+  }
+  // Still nothing: a passing star of one view sought in the other by its outline.
+  StarCandidate transferred;
+  if (!fix.found && transfer_enabled) {
+    const Clock::time_point t1 = Clock::now();
+    for (int view = 0; view < 2 && !fix.found; ++view) {
+      const std::vector<StarCandidate>& stars = view == 0 ? left.candidates : right.candidates;
+      for (size_t i = 0; i < std::min(stars.size(), kMaxCandidatesPerView) && !fix.found; ++i) {
+        transferred = transfer_candidate(stars[i], view == 0, left_gray, right_gray);
+        if (transferred.contour.empty()) continue;
+        if (view == 0) make_fix(&stars[i], &transferred, true, false);
+        else make_fix(&transferred, &stars[i], true, false);
+        fix.transferred = true;
+      }
+    }
+    fix.times.triangulation_us += microseconds(t1, Clock::now());
   }
   if (!fix.found) reset_tracking();
   if (fix.found && settings_.estimate_pose) {

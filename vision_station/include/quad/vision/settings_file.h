@@ -15,7 +15,7 @@
 //   max_shape_solidity robust_floor_closing robust_sync_repair robust_row_median robust_require_midlevel
 //   retry_max_profile_rms retry_min_fourfold retry_max_other_harmonic retry_min_solidity retry_max_solidity
 //   guided_acceptance guided_min_area_ratio guided_max_area_ratio guided_max_row_difference_px
-//   guided_max_residual_px (a near miss pairs with a star: LocatorSettings)
+//   guided_max_residual_px (a near miss pairs with a star: LocatorSettings) outline_transfer
 //   guided_max_elongation guided_max_profile_rms guided_min_fourfold guided_max_other_harmonic
 //   guided_min_solidity guided_max_solidity (DetectorSettings::near_miss_shape)
 //   position_from_pose max_pose_offset require_pose_beyond_rad max_pose_size_error attitude_max_rms_px

@@ -46,10 +46,19 @@ struct StarPose {
   bool left_vertices_by_radius = false, right_vertices_by_radius = false;
 };
 
+// Bilinear grey value of an 8-bit image at a raw point, or −1 outside the image.
+double grey_at(const cv::Mat& gray, cv::Point2d p);
+
 // The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile
 // crosses the middle between its darkest and brightest values within ±3 px, then to where the profile's
 // area within ±2 px of that crossing puts the step (sub-pixel, raw pixels).
 std::vector<cv::Point2f> subpixel_edges(const cv::Mat& gray, const std::vector<cv::Point>& contour);
+
+// The grey-level edge near the raw point `p` along the unit `normal`, as subpixel_edges finds it for
+// one contour point: false when the profile within ±3 px has no step of more than 10 grey levels or
+// its mid-level crossing is farther than `max_offset_px` from p.
+bool edge_near(const cv::Mat& gray, const cv::Point2d& p, const cv::Point2d& normal, cv::Point2d& edge,
+               double max_offset_px);
 
 // One camera's map between raw and rectified pixels, for points already known to within a pixel or so:
 // Newton steps on the forward map (rectified → raw: the rectifying rotation undone, then OpenCV's lens

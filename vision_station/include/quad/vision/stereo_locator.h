@@ -46,6 +46,10 @@ struct LocatorSettings {
   double guided_max_area_ratio = 1.4;
   double guided_max_row_difference_px = 6.0;
   double guided_max_residual_px = 1.3;
+  // Outline transfer (robust method, with guided acceptance): when nothing pairs, a passing star of one
+  // view is sought in the other by its outline (outline_transfer.h), at the guided search's disparities
+  // and rows within guided_max_row_difference_px; the pair is then judged as a guided pair.
+  bool outline_transfer = true;
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
   StarPoseSettings pose;               // its inner_ratio follows detector.inner_ratio
@@ -110,6 +114,7 @@ struct StarFix {
   std::vector<cv::Point> right_contour;
   StarCandidate left_candidate, right_candidate;  // the paired candidates (areas, shape distances)
   bool guided = false;                // one of them is a near miss (LocatorSettings::guided_acceptance)
+  bool transferred = false;           // one of them was found by the other's outline (outline_transfer)
   bool used_roi = false;
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
   cv::Vec3d p_centroids;              // the triangulated centroids (p_left unless from the pose)
@@ -176,6 +181,11 @@ class StereoStarLocator {
   // rectified left frame, and in the left camera's.
   cv::Vec3d rectified_point(const cv::Point2d& left, double disparity) const;
   cv::Vec3d triangulate(const cv::Point2d& left, double disparity) const;
+
+  // A passing star of one view sought in the other by its outline (LocatorSettings::outline_transfer):
+  // the other view's candidate, or none (empty contour).
+  StarCandidate transfer_candidate(const StarCandidate& star, bool star_is_left, const cv::Mat& left_gray,
+                                   const cv::Mat& right_gray) const;
 
   // A candidate's sub-pixel edge points, rectified.
   std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,
