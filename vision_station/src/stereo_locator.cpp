@@ -312,7 +312,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   DetectorTimes left_times, right_times;
   ViewResult left = detect_view(left_detector_, left_gray, last_left_box_, &left_times);
   // Nothing in the whole left image (detect_view falls back to it): no pair can form, so the right
-  // image is not searched; the outcome (no fix, tracking reset) is the same.
+  // image is searched only for outline transfer (a passing star there may find the left's lost outline).
   ViewResult right;
   // The right window is cut at the left view's contrast level: both outlines cut at the same level have
   // the same edge bias, which cancels in the disparity. The right view may be lit otherwise where the

@@ -37,7 +37,9 @@ struct LocatorSettings {
   // Its area must be within [guided_min_area_ratio, guided_max_area_ratio] of the star's, the disparity
   // within [guided_min_scale, guided_max_scale] of the one the star's area implies, and the centroids'
   // rows within guided_max_row_difference_px (the defect moves the near miss's centroid). A left view with
-  // near misses only places the right search at them. The fix stands only if the two outlines lay onto
+  // near misses only places the right search at them. Two passing stars whose centroids' rows are beyond
+  // max_row_difference_px but within guided_max_row_difference_px pair under the same checks (a defect
+  // of one view moved its centroid). The fix stands only if the two outlines lay onto
   // each other (outline_alignment.h) within guided_max_residual_px RMS, at rows within
   // max_row_difference_px: a defect confined to a tip leaves the rest of the outline aligned, a torn or
   // merged outline or another shape does not. Needs estimate_pose (the edge points).
@@ -113,7 +115,7 @@ struct StarFix {
   std::vector<cv::Point> left_contour;   // raw image pixels, for display
   std::vector<cv::Point> right_contour;
   StarCandidate left_candidate, right_candidate;  // the paired candidates (areas, shape distances)
-  bool guided = false;                // one of them is a near miss (LocatorSettings::guided_acceptance)
+  bool guided = false;                // a guided pair: a near miss, rows beyond the gate, or transferred
   bool transferred = false;           // one of them was found by the other's outline (outline_transfer)
   bool used_roi = false;
   bool position_from_pose = false;    // p_left is the pose's centre (else the triangulated centroids)
