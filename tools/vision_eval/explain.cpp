@@ -140,12 +140,14 @@ class Explainer {
   // 3-D errors (% of range) of the found stars: the fix, and the star pose's centre.
   std::vector<double> centroid_errors, pose_errors;
   std::string details;  // shape scores of the last explain()'s lost views
+  StarFix last_fix;     // the last explain()'s fix (its outlines drawn on the crops)
 
   // The pair's outcome: "found", "no_star" (nothing expected, nothing fixed), "false_fix", or why missed.
   std::string explain(const Truth& t, const cv::Mat& left, const cv::Mat& right, std::FILE* features = nullptr,
                       const std::string& condition = "") {
     details.clear();
-    const StarFix fix = locator_.locate(left, right);
+    last_fix = locator_.locate(left, right);
+    const StarFix& fix = last_fix;
     if (features != nullptr && (fix.found || fix.refused != nullptr)) write_features(features, condition, t, fix);
     const bool hit = fix.found && t.in_view && cv::norm(fix.p_left - t.p) <= kMatchFraction * t.range;
     if (hit) {
@@ -177,7 +179,7 @@ class Explainer {
                     " [refused: %s; off the axis %.1f°, pose valid %d, size ratio %.3f, rms %.2f px; outlines aligned %d,"
                     " residual %.2f px, row shift %.2f px]",
                     fix.refused, std::acos(std::clamp(t.p[2] / t.range, -1.0, 1.0)) * 180.0 / CV_PI,
-                    fix.pose.valid ? 1 : 0, fix.pose.size_ratio, fix.pose.rms_px, fix.outline.valid ? 1 : 0,
+                    fix.pose.valid ? 1 : 0, fix.contour_size_ratio, fix.pose.rms_px, fix.outline.valid ? 1 : 0,
                     fix.outline.residual_px, fix.outline.shift.y);
       details = text;
       return "range";
@@ -218,7 +220,7 @@ class Explainer {
                  condition.c_str(), fs::path(t.left).filename().c_str(), t.in_view ? 1 : 0, error, range, off_axis,
                  fix.row_difference_px, fix.disparity_px, l.area / expected, r.area / expected, l.hu_distance,
                  r.hu_distance, l.solidity, r.solidity, l.refined ? 1 : 0, r.refined ? 1 : 0, fix.pose.valid ? 1 : 0,
-                 fix.pose.rms_px, fix.pose_offset, fix.pose.size_ratio, fix.position_from_pose ? 1 : 0,
+                 fix.pose.rms_px, fix.pose_offset, fix.contour_size_ratio, fix.position_from_pose ? 1 : 0,
                  size_depth(l), size_depth(r), centroid_error, pose_error, fix.outline.valid ? 1 : 0, outline_dd,
                  outline_dy, fix.outline.residual_px, fix.outline.inlier_fraction, cv::norm(fix.p_centroids),
                  cv::norm(fix.pose.t_C), cv::norm(fix.p_outline), fix.pose_disparity_px - fix.outline_disparity_px,
@@ -272,7 +274,9 @@ std::map<std::string, std::string> options(int argc, char** argv) {
 }
 
 // Both views around the star's true centre, enlarged ×3, side by side: DIR/<condition>_<left name>.png.
-void write_crops(const fs::path& dir, const std::string& condition, const Truth& t, const StereoCalibration& c) {
+// The station's outlines, when it paired two, are drawn in white.
+void write_crops(const fs::path& dir, const std::string& condition, const Truth& t, const StereoCalibration& c,
+                 const StarFix& fix) {
   constexpr int kHalf = 60;
   std::vector<cv::Mat> crops;
   for (int camera = 0; camera < 2; ++camera) {
@@ -283,6 +287,9 @@ void write_crops(const fs::path& dir, const std::string& condition, const Truth&
     cv::Mat crop(2 * kHalf, 2 * kHalf, CV_8UC1, cv::Scalar(128)), big;
     if (!box.empty()) gray(box).copyTo(crop(cv::Rect(0, 0, box.width, box.height)));
     cv::resize(crop, big, cv::Size(), 3, 3, cv::INTER_NEAREST);
+    std::vector<cv::Point> outline = camera == 0 ? fix.left_contour : fix.right_contour;
+    for (cv::Point& p : outline) p = (p - box.tl()) * 3 + cv::Point(1, 1);
+    if (!outline.empty()) cv::polylines(big, std::vector<std::vector<cv::Point>>{outline}, true, cv::Scalar(255));
     crops.push_back(big);
   }
   cv::Mat both;
@@ -341,7 +348,7 @@ int main(int argc, char** argv) {
         stars += t.in_view ? 1 : 0;
         if (outcome == "found" || outcome == "no_star") continue;
         ++counts[outcome];
-        if (o.count("--crops")) write_crops(o.at("--crops"), condition, t, calibration);
+        if (o.count("--crops")) write_crops(o.at("--crops"), condition, t, calibration, explainer.last_fix);
         ++total[outcome];
         if (o.count("--list")) {
           std::printf("%s %s: %s%s\n", condition.c_str(), fs::path(t.left).filename().c_str(), outcome.c_str(),

@@ -34,6 +34,7 @@ StationSettings load_station_settings(const std::string& path) {
       {"row_window_px", &l.row_window_px}, {"guided_min_scale", &l.guided_min_scale},
       {"guided_max_scale", &l.guided_max_scale},
       {"undistort_iterations", &l.undistort_iterations}, {"estimate_pose", &l.estimate_pose},
+      {"pose_edge_passes", &l.pose_edge_passes},
       {"position_from_pose", &l.position_from_pose}, {"require_pose_beyond_rad", &l.require_pose_beyond_rad}, {"max_pose_offset", &l.max_pose_offset},
       {"max_pose_size_error", &l.max_pose_size_error},
       {"attitude_max_rms_px", &l.attitude_max_rms_px}, {"outline_disparity", &l.outline_disparity},

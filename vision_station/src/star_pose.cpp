@@ -462,8 +462,10 @@ Normal linearise_vertices(const Placement& p, const StarOutline& l, const StarOu
   return n;
 }
 
-// The edge fit: each edge point's distance to its projected star edge. The distances are linear in the
-// point, so the derivatives of the 16 lines give every row.
+// The edge fit: each edge point's distance to its projected star edge. The distance of q from line i is
+// lᵢ·h with h = (qx, qy, −1), linear in h, so an edge's rows enter the normal equations only through its
+// points' moment matrix Mᵢ = Σ h hᵀ: JᵀJ = Σᵢ Sᵢᵀ Mᵢ Sᵢ, Jᵀr = −Σᵢ Sᵢᵀ Mᵢ lᵢ, Σ r² = Σᵢ lᵢᵀ Mᵢ lᵢ with Sᵢ
+// the line's derivatives (the same sums as row by row, in 16 terms instead of one per point).
 Normal linearise_edges(const Placement& p, const StarOutline& l, const StarOutline& r, const StereoCalibration& c,
                        const std::array<cv::Point3d, 8>& model) {
   const std::array<cv::Vec3d, 16> lines = edge_lines(corners(p, c, model));
@@ -474,15 +476,23 @@ Normal linearise_edges(const Placement& p, const StarOutline& l, const StarOutli
     for (int i = 0; i < 16; ++i) slopes[j][i] = (moved[i] - lines[i]) / h;
   }
   Normal n;
-  double jac[7];
   for (int i = 0; i < 16; ++i) {
-    for (const cv::Point2f& q : (i < 8 ? l : r).edges[i % 8]) {
+    const std::vector<cv::Point2f>& points = (i < 8 ? l : r).edges[i % 8];
+    if (points.empty()) continue;
+    cv::Matx33d M = cv::Matx33d::zeros();
+    for (const cv::Point2f& q : points) {
       const cv::Vec3d h(q.x, q.y, -1.0);
-      // The distance is the residual (the edge point should lie on the line); its derivative is minus
-      // that of a prediction.
-      for (int j = 0; j < 7; ++j) jac[j] = -slopes[j][i].dot(h);
-      n.add(lines[i].dot(h), jac);
+      M += h * h.t();
     }
+    std::array<cv::Vec3d, 7> MS;
+    for (int a = 0; a < 7; ++a) MS[a] = M * slopes[a][i];
+    const cv::Vec3d Ml = M * lines[i];
+    for (int a = 0; a < 7; ++a) {
+      n.Jtr[a] -= slopes[a][i].dot(Ml);
+      for (int b = a; b < 7; ++b) n.JtJ(a, b) += slopes[a][i].dot(MS[b]);
+    }
+    n.rss += lines[i].dot(Ml);
+    n.rows += static_cast<int>(points.size());
   }
   n.symmetrise();
   return n;
@@ -491,8 +501,8 @@ Normal linearise_edges(const Placement& p, const StarOutline& l, const StarOutli
 using Linearise = std::function<Normal(const Placement&)>;
 
 // Gauss-Newton on the normal equations; returns them at the solution.
-bool gauss_newton(Placement& p, const Linearise& linearise, Normal& n) {
-  for (int iteration = 0; iteration < 10; ++iteration) {
+bool gauss_newton(Placement& p, const Linearise& linearise, Normal& n, int max_iterations = 10) {
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
     n = linearise(p);
     cv::Vec<double, 7> step;
     if (!cv::solve(n.JtJ, n.Jtr, step, cv::DECOMP_CHOLESKY)) return false;
@@ -501,6 +511,31 @@ bool gauss_newton(Placement& p, const Linearise& linearise, Normal& n) {
   }
   n = linearise(p);
   return true;
+}
+
+// The placement a pose describes (its rotation and centre back in the rectified left frame).
+Placement placement_of(const StarPose& pose, const StereoCalibration& calibration) {
+  return Placement{calibration.R1 * pose.R_CS, calibration.R1 * pose.t_C, pose.size_ratio};
+}
+
+// The pose of an edge fit's solution, with its covariance: the edge points' error from the residuals,
+// floored, times the inverse normal matrix. Leaves `pose` invalid when the fit is degenerate.
+void finish_pose(const Placement& p, const Normal& n, const StereoCalibration& calibration,
+                 const StarPoseSettings& settings, StarPose& pose) {
+  if (n.rows <= 7 || !(p.t[2] > 0.0)) return;
+  pose.edge_sigma_px = std::max(std::sqrt(n.rss / (n.rows - 7.0)), settings.min_edge_sigma_px);
+  cv::Matx<double, 7, 7> normal_inverse;
+  if (cv::invert(n.JtJ, normal_inverse, cv::DECOMP_CHOLESKY) == 0.0) return;
+  const cv::Matx<double, 7, 7> cov = pose.edge_sigma_px * pose.edge_sigma_px * normal_inverse;
+  const cv::Matx33d attitude = cov.get_minor<3, 3>(0, 0), position = cov.get_minor<3, 3>(3, 3);
+  // The rectified left frame is the left camera frame rotated by R1.
+  const cv::Matx33d R1t = calibration.R1.t();
+  pose.R_CS = R1t * p.R;
+  pose.t_C = R1t * p.t;
+  pose.attitude_cov_C = R1t * attitude * R1t.t();
+  pose.position_cov_C = R1t * position * R1t.t();
+  pose.size_ratio = p.scale;
+  pose.valid = true;
 }
 
 }  // namespace
@@ -543,21 +578,56 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
   pose.rms_px = best_rms;
   if (!(pose.rms_px <= settings.max_rms_px) || !(p.t[2] > 0.0)) return pose;
   auto edges = [&](const Placement& q) { return linearise_edges(q, l, r, calibration, model); };
-  if (!gauss_newton(p, edges, n) || n.rows <= 7 || !(p.t[2] > 0.0)) return pose;
-  // Covariance: the edge points' error from the residuals, floored.
-  pose.edge_sigma_px = std::max(std::sqrt(n.rss / (n.rows - 7.0)), settings.min_edge_sigma_px);
-  cv::Matx<double, 7, 7> normal_inverse;
-  if (cv::invert(n.JtJ, normal_inverse, cv::DECOMP_CHOLESKY) == 0.0) return pose;
-  const cv::Matx<double, 7, 7> cov = pose.edge_sigma_px * pose.edge_sigma_px * normal_inverse;
-  const cv::Matx33d attitude = cov.get_minor<3, 3>(0, 0), position = cov.get_minor<3, 3>(3, 3);
-  // The rectified left frame is the left camera frame rotated by R1.
-  const cv::Matx33d R1t = calibration.R1.t();
-  pose.R_CS = R1t * p.R;
-  pose.t_C = R1t * p.t;
-  pose.attitude_cov_C = R1t * attitude * R1t.t();
-  pose.position_cov_C = R1t * position * R1t.t();
-  pose.size_ratio = p.scale;
-  pose.valid = true;
+  if (!gauss_newton(p, edges, n)) return pose;
+  finish_pose(p, n, calibration, settings, pose);
+  return pose;
+}
+
+std::array<std::array<cv::Point2d, 8>, 2> projected_star(const StarPose& pose, const StereoCalibration& calibration,
+                                                         const StarPoseSettings& settings) {
+  const std::array<cv::Point2d, 16> v = corners(placement_of(pose, calibration), calibration, star_model(settings));
+  std::array<std::array<cv::Point2d, 8>, 2> out;
+  for (int i = 0; i < 16; ++i) out[i / 8][i % 8] = v[i];
+  return out;
+}
+
+StarPose refit_star_pose(const StarPose& start, const StarEdgePoints& points, const StereoCalibration& calibration,
+                         const StarPoseSettings& settings) {
+  StarPose pose;
+  pose.rms_px = start.rms_px;
+  pose.left_vertices_by_radius = start.left_vertices_by_radius;
+  pose.right_vertices_by_radius = start.right_vertices_by_radius;
+  const std::array<cv::Point3d, 8> model = star_model(settings);
+  StarOutline outlines[2];
+  for (int view = 0; view < 2; ++view) outlines[view].edges = points[view];
+  Placement p = placement_of(start, calibration);
+  Normal n;
+  auto edges = [&](const Placement& q) { return linearise_edges(q, outlines[0], outlines[1], calibration, model); };
+  // The start is the contours' fit, a pixel or so off: Gauss-Newton is within the noise in three steps.
+  constexpr int kIterations = 3;
+  if (!gauss_newton(p, edges, n, kIterations) || n.rows <= 7) return pose;
+  // The points' distances from their fitted edges; those beyond 3 robust σ (and half a pixel) go.
+  const std::array<cv::Vec3d, 16> lines = edge_lines(corners(p, calibration, model));
+  std::vector<double> distance;
+  for (int i = 0; i < 16; ++i) {
+    for (const cv::Point2f& q : outlines[i / 8].edges[i % 8]) distance.push_back(std::fabs(lines[i].dot(cv::Vec3d(q.x, q.y, -1.0))));
+  }
+  std::vector<double> sorted = distance;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double gate = std::max(3.0 * 1.4826 * sorted[sorted.size() / 2], 0.5);
+  size_t index = 0;
+  bool dropped = false;
+  for (int i = 0; i < 16; ++i) {
+    std::vector<cv::Point2f>& kept = outlines[i / 8].edges[i % 8];
+    std::vector<cv::Point2f> all;
+    all.swap(kept);
+    for (const cv::Point2f& q : all) {
+      if (distance[index++] <= gate) kept.push_back(q);
+      else dropped = true;
+    }
+  }
+  if (dropped && !gauss_newton(p, edges, n, kIterations)) return pose;
+  finish_pose(p, n, calibration, settings, pose);
   return pose;
 }
 

@@ -94,7 +94,7 @@ cv::Mat first_field(const cv::Mat& gray, const cv::Rect& region) {
   return out;
 }
 
-std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray, const StarCandidate& star,
+std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const EdgeView& view, const StarCandidate& star,
                                                             const NearRectifier& rectifier) const {
   // Neighbouring edge points share pixels and carry nearly the same information: at most
   // kMaxPoseContourPoints evenly spaced points per view keep a near star as cheap as a far one.
@@ -106,24 +106,65 @@ std::vector<cv::Point2f> StereoStarLocator::rectified_edges(const cv::Mat& gray,
     sampled.push_back(star.contour[i]);
     guesses.push_back(star.rectified[i]);  // the detector's rectified copy of the same raw pixel
   }
-  std::vector<cv::Point2f> raw;
-  if (settings_.detector.deinterlace == Deinterlace::kField && !sampled.empty()) {
-    // The detector saw the first field only: so must the edges, or they mix two instants 1/60 s apart
-    // (a vehicle climbing at 1 m/s moves its star's image a pixel between them).
-    constexpr int kMargin = 8;  // the edge search reaches 5 px from a contour point, bilinear one more
-    const cv::Rect box = cv::boundingRect(sampled);
-    const cv::Rect region = cv::Rect(box.x - kMargin, box.y - kMargin, box.width + 2 * kMargin,
-                                     box.height + 2 * kMargin) & cv::Rect(0, 0, gray.cols, gray.rows);
-    const cv::Mat field = first_field(gray, region);
-    for (cv::Point& p : sampled) p -= region.tl();
-    raw = subpixel_edges(field, sampled);
-    for (cv::Point2f& p : raw) p += cv::Point2f(static_cast<float>(region.x), static_cast<float>(region.y));
-  } else {
-    raw = subpixel_edges(gray, sampled);
-  }
+  for (cv::Point& p : sampled) p -= view.origin;
+  std::vector<cv::Point2f> raw = subpixel_edges(view.image, sampled);
+  for (cv::Point2f& p : raw) p += cv::Point2f(view.origin);
   std::vector<cv::Point2f> rectified(raw.size());
   for (size_t i = 0; i < raw.size(); ++i) rectified[i] = rectifier.rectified(raw[i], guesses[i]);
   return rectified;
+}
+
+StereoStarLocator::EdgeView StereoStarLocator::edge_view(const cv::Mat& gray, const StarCandidate& star) const {
+  if (settings_.detector.deinterlace != Deinterlace::kField || star.contour.empty()) return EdgeView{gray, cv::Point(0, 0)};
+  // The detector saw the first field only: so must the edges, or they mix two instants 1/60 s apart
+  // (a vehicle climbing at 1 m/s moves its star's image a pixel between them). The field is made over
+  // the star's box grown by the edge search's reach (5 px, bilinear one more) and a quarter of its size
+  // (the refit's projected star reaches where a contour that left part of the star out did not).
+  const cv::Rect box = cv::boundingRect(star.contour);
+  const int margin = 8 + std::max(box.width, box.height) / 4;
+  const cv::Rect region = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+                          cv::Rect(0, 0, gray.cols, gray.rows);
+  return EdgeView{first_field(gray, region), region.tl()};
+}
+
+StarPose StereoStarLocator::refit_along_projection(const StarPose& pose, const EdgeView& left_view,
+                                                   const EdgeView& right_view, const StarPoseSettings& pose_settings) const {
+  // Points every kSpacingPx along the middle of each projected edge (its ends are the blurred corners),
+  // each moved along the edge's normal (in raw pixels, through the lens) onto the grey-level edge. Two
+  // pixels apart, no two points share a pixel of their bilinear samples, so their errors are independent
+  // as the pose's covariance assumes.
+  constexpr double kSpacingPx = 2.0, kInner = 0.15;
+  constexpr int kMaxPerEdge = static_cast<int>(kMaxPoseContourPoints / 8);
+  constexpr double kReachPx = 3.0;  // edge_near's whole window
+  StarPose current = pose;
+  for (int pass = 0; pass < settings_.pose_edge_passes && current.valid; ++pass) {
+    const std::array<std::array<cv::Point2d, 8>, 2> star = projected_star(current, calibration_, pose_settings);
+    StarEdgePoints points;
+    for (int view = 0; view < 2; ++view) {
+      const NearRectifier& near = view == 0 ? left_near_ : right_near_;
+      const cv::Mat& image = (view == 0 ? left_view : right_view).image;
+      const cv::Point2d origin = (view == 0 ? left_view : right_view).origin;
+      for (int k = 0; k < 8; ++k) {
+        const cv::Point2d a = star[view][k], b = star[view][(k + 1) % 8];
+        const double length = cv::norm(b - a);
+        if (!(length > 0.0)) continue;
+        const cv::Point2d normal(-(b - a).y / length, (b - a).x / length);
+        const int n = std::clamp(static_cast<int>((1.0 - 2.0 * kInner) * length / kSpacingPx), 2, kMaxPerEdge);
+        for (int i = 0; i < n; ++i) {
+          const cv::Point2d q = a + (kInner + (1.0 - 2.0 * kInner) * i / (n - 1)) * (b - a);
+          const cv::Point2d raw = near.raw(q);
+          cv::Point2d raw_normal = near.raw(q + normal) - raw;
+          raw_normal /= std::max(cv::norm(raw_normal), 1e-9);
+          cv::Point2d edge;
+          if (!edge_near(image, raw - origin, raw_normal, edge, kReachPx)) continue;
+          const cv::Point2d r = near.rectified(edge + origin, q);
+          points[view][k].emplace_back(static_cast<float>(r.x), static_cast<float>(r.y));
+        }
+      }
+    }
+    current = refit_star_pose(current, points, calibration_, pose_settings);
+  }
+  return current;
 }
 
 cv::Vec3d StereoStarLocator::rectified_point(const cv::Point2d& left, double disparity) const {
@@ -139,11 +180,18 @@ cv::Vec3d StereoStarLocator::triangulate(const cv::Point2d& left, double dispari
 }
 
 void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
-                                 const std::vector<cv::Point2f>& right_edges, StarFix& fix) {
+                                 const std::vector<cv::Point2f>& right_edges, const EdgeView& left_view,
+                                 const EdgeView& right_view, StarFix& fix) {
   StarPoseSettings pose_settings = settings_.pose;
   pose_settings.inner_ratio = settings_.detector.inner_ratio;
   const Clock::time_point t0 = Clock::now();
   fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
+  fix.contour_size_ratio = fix.pose.size_ratio;
+  if (fix.pose.valid && settings_.pose_edge_passes > 0) {
+    // The refit replaces the contours' fit when its edge points lie closer to its star's edges.
+    const StarPose refitted = refit_along_projection(fix.pose, left_view, right_view, pose_settings);
+    if (refitted.valid && refitted.edge_sigma_px <= fix.pose.edge_sigma_px) fix.pose = refitted;
+  }
   fix.times.pose_us += microseconds(t0, Clock::now());
   // The fitted star's centre is the better position: it uses every sub-pixel edge point of both views
   // and the star's true (perspective) shape, where the area centroid of a tilted star's image is not the
@@ -159,7 +207,7 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
   const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
   if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
-      !(coarse && (disagrees || wrong_size(fix.pose)))) {
+      !(coarse && (disagrees || wrong_size(fix.contour_size_ratio)))) {
     fix.p_left = fix.pose.t_C;
     fix.position_from_pose = true;
   }
@@ -167,8 +215,8 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
 
 bool StereoStarLocator::coarse_fit(const StarPose& pose) const { return pose.rms_px > settings_.attitude_max_rms_px; }
 
-bool StereoStarLocator::wrong_size(const StarPose& pose) const {
-  return std::fabs(pose.size_ratio - 1.0) > settings_.max_pose_size_error;
+bool StereoStarLocator::wrong_size(double size_ratio) const {
+  return std::fabs(size_ratio - 1.0) > settings_.max_pose_size_error;
 }
 
 void StereoStarLocator::reset_tracking() {
@@ -258,7 +306,7 @@ StarCandidate StereoStarLocator::transfer_candidate(const StarCandidate& star, b
   const cv::Mat& other_gray = star_is_left ? right_gray : left_gray;
   const NearRectifier& found_view = star_is_left ? left_near_ : right_near_;
   const NearRectifier& other_view = star_is_left ? right_near_ : left_near_;
-  const std::vector<cv::Point2f> edges = rectified_edges(found_gray, star, found_view);
+  const std::vector<cv::Point2f> edges = rectified_edges(edge_view(found_gray, star), star, found_view);
   TransferredOutline t;
   if (settings_.detector.deinterlace == Deinterlace::kField && !edges.empty()) {
     // The edges are the first field's (rectified_edges): so must the samples be. Only the pixels the
@@ -476,8 +524,10 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   if (!fix.found) reset_tracking();
   if (fix.found && settings_.estimate_pose) {
     const Clock::time_point t0 = Clock::now();
-    const std::vector<cv::Point2f> left_edges = rectified_edges(left_gray, fix.left_candidate, left_near_);
-    const std::vector<cv::Point2f> right_edges = rectified_edges(right_gray, fix.right_candidate, right_near_);
+    const EdgeView left_view = edge_view(left_gray, fix.left_candidate);
+    const EdgeView right_view = edge_view(right_gray, fix.right_candidate);
+    const std::vector<cv::Point2f> left_edges = rectified_edges(left_view, fix.left_candidate, left_near_);
+    const std::vector<cv::Point2f> right_edges = rectified_edges(right_view, fix.right_candidate, right_near_);
     fix.outline = align_outlines(left_edges, right_edges, fix.left_rectified - fix.right_rectified);
     fix.p_outline = fix.p_centroids;
     if (fix.outline.valid) {
@@ -488,12 +538,12 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       }
     }
     fix.times.pose_us += microseconds(t0, Clock::now());
-    add_pose(left_edges, right_edges, fix);
+    add_pose(left_edges, right_edges, left_view, right_view, fix);
     // No eight-vertex fit far off the axis, where the lens model is extrapolated and the star is most
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
-    const bool contradicted = fix.pose.valid && !coarse_fit(fix.pose) && wrong_size(fix.pose);
+    const bool contradicted = fix.pose.valid && !coarse_fit(fix.pose) && wrong_size(fix.contour_size_ratio);
     const bool misaligned = fix.guided && !(fix.outline.valid && fix.outline.residual_px <= settings_.guided_max_residual_px &&
                                             std::fabs(fix.outline.shift.y) <= settings_.max_row_difference_px);
     if (contradicted) fix.refused = "pose size";

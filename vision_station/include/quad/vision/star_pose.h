@@ -84,6 +84,21 @@ bool find_star_vertices(const std::vector<cv::Point2f>& contour, std::array<cv::
 StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vector<cv::Point2f>& right,
                             const StereoCalibration& calibration, const StarPoseSettings& settings);
 
+// The eight vertices of the star a pose places, in each view's rectified pixels ([0] left, [1] right;
+// vertex 0 a tip, vertex k + 1 the next counter-clockwise about the star's z, as in the fit).
+std::array<std::array<cv::Point2d, 8>, 2> projected_star(const StarPose& pose, const StereoCalibration& calibration,
+                                                         const StarPoseSettings& settings);
+
+// Edge points of both views, each on a known edge: [view][k] on the edge from vertex k to vertex k + 1
+// of projected_star (rectified pixels).
+using StarEdgePoints = std::array<std::array<std::vector<cv::Point2f>, 8>, 2>;
+
+// The edge fit of estimate_star_pose again, from `start`, to edge points already assigned to their
+// edges; then once more without the points farther from their edge than 3 robust σ (edges of texture
+// or of a fault band found instead of the star's). Invalid when a fit fails; keeps start's vertex RMS.
+StarPose refit_star_pose(const StarPose& start, const StarEdgePoints& points, const StereoCalibration& calibration,
+                         const StarPoseSettings& settings);
+
 // Star axes in the body frame, R_BS = R_BC · R_CS, with the 4-fold symmetry resolved: x is the tip
 // nearest the body's forward axis.
 cv::Matx33d star_attitude_in_body(const cv::Matx33d& R_BC, const cv::Matx33d& R_CS);

@@ -61,6 +61,12 @@ struct LocatorSettings {
   // is the better position even several per cent from the centroids: there a merge, a shadow edge or a
   // fault displaced one view's centroid, not the eight edges of both.
   bool position_from_pose = true;
+  // The pose's edge points sought again along the fitted star's own projected edges (pose_edge_passes
+  // searches, each followed by the edge fit; the refit is kept when its points lie closer to its edges
+  // than the contours' to theirs): where the contour left part of the star out or took in some floor (a
+  // shadow across it, a fault band at a tip), the contour's edge points are off the star's edge by more
+  // than the ±2 px their search reaches; the fitted star's edges are not.
+  int pose_edge_passes = 1;
   // With estimate_pose: a fix this far off the left camera's axis (radians) needs a valid pose fit.
   double require_pose_beyond_rad = 0.785;
   double max_pose_offset = 0.2;
@@ -69,7 +75,10 @@ struct LocatorSettings {
   // scales with its depth, so a size 7 % off is a range 7 % off (the outline of one view cut into or grown
   // by a shadow, a merge or a fault). A coarse fit of the wrong size is only not used for the position:
   // its vertices are off, not the star (on the tuning split, 4 160 stars, the 22 such fixes took their
-  // position from the outlines: within 1.4 % of the range, one 3.9 %).
+  // position from the outlines: within 1.4 % of the range, one 3.9 %). The size checked is the fit's to
+  // the contours (StarFix::contour_size_ratio): the refit along the projection (pose_edge_passes) grows
+  // a small, strongly blurred star, whose blunted tips and filled corners the sharp model does not
+  // have, by up to 12 % without moving its range.
   double max_pose_size_error = 0.07;
   // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
   // pose.max_rms_px still gives the position and the checks above.
@@ -108,6 +117,7 @@ struct StarFix {
   cv::Vec3d sigma_left;               // 1-σ of each coordinate from the centroid noise
   cv::Matx33d cov_left = cv::Matx33d::zeros();  // the full covariance of p_left, m²
   StarPose pose;                      // the star's attitude (valid when its eight vertices were fitted)
+  double contour_size_ratio = 1.0;    // the size of the pose fitted to the contours (max_pose_size_error's)
   cv::Point2d left_rectified;         // rectified centroids, pixels
   cv::Point2d right_rectified;
   double disparity_px = 0.0;
@@ -152,7 +162,7 @@ class StereoStarLocator {
   // Forget the last fix: the next frame searches the full images.
   void reset_tracking();
   bool coarse_fit(const StarPose& pose) const;  // vertex RMS above attitude_max_rms_px
-  bool wrong_size(const StarPose& pose) const;  // the fitted size off by more than max_pose_size_error
+  bool wrong_size(double size_ratio) const;  // a fitted size off by more than max_pose_size_error
 
   const StereoCalibration& calibration() const { return calibration_; }
   const LocatorSettings& settings() const { return settings_; }
@@ -175,9 +185,20 @@ class StereoStarLocator {
   // (LocatorSettings::guided_search); empty when none can.
   cv::Rect right_search_window(const std::vector<StarCandidate>& left) const;
 
+  // The image the edge searches around one star read: the frame itself, or (deinterlace: field) its
+  // first field around the star, whose top-left is `origin` in frame pixels.
+  struct EdgeView {
+    cv::Mat image;
+    cv::Point origin;
+  };
+  EdgeView edge_view(const cv::Mat& gray, const StarCandidate& star) const;
+
   // The star's pose from the paired candidates, and the fix's position from it (LocatorSettings).
   void add_pose(const std::vector<cv::Point2f>& left_edges, const std::vector<cv::Point2f>& right_edges,
-                StarFix& fix);
+                const EdgeView& left_view, const EdgeView& right_view, StarFix& fix);
+  // The pose fitted again to edge points sought along its own projected edges (pose_edge_passes).
+  StarPose refit_along_projection(const StarPose& pose, const EdgeView& left_view, const EdgeView& right_view,
+                                  const StarPoseSettings& pose_settings) const;
 
   // The point at rectified left pixel `left` with disparity `disparity` (thesis eq. 8.3-8.4), in the
   // rectified left frame, and in the left camera's.
@@ -190,7 +211,7 @@ class StereoStarLocator {
                                    const cv::Mat& right_gray) const;
 
   // A candidate's sub-pixel edge points, rectified.
-  std::vector<cv::Point2f> rectified_edges(const cv::Mat& gray, const StarCandidate& star,
+  std::vector<cv::Point2f> rectified_edges(const EdgeView& view, const StarCandidate& star,
                                            const NearRectifier& rectifier) const;
 
   StereoCalibration calibration_;
