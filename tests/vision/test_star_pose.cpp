@@ -252,6 +252,60 @@ TEST(StarPose, RefitFromAStartOffRecoversThePoseAndDropsStrayPoints) {
   EXPECT_LT(pose.edge_sigma_px, 0.16);
 }
 
+// A star whose tip is cut by the left image's right edge (whole in the right view, which sees it a
+// disparity further in), where the frame's outermost columns are as bright as the floor (as a capture
+// device's edge often is): its outline stops short of the edge and passes the border filter; the fitted
+// star reaches beyond the edge, so no fix. The same star 12 px further in is found.
+TEST(StarPose, AStarCutByTheImageEdgeIsNotTakenWhenItsOutlineStopsShortOfTheEdge) {
+  const TestRig rig;
+  const StereoRig station_rig = station_rig_of(rig);
+  LocatorSettings settings;
+  settings.track_roi = false;
+  settings.detector.deinterlace = Deinterlace::kNone;
+  StereoStarLocator locator(rectify(station_rig), settings);
+  cv::Matx33d R_LS;
+  cv::Rodrigues(cv::Vec3d(0.05, -0.04, 0.3), R_LS);
+  // The star's right end in the left image, in pixels, for a centre at lateral offset x (metres).
+  auto rightmost = [&](double x, double y) {
+    std::vector<cv::Point2d> px;
+    cv::Vec3d rvec;
+    cv::Rodrigues(R_LS, rvec);
+    cv::projectPoints(star_outline(), rvec, cv::Vec3d(x, y, 1.0), rig.K1, rig.D1, px);
+    double m = -1e9;
+    for (const cv::Point2d& p : px) m = std::max(m, p.x);
+    return m;
+  };
+  auto centre_with_rightmost = [&](double target_px, double y) {
+    double lo = 0.0, hi = 1.5;  // rightmost grows with x
+    for (int i = 0; i < 60; ++i) (rightmost(0.5 * (lo + hi), y) < target_px ? lo : hi) = 0.5 * (lo + hi);
+    return 0.5 * (lo + hi);
+  };
+  const int width = rig.size.width;
+  int cut_found = 0, whole_found = 0, refused_at_edge = 0;
+  cv::RNG rng(11);
+  for (int i = 0; i < 6; ++i) {
+    for (bool cut : {true, false}) {
+      const double y = 0.05 * i - 0.12;
+      const cv::Vec3d t_L(centre_with_rightmost(cut ? width + 1.0 : width - 13.0, y), y, 1.0);
+      cv::Mat left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
+      const cv::Mat right = draw(rig.K2, rig.D2, station_rig.R * R_LS, station_rig.R * t_L + rig.T, rig.size, rng);
+      left.colRange(width - 4, width).setTo(cv::Scalar(205));
+      const StarFix fix = locator.locate(left, right);
+      if (cut) {
+        cut_found += fix.found ? 1 : 0;
+        refused_at_edge += fix.refused != nullptr && std::strcmp(fix.refused, "fitted star beyond the image edge") == 0;
+      } else {
+        whole_found += fix.found ? 1 : 0;
+      }
+    }
+  }
+  std::printf("[vision] star cut by the left view's edge (outline short of it): %d of 6 taken, %d refused at "
+              "the edge; 12 px inside: %d of 6 found\n", cut_found, refused_at_edge, whole_found);
+  EXPECT_EQ(cut_found, 0);
+  EXPECT_GE(refused_at_edge, 1);  // the case the rule is for reaches it
+  EXPECT_EQ(whole_found, 6);
+}
+
 TEST(StarPose, AttitudeInBodyPicksTheTipNearestForwardAndQuaternionMatches) {
   // Level vehicle over a level star yawed by 100 deg: body forward is nearest the tip at 100 - 90 = 10 deg.
   const CameraMount mount = thesis_camera_mount();

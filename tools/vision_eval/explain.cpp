@@ -273,7 +273,8 @@ std::map<std::string, std::string> options(int argc, char** argv) {
   return o;
 }
 
-// Both views around the star's true centre, enlarged ×3, side by side: DIR/<condition>_<left name>.png.
+// Both views around the star's true centre (around the fix on a pair without a star in full view),
+// enlarged ×3, side by side: DIR/<condition>_<left name>.png.
 // The station's outlines, when it paired two, are drawn in white.
 void write_crops(const fs::path& dir, const std::string& condition, const Truth& t, const StereoCalibration& c,
                  const StarFix& fix) {
@@ -281,7 +282,7 @@ void write_crops(const fs::path& dir, const std::string& condition, const Truth&
   std::vector<cv::Mat> crops;
   for (int camera = 0; camera < 2; ++camera) {
     const cv::Mat gray = cv::imread(camera == 0 ? t.left : t.right, cv::IMREAD_GRAYSCALE);
-    const cv::Point2d centre = project(c, camera, t.p);
+    const cv::Point2d centre = project(c, camera, !t.in_view && fix.found ? fix.p_left : t.p);
     const cv::Rect box = cv::Rect(cvRound(centre.x) - kHalf, cvRound(centre.y) - kHalf, 2 * kHalf, 2 * kHalf) &
                          cv::Rect(0, 0, gray.cols, gray.rows);
     cv::Mat crop(2 * kHalf, 2 * kHalf, CV_8UC1, cv::Scalar(128)), big;

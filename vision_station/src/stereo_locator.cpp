@@ -190,14 +190,18 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   if (fix.pose.valid && settings_.pose_edge_passes > 0) {
     // The refit replaces the contours' fit when its edge points lie closer to its star's edges.
     const StarPose refitted = refit_along_projection(fix.pose, left_view, right_view, pose_settings);
-    if (refitted.valid && refitted.edge_sigma_px <= fix.pose.edge_sigma_px) fix.pose = refitted;
+    if (refitted.valid && refitted.edge_sigma_px <= fix.pose.edge_sigma_px) {
+      fix.pose = refitted;
+      fix.pose_refitted = true;
+    }
   }
   fix.times.pose_us += microseconds(t0, Clock::now());
   // The fitted star's centre is the better position: it uses every sub-pixel edge point of both views
   // and the star's true (perspective) shape, where the area centroid of a tilted star's image is not the
   // image of its centre. A fit that disagrees with the triangulated outline is not trusted: by more
   // than max_pose_offset of the range, or, for a coarse fit, by more than a fraction of a pixel of
-  // disparity (its vertices then fit badly, and its depth is the first to go).
+  // disparity (its vertices then fit badly, and its depth is the first to go). A coarse fit refitted
+  // along its projection no longer rests on its vertices: its own size checks it.
   const double offset = cv::norm(fix.pose.t_C - fix.p_left);
   fix.pose_offset = offset / cv::norm(fix.p_left);
   if (!fix.pose.valid) return;
@@ -207,10 +211,30 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
   const double disagreement_px = std::fabs(fix.pose_disparity_px - fix.outline_disparity_px);
   const bool disagrees = fix.outline.valid && disagreement_px > settings_.coarse_pose_max_disparity_px;
   if (settings_.position_from_pose && offset <= settings_.max_pose_offset * cv::norm(fix.p_left) &&
-      !(coarse && (disagrees || wrong_size(fix.contour_size_ratio)))) {
+      !(coarse && (fix.pose_refitted ? wrong_size(fix.pose.size_ratio)
+                                      : disagrees || wrong_size(fix.contour_size_ratio)))) {
     fix.p_left = fix.pose.t_C;
     fix.position_from_pose = true;
   }
+}
+
+bool StereoStarLocator::star_inside_images(const StarPose& pose) const {
+  // The fitted star's tips and corners in raw pixels of both views, edge_margin_px inside the frame
+  // like every contour.
+  StarPoseSettings pose_settings = settings_.pose;
+  pose_settings.inner_ratio = settings_.detector.inner_ratio;
+  const std::array<std::array<cv::Point2d, 8>, 2> star = projected_star(pose, calibration_, pose_settings);
+  const double margin = settings_.detector.edge_margin_px;
+  const cv::Size size = calibration_.rig.image_size;
+  for (int view = 0; view < 2; ++view) {
+    for (const cv::Point2d& v : star[view]) {
+      const cv::Point2d raw = (view == 0 ? left_near_ : right_near_).raw(v);
+      if (!(raw.x >= margin && raw.y >= margin && raw.x <= size.width - 1 - margin && raw.y <= size.height - 1 - margin)) {
+        return false;
+      }
+    }
+  }
+  return true;
 }
 
 bool StereoStarLocator::coarse_fit(const StarPose& pose) const { return pose.rms_px > settings_.attitude_max_rms_px; }
@@ -542,6 +566,8 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // No eight-vertex fit far off the axis, where the lens model is extrapolated and the star is most
     // distorted: the centroids are suspect (on the tuning sets such fixes were the ones more than 5 % of
     // the range off). A fit of the wrong size: the range is off (LocatorSettings::max_pose_size_error).
+    // A fitted star reaching beyond the edge of a view: a star cut by it, whose outline stopped short of
+    // the edge (the edge rows of a frame are often darker or brighter than the scene).
     const double off_axis = std::acos(std::clamp(fix.p_left[2] / cv::norm(fix.p_left), -1.0, 1.0));
     const bool contradicted = fix.pose.valid && !coarse_fit(fix.pose) && wrong_size(fix.contour_size_ratio);
     const bool misaligned = fix.guided && !(fix.outline.valid && fix.outline.residual_px <= settings_.guided_max_residual_px &&
@@ -550,6 +576,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     else if (misaligned) fix.refused = "guided outlines misaligned";
     else if (!fix.pose.valid && off_axis > settings_.require_pose_beyond_rad) fix.refused = "no pose off the axis";
     else if (off_axis > settings_.max_off_axis_rad) fix.refused = "off the axis";
+    else if (fix.pose.valid && !star_inside_images(fix.pose)) fix.refused = "fitted star beyond the image edge";
     if (fix.refused != nullptr) {
       fix.found = false;
       reset_tracking();

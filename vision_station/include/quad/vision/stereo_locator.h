@@ -88,7 +88,9 @@ struct LocatorSettings {
   // outline's fit. The fix's position without a pose comes from it. Needs estimate_pose (its edge points).
   bool outline_disparity = true;
   // A coarse pose (vertex RMS above attitude_max_rms_px) whose centre's disparity differs from the
-  // outline's by more than this (pixels) is not used for the position: the outline's is.
+  // outline's by more than this (pixels) is not used for the position: the outline's is. A coarse pose
+  // refitted along its projection (pose_edge_passes) no longer rests on its vertices: it gives the
+  // position unless its own size is off by more than max_pose_size_error.
   double coarse_pose_max_disparity_px = 0.6;
   // No fix beyond this angle off the left camera's axis. The default, 55°, is beyond the corners of a
   // 720 × 480 FPV image (54°): a calibration from chessboards seen up to the image's edges put the tuning
@@ -118,6 +120,7 @@ struct StarFix {
   cv::Matx33d cov_left = cv::Matx33d::zeros();  // the full covariance of p_left, m²
   StarPose pose;                      // the star's attitude (valid when its eight vertices were fitted)
   double contour_size_ratio = 1.0;    // the size of the pose fitted to the contours (max_pose_size_error's)
+  bool pose_refitted = false;         // the pose is its refit along its projection (pose_edge_passes)
   cv::Point2d left_rectified;         // rectified centroids, pixels
   cv::Point2d right_rectified;
   double disparity_px = 0.0;
@@ -162,6 +165,7 @@ class StereoStarLocator {
   // Forget the last fix: the next frame searches the full images.
   void reset_tracking();
   bool coarse_fit(const StarPose& pose) const;  // vertex RMS above attitude_max_rms_px
+  bool star_inside_images(const StarPose& pose) const;  // the fitted star's corners within both frames
   bool wrong_size(double size_ratio) const;  // a fitted size off by more than max_pose_size_error
 
   const StereoCalibration& calibration() const { return calibration_; }
