@@ -127,8 +127,14 @@ StereoStarLocator::EdgeView StereoStarLocator::edge_view(const cv::Mat& gray, co
   return EdgeView{first_field(gray, region), region.tl()};
 }
 
+StarPoseSettings StereoStarLocator::pose_settings() const {
+  StarPoseSettings s = settings_.pose;
+  s.inner_ratio = settings_.detector.inner_ratio;  // the star the detector looks for
+  return s;
+}
+
 StarPose StereoStarLocator::refit_along_projection(const StarPose& pose, const EdgeView& left_view,
-                                                   const EdgeView& right_view, const StarPoseSettings& pose_settings) const {
+                                                   const EdgeView& right_view) const {
   // Points every kSpacingPx along the middle of each projected edge (its ends are the blurred corners),
   // each moved along the edge's normal (in raw pixels, through the lens) onto the grey-level edge. Two
   // pixels apart, no two points share a pixel of their bilinear samples, so their errors are independent
@@ -136,16 +142,17 @@ StarPose StereoStarLocator::refit_along_projection(const StarPose& pose, const E
   constexpr double kSpacingPx = 2.0, kInner = 0.15;
   constexpr int kMaxPerEdge = static_cast<int>(kMaxPoseContourPoints / 8);
   constexpr double kReachPx = 3.0;  // edge_near's whole window
+  const StarPoseSettings star = pose_settings();
   StarPose current = pose;
   for (int pass = 0; pass < settings_.pose_edge_passes && current.valid; ++pass) {
-    const std::array<std::array<cv::Point2d, 8>, 2> star = projected_star(current, calibration_, pose_settings);
+    const std::array<std::array<cv::Point2d, 8>, 2> corners = projected_star(current, calibration_, star);
     StarEdgePoints points;
     for (int view = 0; view < 2; ++view) {
       const NearRectifier& near = view == 0 ? left_near_ : right_near_;
       const cv::Mat& image = (view == 0 ? left_view : right_view).image;
       const cv::Point2d origin = (view == 0 ? left_view : right_view).origin;
       for (int k = 0; k < 8; ++k) {
-        const cv::Point2d a = star[view][k], b = star[view][(k + 1) % 8];
+        const cv::Point2d a = corners[view][k], b = corners[view][(k + 1) % 8];
         const double length = cv::norm(b - a);
         if (!(length > 0.0)) continue;
         const cv::Point2d normal(-(b - a).y / length, (b - a).x / length);
@@ -162,7 +169,7 @@ StarPose StereoStarLocator::refit_along_projection(const StarPose& pose, const E
         }
       }
     }
-    current = refit_star_pose(current, points, calibration_, pose_settings);
+    current = refit_star_pose(current, points, calibration_, star);
   }
   return current;
 }
@@ -182,14 +189,12 @@ cv::Vec3d StereoStarLocator::triangulate(const cv::Point2d& left, double dispari
 void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
                                  const std::vector<cv::Point2f>& right_edges, const EdgeView& left_view,
                                  const EdgeView& right_view, StarFix& fix) {
-  StarPoseSettings pose_settings = settings_.pose;
-  pose_settings.inner_ratio = settings_.detector.inner_ratio;
   const Clock::time_point t0 = Clock::now();
-  fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings);
+  fix.pose = estimate_star_pose(left_edges, right_edges, calibration_, pose_settings());
   fix.contour_size_ratio = fix.pose.size_ratio;
   if (fix.pose.valid && settings_.pose_edge_passes > 0) {
     // The refit replaces the contours' fit when its edge points lie closer to its star's edges.
-    const StarPose refitted = refit_along_projection(fix.pose, left_view, right_view, pose_settings);
+    const StarPose refitted = refit_along_projection(fix.pose, left_view, right_view);
     if (refitted.valid && refitted.edge_sigma_px <= fix.pose.edge_sigma_px) {
       fix.pose = refitted;
       fix.pose_refitted = true;
@@ -221,9 +226,7 @@ void StereoStarLocator::add_pose(const std::vector<cv::Point2f>& left_edges,
 bool StereoStarLocator::star_inside_images(const StarPose& pose) const {
   // The fitted star's tips and corners in raw pixels of both views, edge_margin_px inside the frame
   // like every contour.
-  StarPoseSettings pose_settings = settings_.pose;
-  pose_settings.inner_ratio = settings_.detector.inner_ratio;
-  const std::array<std::array<cv::Point2d, 8>, 2> star = projected_star(pose, calibration_, pose_settings);
+  const std::array<std::array<cv::Point2d, 8>, 2> star = projected_star(pose, calibration_, pose_settings());
   const double margin = settings_.detector.edge_margin_px;
   const cv::Size size = calibration_.rig.image_size;
   for (int view = 0; view < 2; ++view) {
@@ -330,11 +333,13 @@ StarCandidate StereoStarLocator::transfer_candidate(const StarCandidate& star, b
   const cv::Mat& other_gray = star_is_left ? right_gray : left_gray;
   const NearRectifier& found_view = star_is_left ? left_near_ : right_near_;
   const NearRectifier& other_view = star_is_left ? right_near_ : left_near_;
-  const std::vector<cv::Point2f> edges = rectified_edges(edge_view(found_gray, star), star, found_view);
+  const EdgeView found = edge_view(found_gray, star);
+  const std::vector<cv::Point2f> edges = rectified_edges(found, star, found_view);
   TransferredOutline t;
   if (settings_.detector.deinterlace == Deinterlace::kField && !edges.empty()) {
     // The edges are the first field's (rectified_edges): so must the samples be. Only the pixels the
-    // transfer can read are filled: around the star, and around every shifted outline in the other view.
+    // transfer can read are filled: around the star (the field its edges were found in), and around every
+    // shifted outline in the other view.
     constexpr double kReach = 8.0;  // the edge search's reach from a point, and bilinear interpolation
     const cv::Rect2f box = cv::boundingRect(edges);
     auto raw_box = [&](const NearRectifier& view, double x0, double y0, double x1, double y1) {
@@ -348,18 +353,14 @@ StarCandidate StereoStarLocator::transfer_candidate(const StarCandidate& star, b
       }
       const cv::Rect2f r = cv::boundingRect(raw);
       return cv::Rect(cvFloor(r.x - kReach), cvFloor(r.y - kReach), cvCeil(r.width + 2 * kReach) + 1,
-                      cvCeil(r.height + 2 * kReach) + 1) & cv::Rect(cv::Point(0, 0), found_gray.size());
+                      cvCeil(r.height + 2 * kReach) + 1) & cv::Rect(cv::Point(0, 0), other_gray.size());
     };
-    auto field_in = [](const cv::Mat& gray, const cv::Rect& region) {
-      cv::Mat field(gray.size(), CV_8UC1);
-      if (!region.empty()) first_field(gray, region).copyTo(field(region));
-      return field;
-    };
-    const cv::Rect found_region = raw_box(found_view, box.x, box.y, box.x + box.width, box.y + box.height);
     const cv::Rect other_region = raw_box(other_view, box.x + search.min_shift_x, box.y - search.max_shift_y,
                                           box.x + box.width + search.max_shift_x, box.y + box.height + search.max_shift_y);
-    t = transfer_outline(edges, field_in(found_gray, found_region), found_view, field_in(other_gray, other_region),
-                         other_view, search);
+    cv::Mat found_field(found_gray.size(), CV_8UC1), other_field(other_gray.size(), CV_8UC1);
+    found.image.copyTo(found_field(cv::Rect(found.origin, found.image.size())));
+    if (!other_region.empty()) first_field(other_gray, other_region).copyTo(other_field(other_region));
+    t = transfer_outline(edges, found_field, found_view, other_field, other_view, search);
   } else {
     t = transfer_outline(edges, found_gray, found_view, other_gray, other_view, search);
   }

@@ -165,7 +165,6 @@ class StereoStarLocator {
   // Forget the last fix: the next frame searches the full images.
   void reset_tracking();
   bool coarse_fit(const StarPose& pose) const;  // vertex RMS above attitude_max_rms_px
-  bool star_inside_images(const StarPose& pose) const;  // the fitted star's corners within both frames
   bool wrong_size(double size_ratio) const;  // a fitted size off by more than max_pose_size_error
 
   const StereoCalibration& calibration() const { return calibration_; }
@@ -200,9 +199,11 @@ class StereoStarLocator {
   // The star's pose from the paired candidates, and the fix's position from it (LocatorSettings).
   void add_pose(const std::vector<cv::Point2f>& left_edges, const std::vector<cv::Point2f>& right_edges,
                 const EdgeView& left_view, const EdgeView& right_view, StarFix& fix);
+  // The star the pose fit places (settings_.pose with the detector's inner_ratio).
+  StarPoseSettings pose_settings() const;
   // The pose fitted again to edge points sought along its own projected edges (pose_edge_passes).
-  StarPose refit_along_projection(const StarPose& pose, const EdgeView& left_view, const EdgeView& right_view,
-                                  const StarPoseSettings& pose_settings) const;
+  StarPose refit_along_projection(const StarPose& pose, const EdgeView& left_view, const EdgeView& right_view) const;
+  bool star_inside_images(const StarPose& pose) const;  // the fitted star's corners within both frames
 
   // The point at rectified left pixel `left` with disparity `disparity` (thesis eq. 8.3-8.4), in the
   // rectified left frame, and in the left camera's.
