@@ -1,7 +1,10 @@
 // Outline transfer (LocatorSettings::outline_transfer, outline_transfer.h): a star whose outline is lost
 // in one view (merged with a dark strip that runs to the image's edge, so no contour of its shape is
-// left there) is found from the other view's outline; a star cut by the image's edge in one view is
+// left there) is found from the other view's outline, and so is a star whose outline in one view is a
+// near miss that pairs but does not lay onto the other's; a star cut by the image's edge in one view is
 // never taken, although most of its outline is there to match.
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -83,6 +86,47 @@ TEST_F(OutlineTransferTest, AStarMergedWithAStripToTheEdgeIsFoundByTheOtherViews
               scenes, strict_found, transferred_found, 100.0 * worst);
   EXPECT_EQ(strict_found, 0) << "the strip must cost the star its outline in the right view";
   EXPECT_EQ(transferred_found, scenes);
+  EXPECT_LT(worst, 0.02);
+}
+
+TEST_F(OutlineTransferTest, ANearMissWhoseOutlineDoesNotAlignGivesWayToTheOtherViewsOutline) {
+  // A dark stub hanging from the star's lowest tip in the right view: the outline there fails the shape
+  // test but stays a near miss, which pairs with the left star and is then refused because the two
+  // outlines do not lay onto each other. The left star's outline, sought in the right view, finds the
+  // star's own edges there.
+  cv::RNG rng(5);
+  testing::StarSceneRanges ranges;
+  ranges.min_height = 1.0;
+  ranges.max_height = 1.6;
+  int scenes = 0, found = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 60 && scenes < 4; ++k) {
+    auto scene = testing::random_star_scene(rig, rng, ranges);
+    ASSERT_TRUE(scene);
+    StarCandidate right_star;
+    if (star_edges(scene->right, 1, right_star).empty()) continue;
+    cv::Point2d lowest(0.0, -1.0);
+    for (const cv::Point& p : right_star.contour) {
+      if (p.y > lowest.y) lowest = cv::Point2d(p);
+    }
+    cv::Mat right = scene->right.clone();
+    const double length = 0.35 * right_star.box.height;
+    const int width = std::max(4, right_star.box.width / 12);
+    cv::line(right, lowest, lowest + cv::Point2d(0.3 * length, length), cv::Scalar(30), width, cv::LINE_AA);
+    const StarFix without = locate(scene->left, right, false);
+    if (without.refused == nullptr || std::string(without.refused) != "guided outlines misaligned") continue;
+    ++scenes;
+    const StarFix fix = locate(scene->left, right, true);
+    found += fix.found;
+    if (fix.found) {
+      EXPECT_TRUE(fix.transferred);
+      worst = std::max(worst, cv::norm(fix.p_left - scene->truth_left) / cv::norm(scene->truth_left));
+    }
+  }
+  std::printf("[vision] near miss refused as misaligned in the right view: %d scenes, found %d by outline "
+              "transfer (worst error %.2f %% of the range)\n", scenes, found, 100.0 * worst);
+  ASSERT_GE(scenes, 3) << "the stub must leave a near miss that pairs and is refused";
+  EXPECT_EQ(found, scenes);
   EXPECT_LT(worst, 0.02);
 }
 

@@ -48,9 +48,10 @@ struct LocatorSettings {
   double guided_max_area_ratio = 1.4;
   double guided_max_row_difference_px = 6.0;
   double guided_max_residual_px = 1.3;
-  // Outline transfer (robust method, with guided acceptance): when nothing pairs, a passing star of one
-  // view is sought in the other by its outline (outline_transfer.h), at the guided search's disparities
-  // and rows within guided_max_row_difference_px; the pair is then judged as a guided pair.
+  // Outline transfer (robust method, with guided acceptance): when nothing pairs, or a guided pair is
+  // refused by the checks after the pose step, a passing star of one view is sought in the other by its
+  // outline (outline_transfer.h), at the guided search's disparities and rows within
+  // guided_max_row_difference_px; the pair is then judged as a guided pair.
   bool outline_transfer = true;
   int undistort_iterations = 40;       // the thesis lenses are strongly distorted (κ1 ≈ −0.5)
   bool estimate_pose = true;           // the star's attitude from its eight vertices (star_pose.h)
