@@ -1,7 +1,8 @@
 // Outline transfer (LocatorSettings::outline_transfer, outline_transfer.h): a star whose outline is lost
 // in one view (merged with a dark strip that runs to the image's edge, so no contour of its shape is
 // left there) is found from the other view's outline, and so is a star whose outline in one view is a
-// near miss that pairs but does not lay onto the other's; a star cut by the image's edge in one view is
+// near miss that pairs but does not lay onto the other's, and a star lost in the left view while another
+// left candidate placed the right view's search elsewhere; a star cut by the image's edge in one view is
 // never taken, although most of its outline is there to match.
 #include <string>
 
@@ -126,6 +127,61 @@ TEST_F(OutlineTransferTest, ANearMissWhoseOutlineDoesNotAlignGivesWayToTheOtherV
   std::printf("[vision] near miss refused as misaligned in the right view: %d scenes, found %d by outline "
               "transfer (worst error %.2f %% of the range)\n", scenes, found, 100.0 * worst);
   ASSERT_GE(scenes, 3) << "the stub must leave a near miss that pairs and is refused";
+  EXPECT_EQ(found, scenes);
+  EXPECT_LT(worst, 0.02);
+}
+
+TEST_F(OutlineTransferTest, AStarLostInTheLeftViewIsFoundWhenTheLeftCandidatePlacedTheRightSearchElsewhere) {
+  // The left view: the star merged with a strip to the image's edge, and a star-shaped blot far from it
+  // that passes the shape test, so the right view is searched only where the blot could appear. The
+  // blot has no counterpart in the right view; the star, whole there, is found once the right view is
+  // searched whole and its outline sought in the left view.
+  cv::RNG rng(9);
+  testing::StarSceneRanges ranges;
+  ranges.min_height = 1.2;
+  ranges.max_height = 1.8;
+  int scenes = 0, found = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 40 && scenes < 4; ++k) {
+    auto scene = testing::random_star_scene(rig, rng, ranges);
+    ASSERT_TRUE(scene);
+    StarCandidate left_star;
+    if (star_edges(scene->left, 0, left_star).empty()) continue;
+    cv::Mat left = scene->left.clone();
+    // The blot: the star's own outline moved half a frame across and a third of a frame down or up.
+    const cv::Point shift(left_star.box.x + left_star.box.width / 2 < left.cols / 2 ? left.cols / 2 : -left.cols / 2,
+                          left_star.box.y + left_star.box.height / 2 < left.rows / 2 ? left.rows / 3 : -left.rows / 3);
+    std::vector<cv::Point> blot;
+    for (const cv::Point& p : left_star.contour) blot.push_back(p + shift);
+    const cv::Rect frame(cv::Point(8, 8), left.size() - cv::Size(16, 16));
+    if ((cv::boundingRect(blot) & frame) != cv::boundingRect(blot)) continue;
+    const cv::Scalar dark = cv::mean(scene->left, [&] {
+      cv::Mat mask = cv::Mat::zeros(left.size(), CV_8UC1);
+      cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{left_star.contour}, cv::Scalar(255));
+      cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 2);
+      return mask;
+    }());
+    cv::fillPoly(left, std::vector<std::vector<cv::Point>>{blot}, dark, cv::LINE_AA);
+    cv::Point2d lowest(0.0, -1.0);
+    for (const cv::Point& p : left_star.contour) {
+      if (p.y > lowest.y) lowest = cv::Point2d(p);
+    }
+    const int width = std::max(6, left_star.box.width / 10);
+    cv::line(left, lowest, cv::Point2d(lowest.x, left.rows + 10.0), dark, width, cv::LINE_AA);
+    const StarFix without = locate(left, scene->right, false);
+    if (without.found) continue;  // the blot's window held the star after all
+    ++scenes;
+    const StarFix fix = locate(left, scene->right, true);
+    found += fix.found;
+    if (fix.found) {
+      EXPECT_TRUE(fix.transferred);
+      worst = std::max(worst, cv::norm(fix.p_left - scene->truth_left) / cv::norm(scene->truth_left));
+    }
+  }
+  std::printf("[vision] star lost in the left view, a blot placing the right search elsewhere: %d scenes, "
+              "found %d by outline transfer from the whole right view (worst error %.2f %% of the range)\n",
+              scenes, found, 100.0 * worst);
+  ASSERT_GE(scenes, 3);
   EXPECT_EQ(found, scenes);
   EXPECT_LT(worst, 0.02);
 }

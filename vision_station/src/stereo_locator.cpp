@@ -394,11 +394,13 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   // and when what it finds pairs with nothing (on the tuning split 2 080 stars: six more found, no false
   // fix).
   bool right_at_left_level = false;
+  bool right_whole = false;  // the right view searched whole (not only where the left's candidates can appear)
   const bool transfer_enabled = settings_.outline_transfer && settings_.guided_acceptance && settings_.estimate_pose &&
                                 settings_.detector.method == DetectorMethod::kRobust;
   auto detect_right = [&](bool own_level) {
     right = ViewResult();
     right_at_left_level = false;
+    right_whole = true;
     // A left view with near misses only: the right is searched where they can appear, for a passing star.
     const std::vector<StarCandidate>& placing = left.candidates.empty() ? left.near_misses : left.candidates;
     if (placing.empty()) {
@@ -412,6 +414,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
       right = detect_view(right_detector_, right_gray, last_right_box_, &right_times);
       return;
     }
+    right_whole = false;
     const cv::Rect window = right_search_window(placing);
     right.used_roi = left.used_roi;  // a fix from a tracked left ROI is a tracked fix
     if (window.empty()) return;
@@ -464,6 +467,7 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     fix.guided = guided;
     fix.used_roi = used_roi;
     fix.found = true;
+    fix.refused = nullptr;
     last_left_box_ = best_l->box;
     last_right_box_ = best_r->box;
   };
@@ -531,9 +535,9 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     try_pairs(left, right);
   }
   // A passing star of one view sought in the other by its outline.
-  auto try_transfer = [&]() {
+  auto try_transfer = [&](int first_view) {
     const Clock::time_point t1 = Clock::now();
-    for (int view = 0; view < 2 && !fix.found; ++view) {
+    for (int view = first_view; view < 2 && !fix.found; ++view) {
       const std::vector<StarCandidate>& stars = view == 0 ? left.candidates : right.candidates;
       for (size_t i = 0; i < std::min(stars.size(), kMaxCandidatesPerView) && !fix.found; ++i) {
         const StarCandidate transferred = transfer_candidate(stars[i], view == 0, left_gray, right_gray);
@@ -582,19 +586,43 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     if (coarse_fit(fix.pose)) fix.pose.valid = false;
   };
 
+  // A refused fix is dropped whole before another attempt; the stages' times add up, and the refusal
+  // stays the frame's reason until another pair is made.
+  auto start_over = [&]() {
+    const StageTimes times = fix.times;
+    const char* refused = fix.refused;
+    fix = StarFix();
+    fix.times = times;
+    fix.refused = refused;
+  };
+
   // Still nothing: a passing star of one view sought in the other by its outline.
-  if (!fix.found && transfer_enabled) try_transfer();
+  if (!fix.found && transfer_enabled) try_transfer(0);
   if (fix.found && settings_.estimate_pose) check_fix();
   if (fix.refused != nullptr && fix.guided && !fix.transferred && transfer_enabled) {
     // A guided pair the checks refused: the near miss (or the passing star beyond the row gate) was not
     // the star's own outline in its view (a merged or torn one, whose outline does not lay onto the
     // other's), so the passing star is sought in that view by its outline instead. On the tuning split
-    // (4 160 stars) this finds 17 more stars and no false fix.
-    const StageTimes times = fix.times;
-    fix = StarFix();
-    fix.times = times;
-    try_transfer();
+    // (4 160 stars) this finds 17 more stars, no false fix.
+    start_over();
+    try_transfer(0);
     if (fix.found) check_fix();
+  }
+  if (!fix.found && transfer_enabled && !right_whole) {
+    // The left view's candidates placed the right view's search and nothing came of them: a passing star
+    // elsewhere in the right view, whose left outline was lost (merged with a shadow that reaches the
+    // image's edge, torn), is sought in the left view by its outline. Found only so, the star must also
+    // give a fine pose. On the tuning sets this finds 7 more stars of 4 160 and 35 more of 12 480, for 8 %
+    // more instructions per pair (10.1 M to 10.9 M); without the pose rule 13 and 52 more, with one false
+    // fix more (6.4 % off) in the larger set.
+    start_over();
+    right = detect_view(right_detector_, right_gray, cv::Rect(), &right_times);
+    try_transfer(1);
+    if (fix.found) check_fix();
+    if (fix.found && !fix.pose.valid) {
+      fix.refused = "found only in the whole right view, without a fine pose";
+      fix.found = false;
+    }
   }
   if (!fix.found) reset_tracking();
   fix.times.threshold_morphology_us = left_times.threshold_morphology_us + right_times.threshold_morphology_us;
