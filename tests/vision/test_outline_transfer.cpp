@@ -40,6 +40,47 @@ class OutlineTransferTest : public ::testing::Test {
     return edges;
   }
 
+  // The outline's lowest point (largest row).
+  static cv::Point2d lowest_point(const std::vector<cv::Point>& contour) {
+    cv::Point2d lowest(0.0, -1.0);
+    for (const cv::Point& p : contour) {
+      if (p.y > lowest.y) lowest = cv::Point2d(p);
+    }
+    return lowest;
+  }
+
+  // The star's core grey: the mean over a 3 px disc at its outline's centre.
+  static cv::Scalar core_grey(const cv::Mat& gray, const std::vector<cv::Point>& contour) {
+    cv::Point2d centre(0.0, 0.0);
+    for (const cv::Point& p : contour) centre += cv::Point2d(p);
+    centre *= 1.0 / static_cast<double>(contour.size());
+    cv::Mat mask = cv::Mat::zeros(gray.size(), CV_8UC1);
+    cv::circle(mask, centre, 3, cv::Scalar(255), cv::FILLED);
+    return cv::mean(gray, mask);
+  }
+
+  // A strip of grey `dark` from the star's lowest point straight down past the image's bottom edge: the
+  // star's outline there runs into the edge.
+  static void strip_to_bottom_edge(cv::Mat& gray, const StarCandidate& star, const cv::Scalar& dark) {
+    const cv::Point2d lowest = lowest_point(star.contour);
+    const int width = std::max(6, star.box.width / 10);
+    cv::line(gray, lowest, cv::Point2d(lowest.x, gray.rows + 10.0), dark, width, cv::LINE_AA);
+  }
+
+  // The fixes with outline transfer over the scenes: how many were found, each by transfer, and the
+  // worst error as a fraction of the range.
+  struct TransferTally {
+    int scenes = 0, found = 0;
+    double worst = 0.0;
+    void add(const StarFix& fix, const cv::Vec3d& truth) {
+      ++scenes;
+      found += fix.found;
+      if (!fix.found) return;
+      EXPECT_TRUE(fix.transferred);
+      worst = std::max(worst, cv::norm(fix.p_left - truth) / cv::norm(truth));
+    }
+  };
+
   StereoRig rig = thesis_stereo_rig();
   StereoCalibration calibration = rectify(rig);
 };
@@ -49,45 +90,25 @@ TEST_F(OutlineTransferTest, AStarMergedWithAStripToTheEdgeIsFoundByTheOtherViews
   testing::StarSceneRanges ranges;
   ranges.min_height = 1.2;
   ranges.max_height = 1.8;
-  int scenes = 0, strict_found = 0, transferred_found = 0;
-  double worst = 0.0;
+  int strict_found = 0;
+  TransferTally tally;
   for (int k = 0; k < 6; ++k) {
     auto scene = testing::random_star_scene(rig, rng, ranges);
     ASSERT_TRUE(scene);
     StarCandidate right_star;
     ASSERT_FALSE(star_edges(scene->right, 1, right_star).empty());
-    // A strip as dark as the star's core from its centre through its lowest point to the bottom edge:
-    // the star's outline now runs into the image's edge.
-    cv::Point2d centre(0.0, 0.0), lowest(0.0, -1.0);
-    for (const cv::Point& p : right_star.contour) {
-      centre += cv::Point2d(p);
-      if (p.y > lowest.y) lowest = cv::Point2d(p);
-    }
-    centre *= 1.0 / static_cast<double>(right_star.contour.size());
+    // A strip as dark as the star's core through its lowest point to the bottom edge.
     cv::Mat right = scene->right.clone();
-    const cv::Scalar dark = cv::mean(scene->right, [&] {
-      cv::Mat mask = cv::Mat::zeros(right.size(), CV_8UC1);
-      cv::circle(mask, centre, 3, cv::Scalar(255), cv::FILLED);
-      return mask;
-    }());
-    const int width = std::max(6, right_star.box.width / 10);
-    cv::line(right, lowest, cv::Point2d(lowest.x, right.rows + 10.0), dark, width, cv::LINE_AA);
-    ++scenes;
-    const StarFix strict = locate(scene->left, right, false);
-    const StarFix transferred = locate(scene->left, right, true);
-    strict_found += strict.found;
-    transferred_found += transferred.found;
-    if (transferred.found) {
-      EXPECT_TRUE(transferred.transferred);
-      worst = std::max(worst, cv::norm(transferred.p_left - scene->truth_left) / cv::norm(scene->truth_left));
-    }
+    strip_to_bottom_edge(right, right_star, core_grey(scene->right, right_star.contour));
+    strict_found += locate(scene->left, right, false).found;
+    tally.add(locate(scene->left, right, true), scene->truth_left);
   }
   std::printf("[vision] star merged with a strip to the edge in the right view: %d scenes, found %d without "
               "outline transfer, %d with it (worst error %.2f %% of the range)\n",
-              scenes, strict_found, transferred_found, 100.0 * worst);
+              tally.scenes, strict_found, tally.found, 100.0 * tally.worst);
   EXPECT_EQ(strict_found, 0) << "the strip must cost the star its outline in the right view";
-  EXPECT_EQ(transferred_found, scenes);
-  EXPECT_LT(worst, 0.02);
+  EXPECT_EQ(tally.found, tally.scenes);
+  EXPECT_LT(tally.worst, 0.02);
 }
 
 TEST_F(OutlineTransferTest, ANearMissWhoseOutlineDoesNotAlignGivesWayToTheOtherViewsOutline) {
@@ -99,36 +120,26 @@ TEST_F(OutlineTransferTest, ANearMissWhoseOutlineDoesNotAlignGivesWayToTheOtherV
   testing::StarSceneRanges ranges;
   ranges.min_height = 1.0;
   ranges.max_height = 1.6;
-  int scenes = 0, found = 0;
-  double worst = 0.0;
-  for (int k = 0; k < 60 && scenes < 4; ++k) {
+  TransferTally tally;
+  for (int k = 0; k < 60 && tally.scenes < 4; ++k) {
     auto scene = testing::random_star_scene(rig, rng, ranges);
     ASSERT_TRUE(scene);
     StarCandidate right_star;
     if (star_edges(scene->right, 1, right_star).empty()) continue;
-    cv::Point2d lowest(0.0, -1.0);
-    for (const cv::Point& p : right_star.contour) {
-      if (p.y > lowest.y) lowest = cv::Point2d(p);
-    }
+    const cv::Point2d lowest = lowest_point(right_star.contour);
     cv::Mat right = scene->right.clone();
     const double length = 0.35 * right_star.box.height;
     const int width = std::max(4, right_star.box.width / 12);
     cv::line(right, lowest, lowest + cv::Point2d(0.3 * length, length), cv::Scalar(30), width, cv::LINE_AA);
     const StarFix without = locate(scene->left, right, false);
     if (without.refused == nullptr || std::string(without.refused) != "guided outlines misaligned") continue;
-    ++scenes;
-    const StarFix fix = locate(scene->left, right, true);
-    found += fix.found;
-    if (fix.found) {
-      EXPECT_TRUE(fix.transferred);
-      worst = std::max(worst, cv::norm(fix.p_left - scene->truth_left) / cv::norm(scene->truth_left));
-    }
+    tally.add(locate(scene->left, right, true), scene->truth_left);
   }
   std::printf("[vision] near miss refused as misaligned in the right view: %d scenes, found %d by outline "
-              "transfer (worst error %.2f %% of the range)\n", scenes, found, 100.0 * worst);
-  ASSERT_GE(scenes, 3) << "the stub must leave a near miss that pairs and is refused";
-  EXPECT_EQ(found, scenes);
-  EXPECT_LT(worst, 0.02);
+              "transfer (worst error %.2f %% of the range)\n", tally.scenes, tally.found, 100.0 * tally.worst);
+  ASSERT_GE(tally.scenes, 3) << "the stub must leave a near miss that pairs and is refused";
+  EXPECT_EQ(tally.found, tally.scenes);
+  EXPECT_LT(tally.worst, 0.02);
 }
 
 TEST_F(OutlineTransferTest, AStarLostInTheLeftViewIsFoundWhenTheLeftCandidatePlacedTheRightSearchElsewhere) {
@@ -140,9 +151,8 @@ TEST_F(OutlineTransferTest, AStarLostInTheLeftViewIsFoundWhenTheLeftCandidatePla
   testing::StarSceneRanges ranges;
   ranges.min_height = 1.2;
   ranges.max_height = 1.8;
-  int scenes = 0, found = 0;
-  double worst = 0.0;
-  for (int k = 0; k < 40 && scenes < 4; ++k) {
+  TransferTally tally;
+  for (int k = 0; k < 40 && tally.scenes < 4; ++k) {
     auto scene = testing::random_star_scene(rig, rng, ranges);
     ASSERT_TRUE(scene);
     StarCandidate left_star;
@@ -155,35 +165,18 @@ TEST_F(OutlineTransferTest, AStarLostInTheLeftViewIsFoundWhenTheLeftCandidatePla
     for (const cv::Point& p : left_star.contour) blot.push_back(p + shift);
     const cv::Rect frame(cv::Point(8, 8), left.size() - cv::Size(16, 16));
     if ((cv::boundingRect(blot) & frame) != cv::boundingRect(blot)) continue;
-    const cv::Scalar dark = cv::mean(scene->left, [&] {
-      cv::Mat mask = cv::Mat::zeros(left.size(), CV_8UC1);
-      cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{left_star.contour}, cv::Scalar(255));
-      cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), 2);
-      return mask;
-    }());
+    const cv::Scalar dark = core_grey(scene->left, left_star.contour);
     cv::fillPoly(left, std::vector<std::vector<cv::Point>>{blot}, dark, cv::LINE_AA);
-    cv::Point2d lowest(0.0, -1.0);
-    for (const cv::Point& p : left_star.contour) {
-      if (p.y > lowest.y) lowest = cv::Point2d(p);
-    }
-    const int width = std::max(6, left_star.box.width / 10);
-    cv::line(left, lowest, cv::Point2d(lowest.x, left.rows + 10.0), dark, width, cv::LINE_AA);
-    const StarFix without = locate(left, scene->right, false);
-    if (without.found) continue;  // the blot's window held the star after all
-    ++scenes;
-    const StarFix fix = locate(left, scene->right, true);
-    found += fix.found;
-    if (fix.found) {
-      EXPECT_TRUE(fix.transferred);
-      worst = std::max(worst, cv::norm(fix.p_left - scene->truth_left) / cv::norm(scene->truth_left));
-    }
+    strip_to_bottom_edge(left, left_star, dark);
+    if (locate(left, scene->right, false).found) continue;  // the blot's window held the star after all
+    tally.add(locate(left, scene->right, true), scene->truth_left);
   }
   std::printf("[vision] star lost in the left view, a blot placing the right search elsewhere: %d scenes, "
               "found %d by outline transfer from the whole right view (worst error %.2f %% of the range)\n",
-              scenes, found, 100.0 * worst);
-  ASSERT_GE(scenes, 3);
-  EXPECT_EQ(found, scenes);
-  EXPECT_LT(worst, 0.02);
+              tally.scenes, tally.found, 100.0 * tally.worst);
+  ASSERT_GE(tally.scenes, 3) << "the strip and the blot must cost the star its fix without outline transfer";
+  EXPECT_EQ(tally.found, tally.scenes);
+  EXPECT_LT(tally.worst, 0.02);
 }
 
 TEST_F(OutlineTransferTest, AStarCutByTheEdgeInTheOtherViewIsNotTaken) {

@@ -437,8 +437,12 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
   const double cx2 = P2(0, 2);
   const double b = calibration_.baseline();
 
-  // The fix from a pair of candidates (rectified centroids, thesis eq. 8.3-8.4).
+  // A new fix from a pair of candidates (rectified centroids, thesis eq. 8.3-8.4); nothing of an earlier,
+  // refused pair stays but the stages' times, which add up over the frame.
   auto make_fix = [&](const StarCandidate* best_l, const StarCandidate* best_r, bool guided, bool used_roi) {
+    const StageTimes times = fix.times;
+    fix = StarFix();
+    fix.times = times;
     const cv::Point2d pl = best_l->centroid;
     const cv::Point2d pr = best_r->centroid;
     const double d = (pl.x - cx1) - (pr.x - cx2);
@@ -467,7 +471,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     fix.guided = guided;
     fix.used_roi = used_roi;
     fix.found = true;
-    fix.refused = nullptr;
     last_left_box_ = best_l->box;
     last_right_box_ = best_r->box;
   };
@@ -571,16 +574,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     if (coarse_fit(fix.pose)) fix.pose.valid = false;
   };
 
-  // A refused fix is dropped whole before another attempt; the stages' times add up, and the refusal
-  // stays the frame's reason until another pair is made.
-  auto start_over = [&]() {
-    const StageTimes times = fix.times;
-    const char* refused = fix.refused;
-    fix = StarFix();
-    fix.times = times;
-    fix.refused = refused;
-  };
-
   // A passing star of one view sought in the other by its outline, each candidate's fix judged by the
   // checks before the next is tried; `fine_pose`: the fix must also give a fine pose.
   auto try_transfer = [&](int first_view, bool fine_pose) {
@@ -591,7 +584,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
         const StarCandidate transferred = transfer_candidate(stars[i], view == 0, left_gray, right_gray);
         fix.times.triangulation_us += microseconds(t1, Clock::now());
         if (transferred.contour.empty()) continue;
-        start_over();
         if (view == 0) make_fix(&stars[i], &transferred, true, false);
         else make_fix(&transferred, &stars[i], true, false);
         fix.transferred = true;
@@ -605,7 +597,8 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     }
   };
 
-  // Still nothing: a passing star of one view sought in the other by its outline.
+  // A pair is judged by the checks; still nothing paired: a passing star of one view sought in the other.
+  // A frame without a fix keeps its last refused pair (its reason and figures) for diagnosis.
   if (fix.found && settings_.estimate_pose) check_fix();
   else if (!fix.found && transfer_enabled) try_transfer(0, false);
   if (fix.refused != nullptr && fix.guided && !fix.transferred && transfer_enabled) {
@@ -613,7 +606,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // the star's own outline in its view (a merged or torn one, whose outline does not lay onto the
     // other's), so the passing star is sought in that view by its outline instead. On the tuning split
     // (4 160 stars) this finds 17 more stars, no false fix.
-    start_over();
     try_transfer(0, false);
   }
   if (!fix.found && transfer_enabled && !right_whole) {
@@ -623,7 +615,6 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     // give a fine pose. On the tuning sets this finds 7 more stars of 4 160 and 36 more of 12 480, for 8 %
     // more instructions per pair (10.1 M to 10.9 M); without the pose rule 13 and 52 more, with one false
     // fix more (6.4 % off) in the larger set.
-    start_over();
     right = detect_view(right_detector_, right_gray, cv::Rect(), &right_times);
     try_transfer(1, true);
   }
