@@ -1,5 +1,8 @@
 // The robust detector's whole-image loops (coarse_image.h) against the OpenCV calls they stand for, on
 // random, smooth and binary images of the sizes the detector sees and of odd sizes.
+#include <cmath>
+#include <cstdio>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -35,6 +38,59 @@ TEST(VisionCoarseImage, QuarterAreaIsOpenCvsAreaResize) {
       EXPECT_EQ(differing(expected, got), 0) << size << " kind " << kind;
     }
   }
+}
+
+// The exact interpolation, rounded half up, of a source pixel pair per axis (double precision).
+double exact_linear(const cv::Mat& src, int fx, int fy, int x, int y) {
+  auto tap = [](int i, int f, int n, int& i0, int& i1, double& w1) {
+    const double u = (i + 0.5) / f - 0.5;
+    i0 = static_cast<int>(std::floor(u));
+    w1 = u - i0;
+    i1 = i0 + 1;
+    if (i0 < 0) i0 = i1 = 0, w1 = 0.0;
+    if (i1 > n - 1) i0 = i1 = n - 1, w1 = 0.0;
+  };
+  int x0, x1, y0, y1;
+  double wx, wy;
+  tap(x, fx, src.cols, x0, x1, wx);
+  tap(y, fy, src.rows, y0, y1, wy);
+  auto at = [&](int r, int c) { return static_cast<double>(src.at<uchar>(r, c)); };
+  return (1 - wy) * ((1 - wx) * at(y0, x0) + wx * at(y0, x1)) + wy * ((1 - wx) * at(y1, x0) + wx * at(y1, x1));
+}
+
+TEST(VisionCoarseImage, LinearUpsamplingIsTheExactInterpolationWithinOneOfOpenCvs) {
+  cv::RNG rng(11);
+  int pixels = 0, off_by_one = 0;
+  for (const cv::Size size : {cv::Size(45, 30), cv::Size(90, 60), cv::Size(37, 11), cv::Size(1, 5), cv::Size(3, 3)}) {
+    for (const cv::Point2i factor : {cv::Point2i(4, 4), cv::Point2i(2, 2), cv::Point2i(2, 1), cv::Point2i(1, 1)}) {
+      for (int kind = 0; kind < 2; ++kind) {
+        const cv::Mat image = random_image(rng, size, kind);
+        const cv::Size big(factor.x * size.width, factor.y * size.height);
+        cv::Mat expected, got;
+        cv::resize(image, expected, big, 0, 0, cv::INTER_LINEAR);
+        upsample_linear(image, factor.x, factor.y, cv::Rect(cv::Point(0, 0), big), got);
+        ASSERT_EQ(got.size(), big);
+        for (int y = 0; y < big.height; ++y) {
+          for (int x = 0; x < big.width; ++x) {
+            const int mine = got.at<uchar>(y, x);
+            ASSERT_EQ(mine, static_cast<int>(std::floor(exact_linear(image, factor.x, factor.y, x, y) + 0.5)))
+                << size << " × " << factor << " at " << x << "," << y;
+            ASSERT_LE(std::abs(mine - expected.at<uchar>(y, x)), 1) << size << " × " << factor << " at " << x << "," << y;
+            off_by_one += mine != expected.at<uchar>(y, x);
+            ++pixels;
+          }
+        }
+        // A window is the same pixels as the whole enlargement cut to it.
+        const cv::Rect window = cv::Rect(big.width / 3, big.height / 4, big.width / 2 + 1, big.height / 2 + 1) &
+                                cv::Rect(cv::Point(0, 0), big);
+        cv::Mat part;
+        upsample_linear(image, factor.x, factor.y, window, part);
+        EXPECT_EQ(differing(got(window), part), 0) << size << " × " << factor << " window " << window;
+      }
+    }
+  }
+  std::printf("upsample_linear: %d of %d pixels one grey level from cv::resize\n", off_by_one, pixels);
+  EXPECT_GT(pixels, 100000);
 }
 
 TEST(VisionCoarseImage, RectangleMorphologyIsOpenCvs) {

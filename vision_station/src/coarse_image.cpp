@@ -49,6 +49,125 @@ void quarter_area(const cv::Mat& src, cv::Mat& dst) {
 
 namespace {
 
+// Output pixel i of an f-fold enlargement of n pixels reads source pixels i0 and i1 with weights
+// (2f − w1) and w1 in units of 1/(2f): its source coordinate is (2i + 1 − f)/(2f).
+struct LinearTap {
+  int i0, i1;
+  uint16_t w0, w1;
+};
+
+LinearTap linear_tap(int i, int f, int n) {
+  const int units = 2 * i + 1 - f, step = 2 * f;
+  const int i0 = units >= 0 ? units / step : -((-units + step - 1) / step);  // floor
+  LinearTap tap{i0, i0 + 1, 0, static_cast<uint16_t>(units - i0 * step)};
+  if (tap.i0 < 0) tap = LinearTap{0, 0, 0, 0};
+  if (tap.i1 > n - 1) tap = LinearTap{n - 1, n - 1, 0, 0};
+  tap.w0 = static_cast<uint16_t>(step - tap.w1);
+  return tap;
+}
+
+// Row s (n pixels) enlarged F = 2 or 4 times along x, in units of 1/(2F), at enlarged columns
+// [x_begin, x_end) of `a`: between source pixels k and k + 1 lie outputs F k + F/2 + j (j < F) with weight
+// 2j + 1 on k + 1. The interior eight source pixels at a time, the F outputs of each interleaved; the
+// F/2 edge columns each side (replicated) by their taps. Outputs next to the range may be written as
+// well (within 0 … F n − 1).
+template <int F>
+void enlarge_row(const uchar* s, int n, int x_begin, int x_end, uint16_t* a) {
+  static_assert(F == 2 || F == 4, "two or four times");
+  const int inner_begin = std::max(x_begin, F / 2), inner_end = std::min(x_end, F * n - F / 2);
+  int k = 0, k_end = 0;
+  if (inner_end > inner_begin) {
+    k = (inner_begin - F / 2) / F;
+    k_end = (inner_end - F / 2 + F - 1) / F;
+  }
+#if CV_SIMD128
+  if (k_end - k >= 8) {
+    auto weighted = [](const cv::v_uint16x8& left, const cv::v_uint16x8& right, int j) {
+      return cv::v_mul_wrap(left, cv::v_setall_u16(static_cast<uint16_t>(2 * F - 1 - 2 * j))) +
+             cv::v_mul_wrap(right, cv::v_setall_u16(static_cast<uint16_t>(2 * j + 1)));
+    };
+    for (const int k0 = k;; k += 8) {
+      k = std::max(k0, std::min(k, k_end - 8));
+      const cv::v_uint16x8 left = cv::v_load_expand(s + k), right = cv::v_load_expand(s + k + 1);
+      if (F == 4) {
+        cv::v_store_interleave(a + F * k + F / 2, weighted(left, right, 0), weighted(left, right, 1),
+                               weighted(left, right, 2), weighted(left, right, 3));
+      } else {
+        cv::v_store_interleave(a + F * k + F / 2, weighted(left, right, 0), weighted(left, right, 1));
+      }
+      if (k + 8 >= k_end) break;
+    }
+    k = k_end;
+  }
+#endif
+  for (; k < k_end; ++k) {
+    for (int j = 0; j < F; ++j) {
+      a[F * k + F / 2 + j] = static_cast<uint16_t>((2 * F - 1 - 2 * j) * s[k] + (2 * j + 1) * s[k + 1]);
+    }
+  }
+  auto edge = [&](int x) {
+    const LinearTap tap = linear_tap(x, F, n);
+    a[x] = static_cast<uint16_t>(tap.w0 * s[tap.i0] + tap.w1 * s[tap.i1]);
+  };
+  for (int x = x_begin; x < std::min(x_end, F / 2); ++x) edge(x);
+  for (int x = std::max(x_begin, F * n - F / 2); x < x_end; ++x) edge(x);
+}
+
+}  // namespace
+
+void upsample_linear(const cv::Mat& src, int fx, int fy, const cv::Rect& out_region, cv::Mat& out) {
+  CV_Assert(src.type() == CV_8UC1 && !src.empty());
+  CV_Assert((fx == 1 || fx == 2 || fx == 4) && (fy == 1 || fy == 2 || fy == 4));
+  CV_Assert((out_region & cv::Rect(0, 0, fx * src.cols, fy * src.rows)) == out_region);
+  out.create(out_region.size(), CV_8UC1);
+  const int width = out_region.width;
+  // Rows interpolated along x (in units of 1/(2 fx)) over the enlarged row's whole width, kept for the two
+  // source rows the last output row read: consecutive output rows share them.
+  cv::Mat_<uint16_t> across(2, fx * src.cols);
+  int held[2] = {-1, -1};
+  auto row_across = [&](int source_row) -> const uint16_t* {
+    for (int k = 0; k < 2; ++k) {
+      if (held[k] == source_row) return across[k] + out_region.x;
+    }
+    const int k = held[0] == -1 || (held[1] != -1 && held[0] < held[1]) ? 0 : 1;
+    const uchar* __restrict s = src.ptr<uchar>(source_row);
+    uint16_t* __restrict a = across[k];
+    if (fx == 4) enlarge_row<4>(s, src.cols, out_region.x, out_region.x + width, a);
+    else if (fx == 2) enlarge_row<2>(s, src.cols, out_region.x, out_region.x + width, a);
+    else std::transform(s + out_region.x, s + out_region.x + width, a + out_region.x, [](uchar v) { return static_cast<uint16_t>(2 * v); });
+    held[k] = source_row;
+    return a + out_region.x;
+  };
+  // Both weights' units: 4 fx fy, a power of two; the sums stay below 2¹⁶ (16 · 255 · 4).
+  const int shift = (fx == 4 ? 3 : fx == 2 ? 2 : 1) + (fy == 4 ? 3 : fy == 2 ? 2 : 1);
+  const uint16_t half = static_cast<uint16_t>(1u << (shift - 1));
+  for (int y = 0; y < out_region.height; ++y) {
+    const LinearTap row = linear_tap(out_region.y + y, fy, src.rows);
+    const uint16_t* a0 = row_across(row.i0);
+    const uint16_t* a1 = row_across(row.i1);
+    const uint16_t w0 = row.w0, w1 = row.w1;
+    uchar* o = out.ptr<uchar>(y);
+    int x = 0;
+#if CV_SIMD128
+    // 16 pixels at a time, the last block overlapping the one before it (as extremum_of_n).
+    if (width >= 16) {
+      const cv::v_uint16x8 vw0 = cv::v_setall_u16(w0), vw1 = cv::v_setall_u16(w1), vhalf = cv::v_setall_u16(half);
+      for (;; x += 16) {
+        x = std::min(x, width - 16);
+        const cv::v_uint16x8 lo = cv::v_mul_wrap(cv::v_load(a0 + x), vw0) + cv::v_mul_wrap(cv::v_load(a1 + x), vw1) + vhalf;
+        const cv::v_uint16x8 hi = cv::v_mul_wrap(cv::v_load(a0 + x + 8), vw0) + cv::v_mul_wrap(cv::v_load(a1 + x + 8), vw1) + vhalf;
+        cv::v_store(o + x, cv::v_pack(lo >> shift, hi >> shift));
+        if (x + 16 >= width) break;
+      }
+      continue;
+    }
+#endif
+    for (; x < width; ++x) o[x] = static_cast<uchar>((w0 * a0[x] + w1 * a1[x] + half) >> shift);
+  }
+}
+
+namespace {
+
 // dst[x] = the minimum (kMin) or maximum of sources[0][x] … sources[count − 1][x] for x < n, dst apart
 // from the sources; kCount > 0 fixes count at compile time (the loop over the sources then unrolls). 16
 // pixels at a time with OpenCV's universal intrinsics, accumulated in a register; the last block overlaps

@@ -46,20 +46,14 @@ cv::Rect StarDetector::floor_region(const cv::Rect& roi, cv::Size image) const {
 }
 
 void StarDetector::upsample_floor(const cv::Rect& window) {
-  // cv::resize maps coarse pixel i to 1/8-size coordinate (i + ½)/4 − ½: a crop of whole 1/8-size pixels,
-  // one more on each side than the window needs, resized 4 ×, gives the same values in the window.
+  // The 1/8-size floor brought to the half-resolution grid over the window only.
   const cv::Size full = coarse_region_.size();
   if (full.width != 4 * background_.cols || full.height != 4 * background_.rows) {
     cv::resize(background_, scratch_, full, 0, 0, cv::INTER_LINEAR);
     scratch_(window).copyTo(coarse_floor_);
     return;
   }
-  const int x0 = std::max(0, window.x / 4 - 1), y0 = std::max(0, window.y / 4 - 1);
-  const int x1 = std::min(background_.cols, (window.br().x + 3) / 4 + 1);
-  const int y1 = std::min(background_.rows, (window.br().y + 3) / 4 + 1);
-  const cv::Rect cells(cv::Point(x0, y0), cv::Point(x1, y1));
-  cv::resize(background_(cells), scratch_, cv::Size(4 * cells.width, 4 * cells.height), 0, 0, cv::INTER_LINEAR);
-  scratch_(window - cv::Point(4 * x0, 4 * y0)).copyTo(coarse_floor_);
+  upsample_linear(background_, 4, 4, window, coarse_floor_);
 }
 
 void StarDetector::robust_floor(const cv::Rect& window, double level_ratio) {
@@ -130,9 +124,9 @@ bool StarDetector::mid_level_threshold(const cv::Rect& grown, const cv::Rect& re
   floor_ratio /= 128.0;
   // The floor at full resolution over the region (its top-left is the grown box's), scaled to the level.
   const cv::Point2f scale = coarse_scale();
-  cv::resize(coarse_floor_(grown), refine_floor_, cv::Size(grown.width * static_cast<int>(scale.x),
-             grown.height * static_cast<int>(scale.y)), 0, 0, cv::INTER_LINEAR);
-  refine_floor_(cv::Rect(0, 0, region.width, region.height)).convertTo(refine_level_, CV_8U, 0.5 * (star_ratio + floor_ratio));
+  upsample_linear(coarse_floor_(grown), static_cast<int>(scale.x), static_cast<int>(scale.y),
+                  cv::Rect(0, 0, region.width, region.height), refine_floor_);
+  refine_floor_.convertTo(refine_level_, CV_8U, 0.5 * (star_ratio + floor_ratio));
   cv::compare(view_(region), refine_level_, refine_binary_, cv::CMP_LT);
   return true;
 }

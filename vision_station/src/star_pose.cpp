@@ -195,17 +195,6 @@ bool find_outline(const std::vector<cv::Point2f>& contour, StarOutline& outline,
 
 }  // namespace
 
-double grey_at(const cv::Mat& gray, cv::Point2d p) {
-  // A negative coordinate is outside, so for the rest truncation is the floor (and cheaper).
-  if (!(p.x >= 0.0 && p.y >= 0.0)) return -1.0;
-  const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
-  if (x + 1 >= gray.cols || y + 1 >= gray.rows) return -1.0;
-  const double fx = p.x - x, fy = p.y - y;
-  const uint8_t* r0 = gray.ptr<uint8_t>(y);
-  const uint8_t* r1 = gray.ptr<uint8_t>(y + 1);
-  return (1 - fy) * ((1 - fx) * r0[x] + fx * r0[x + 1]) + fy * ((1 - fx) * r1[x] + fx * r1[x + 1]);
-}
-
 // The edge point refined by the profile's area: across a step from level A to level B the integral of
 // (I − A)/(B − A) over [c − W, c + W] is W minus the edge's offset from c, for any symmetric blur and for
 // pixels that average their area (the mid-level crossing of interpolated samples is off by up to 0.08 px
@@ -213,14 +202,40 @@ double grey_at(const cv::Mat& gray, cv::Point2d p) {
 // of 0.2 deg at 1.5 m). The levels are the means of the window's two outermost samples on each side.
 namespace {
 
+// v[k + half] = grey_at(gray, c + k · step · normal) for k = −half … half; false when a sample leaves the
+// image. With both ends inside (by a margin far above rounding) the line is, so the samples are taken
+// without grey_at's checks: the same values, for a third of the cost.
+bool sample_line(const cv::Mat& gray, const cv::Point2d& c, const cv::Point2d& normal, double step, int half, double* v) {
+  constexpr double kMargin = 1e-6;
+  const cv::Point2d a = c - half * step * normal, b = c + half * step * normal;
+  const double x_limit = gray.cols - 1 - kMargin, y_limit = gray.rows - 1 - kMargin;
+  const bool inside = std::min(a.x, b.x) >= kMargin && std::min(a.y, b.y) >= kMargin &&
+                      std::max(a.x, b.x) < x_limit && std::max(a.y, b.y) < y_limit;
+  if (!inside) {
+    for (int k = -half; k <= half; ++k) {
+      v[k + half] = grey_at(gray, c + k * step * normal);
+      if (v[k + half] < 0.0) return false;
+    }
+    return true;
+  }
+  const uint8_t* data = gray.data;
+  const size_t row_step = gray.step[0];
+  for (int k = -half; k <= half; ++k) {
+    const cv::Point2d p = c + k * step * normal;
+    const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
+    const double fx = p.x - x, fy = p.y - y;
+    const uint8_t* r0 = data + y * row_step;
+    const uint8_t* r1 = r0 + row_step;
+    v[k + half] = (1 - fy) * ((1 - fx) * r0[x] + fx * r0[x + 1]) + fy * ((1 - fx) * r1[x] + fx * r1[x + 1]);
+  }
+  return true;
+}
+
 cv::Point2d balanced_edge(const cv::Mat& gray, const cv::Point2d& c, const cv::Point2d& normal) {
   constexpr int kHalf = 8;       // samples each side, ...
   constexpr double kStep = 0.25;  // ... this far apart: W = 2 px
   double v[2 * kHalf + 1];
-  for (int k = -kHalf; k <= kHalf; ++k) {
-    v[k + kHalf] = grey_at(gray, c + k * kStep * normal);
-    if (v[k + kHalf] < 0.0) return c;
-  }
+  if (!sample_line(gray, c, normal, kStep, kHalf, v)) return c;
   const double a = 0.5 * (v[0] + v[1]), b = 0.5 * (v[2 * kHalf] + v[2 * kHalf - 1]);
   if (!(std::fabs(b - a) > 10.0)) return c;
   double area = 0.0;  // trapezoids, in pixels
@@ -236,12 +251,11 @@ bool edge_near(const cv::Mat& gray, const cv::Point2d& p, const cv::Point2d& nor
   constexpr int kHalf = 6;         // samples each side, ...
   constexpr double kStep = 0.5;    // ... this far apart (±3 px)
   double profile[2 * kHalf + 1];
+  if (!sample_line(gray, p, normal, kStep, kHalf, profile)) return false;
   double lo = 255.0, hi = 0.0;
-  for (int k = -kHalf; k <= kHalf; ++k) {
-    profile[k + kHalf] = grey_at(gray, p + k * kStep * normal);
-    if (profile[k + kHalf] < 0.0) return false;
-    lo = std::min(lo, profile[k + kHalf]);
-    hi = std::max(hi, profile[k + kHalf]);
+  for (const double value : profile) {
+    lo = std::min(lo, value);
+    hi = std::max(hi, value);
   }
   if (!(hi - lo > 10.0)) return false;
   // The edge is where the profile crosses the middle between star and floor; the crossing nearest p.

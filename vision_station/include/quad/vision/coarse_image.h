@@ -40,6 +40,13 @@ void open_rect(const cv::Mat& src, int k, cv::Mat& dst, cv::Mat& scratch);
 // first and last rows kept): cv::min/cv::max on row blocks.
 void vertical_median_3(cv::Mat& image, cv::Mat& scratch);
 
+// The window `out_region` of src enlarged fx × fy times (each 1, 2 or 4; CV_8UC1) by bilinear
+// interpolation, sampled as cv::resize INTER_LINEAR samples (output pixel i at source coordinate
+// (i + ½)/f − ½, the edge pixels replicated): each value is the exact interpolation rounded half up, where
+// OpenCV's fixed-point vector path rounds some down (within one grey level of cv::resize). Only the
+// window is computed; it lies within the enlarged image.
+void upsample_linear(const cv::Mat& src, int fx, int fy, const cv::Rect& out_region, cv::Mat& out);
+
 // out = 255 where image · 256 < floor · q (q ≤ 256: a ratio in 1/256), else 0; same-size CV_8UC1.
 void below_level(const cv::Mat& image, const cv::Mat& floor, uint16_t q, cv::Mat& out);
 
