@@ -14,6 +14,7 @@
 //                       [--features F.csv]  (one line per fix or refused pair: what the station measured, and its error;
 //                                            guided: one view's outline a near miss;
 //                                            transferred: found by the other view's outline;
+//                                            split: an outline found inside a larger one (split_merged);
 //                                            refused: why the station dropped it)
 // Use on the tuning split only: the held-out split is for the final measurement.
 #include <algorithm>
@@ -216,7 +217,7 @@ class Explainer {
     };
     const double outline_dd = fix.outline.valid ? fix.outline_disparity_px - fix.disparity_px : 0.0;
     const double outline_dy = fix.outline.valid ? fix.outline.shift.y - (fix.left_rectified.y - fix.right_rectified.y) : 0.0;
-    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%d,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.5f,%.4f,%.3f,%d,%d,%s\n",
+    std::fprintf(out, "%s,%s,%d,%.3f,%.3f,%.2f,%.3f,%.3f,%.3f,%.3f,%.4f,%.4f,%.3f,%.3f,%d,%d,%d,%.3f,%.4f,%.4f,%d,%.4f,%.4f,%.3f,%.3f,%d,%.4f,%.4f,%.4f,%.3f,%.5f,%.5f,%.5f,%.4f,%.3f,%d,%d,%d,%s\n",
                  condition.c_str(), fs::path(t.left).filename().c_str(), t.in_view ? 1 : 0, error, range, off_axis,
                  fix.row_difference_px, fix.disparity_px, l.area / expected, r.area / expected, l.hu_distance,
                  r.hu_distance, l.solidity, r.solidity, l.refined ? 1 : 0, r.refined ? 1 : 0, fix.pose.valid ? 1 : 0,
@@ -224,7 +225,7 @@ class Explainer {
                  size_depth(l), size_depth(r), centroid_error, pose_error, fix.outline.valid ? 1 : 0, outline_dd,
                  outline_dy, fix.outline.residual_px, fix.outline.inlier_fraction, cv::norm(fix.p_centroids),
                  cv::norm(fix.pose.t_C), cv::norm(fix.p_outline), fix.pose_disparity_px - fix.outline_disparity_px,
-                 outline_error, fix.guided ? 1 : 0, fix.transferred ? 1 : 0, fix.refused != nullptr ? fix.refused : "");
+                 outline_error, fix.guided ? 1 : 0, fix.transferred ? 1 : 0, l.split || r.split ? 1 : 0, fix.refused != nullptr ? fix.refused : "");
   }
 
   static LocatorSettings no_tracking(LocatorSettings s) {
@@ -331,7 +332,7 @@ int main(int argc, char** argv) {
       std::fprintf(features, "condition,left,in_view,error_percent,range_m,off_axis_deg,row_difference_px,disparity_px,"
                              "area_left,area_right,profile_left,profile_right,solidity_left,solidity_right,"
                              "refined_left,refined_right,pose_valid,pose_rms_px,pose_offset,size_ratio,from_pose,size_depth_left,size_depth_right,centroid_error,pose_error,"
-                             "outline_valid,outline_dd,outline_dy,outline_residual,outline_inliers,range_centroids,range_pose,range_outline,pose_outline_dd,outline_error,guided,transferred,refused\n");
+                             "outline_valid,outline_dd,outline_dy,outline_residual,outline_inliers,range_centroids,range_pose,range_outline,pose_outline_dd,outline_error,guided,transferred,split,refused\n");
     }
     std::vector<fs::path> dirs;
     for (const fs::directory_entry& d : fs::directory_iterator(o.at("--sets"))) {

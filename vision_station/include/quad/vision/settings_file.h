@@ -11,7 +11,7 @@
 //   max_pair_skew_ms (left/right capture times further apart are no pair; 0: half the frame period)
 //   field_period_ms (interlaced sources: the time between the two fields of a frame)
 //   method (thesis | robust), deinterlace (none | field | blend), robust_window_px robust_min_ratio
-//   robust_max_ratio robust_low_ratio robust_low_level_always max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
+//   robust_max_ratio robust_low_ratio robust_low_level_always robust_split_merged max_elongation max_profile_rms min_fourfold max_other_harmonic min_shape_solidity
 //   max_shape_solidity robust_floor_closing robust_sync_repair robust_row_median robust_require_midlevel
 //   retry_max_profile_rms retry_min_fourfold retry_max_other_harmonic retry_min_solidity retry_max_solidity
 //   guided_acceptance guided_min_area_ratio guided_max_area_ratio guided_max_row_difference_px

@@ -79,6 +79,10 @@ struct DetectorSettings {
   double robust_max_ratio = 0.8;
   double robust_low_ratio = 0.55;  // second, lower level: this fraction of the first (not below min)
   bool robust_low_level_always = false;  // search the second level even when the first found a candidate
+  // With no candidate at either level, the largest outlines of the first level that touch the image's
+  // edge or fail the shape test (a star merged with a shadow or dark texture) are searched again, each
+  // at a level of its own: Otsu on its pixels' image/floor ratios.
+  bool robust_split_merged = true;
   bool robust_floor_closing = true;  // floor = closing (max then min) over the window, else its maximum
   bool robust_sync_repair = true;    // interpolate the rows of lost-sync bands (sync_repair.cpp)
   bool robust_row_median = true;     // 3-row vertical median of the half-resolution copy (RF snow)
@@ -107,6 +111,7 @@ struct StarCandidate {
   int vertices = 0;
   bool refined = false;                 // (robust) the outline is the full-resolution mid-level one
   bool strict = true;                   // passed the shape test (false: a near miss, the coarse outline)
+  bool split = false;                   // (robust) found inside a larger outline at its own level (split_merged)
 };
 
 // What became of one contour of the robust method (failure analysis: tools/vision_eval explain).
@@ -186,7 +191,12 @@ class StarDetector {
   // the view and the half-resolution copy cut to the search window (`window`, view pixels).
   void robust_floor(const cv::Rect& window, double level_ratio);
   void robust_threshold(double ratio);
-  void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us);
+  // The contours of binary_(region) through the filters and the shape test; with `collect_merged`, those
+  // that touch the border or fail the shape test (large enough) are kept in merged_ for split_merged.
+  void robust_candidates(std::vector<StarCandidate>& candidates, double& refine_us, const cv::Rect& region,
+                         bool collect_merged);
+  // robust_split_merged: each kept outline's pixels thresholded at a level of its own, searched again.
+  void split_merged(std::vector<StarCandidate>& candidates, double& refine_us);
   // The candidate's mid-level outline at full resolution (false: none that passes the shape test; its
   // score in `score`).
   bool robust_refine(const cv::Rect& coarse_box, StarCandidate& c, StarShapeScore& score);
@@ -237,6 +247,15 @@ class StarDetector {
   std::vector<std::vector<cv::Point>> refine_contours_;
   double threshold_ratio_ = 0.0;
   std::vector<std::vector<cv::Point>> contours_;
+  struct MergedOutline {
+    double level = 0.0;  // the threshold ratio it was found at
+    double area = 0.0;   // half-resolution pixels²
+    std::vector<cv::Point> contour;  // half-resolution copy
+  };
+  std::vector<MergedOutline> merged_;  // split_merged's outlines
+  std::vector<uchar> blob_ratios_;
+  bool splitting_ = false;  // inside split_merged
+  cv::Mat blob_mask_, blob_binary_;
   std::vector<TracedContour>* trace_ = nullptr;
   double level_ = 0.0;  // the threshold ratio of the binary image being searched
   void note(const cv::Rect& coarse_box, ContourFate fate, double area = 0.0, const StarShapeScore& shape = {},
