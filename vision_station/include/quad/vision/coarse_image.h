@@ -1,8 +1,9 @@
 // Whole-image steps of the robust detector's coarse search (star_detector_robust.cpp) as plain loops
 // that the compiler vectorises (the morphology and below_level with OpenCV's universal intrinsics, where
-// it did that poorly). Each gives exactly the OpenCV call named beside it (tests/vision/
-// test_coarse_image.cpp checks that against OpenCV): on images of a few hundred pixels a side OpenCV's
-// general paths (border copies, dispatch, parallel_for_, kernel setup) cost several times the arithmetic.
+// it did that poorly). Each gives exactly the OpenCV call named beside it, or says how it differs
+// (tests/vision/test_coarse_image.cpp checks that against OpenCV): on images of a few hundred pixels a
+// side OpenCV's general paths (border copies, dispatch, parallel_for_, kernel setup) cost several times
+// the arithmetic.
 #pragma once
 
 #include <cstdint>
