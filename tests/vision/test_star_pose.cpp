@@ -204,6 +204,55 @@ std::array<std::array<cv::Point2d, 8>, 2> rectified_corners(const StereoCalibrat
   return out;
 }
 
+// The disparity gradient of the star's plane (plane_disparity_gradient) against the one the aligned
+// outlines measure, on this test's own drawings: the true plane's agrees, and a fit tilted 50° away
+// from it (as far stars with distorted outlines were fitted on the evaluation sets) is beyond
+// LocatorSettings::attitude_max_gradient_error, so its attitude is withheld.
+TEST(StarPose, AFitTiltedAgainstTheOutlinesDisparityGradientIsNoAttitude) {
+  const TestRig rig;
+  const StereoRig station_rig = station_rig_of(rig);
+  const StereoCalibration calibration = rectify(station_rig);
+  LocatorSettings settings;
+  settings.track_roi = false;
+  settings.detector.deinterlace = Deinterlace::kNone;
+  StereoStarLocator locator(calibration, settings);
+  cv::RNG rng(20261204);
+  int scenes = 0, aligned = 0, posed = 0;
+  double worst_true = 0.0, worst_fit = 0.0, least_tilted = 1e9;
+  for (double range : {1.0, 1.8, 2.6}) {
+    for (int i = 0; i < 6; ++i) {
+      const double tilt = rng.uniform(0.0, 20.0) * CV_PI / 180.0, axis = rng.uniform(0.0, 2 * CV_PI);
+      cv::Matx33d R_LS;
+      cv::Rodrigues(cv::Vec3d(std::cos(axis), std::sin(axis), 0.0) * tilt, R_LS);
+      const cv::Vec3d t_L(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), range);
+      const cv::Matx33d R_RL = station_rig.R;
+      const cv::Mat left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
+      const cv::Mat right = draw(rig.K2, rig.D2, R_RL * R_LS, R_RL * t_L + rig.T, rig.size, rng);
+      ++scenes;
+      const StarFix fix = locator.locate(left, right);
+      if (!fix.found || !fix.outline.valid) continue;
+      ++aligned;
+      const cv::Vec2d measured = fix.outline.gradient;
+      worst_true = std::max(worst_true, cv::norm(plane_disparity_gradient(R_LS, t_L, calibration) - measured));
+      if (!fix.pose.valid) continue;
+      ++posed;
+      worst_fit = std::max(worst_fit, fix.pose_gradient_error);
+      // The same star tilted 50° further about the axis of its true tilt.
+      cv::Matx33d R_more;
+      cv::Rodrigues(cv::Vec3d(std::cos(axis), std::sin(axis), 0.0) * (50.0 * CV_PI / 180.0), R_more);
+      least_tilted = std::min(least_tilted, cv::norm(plane_disparity_gradient(R_more * R_LS, t_L, calibration) - measured));
+    }
+  }
+  std::printf("[vision] disparity gradient of the star's plane against the aligned outlines': %d scenes, %d aligned, "
+              "%d poses; true plane within %.4f, fitted within %.4f, tilted 50° further at least %.4f px/px\n",
+              scenes, aligned, posed, worst_true, worst_fit, least_tilted);
+  EXPECT_EQ(aligned, scenes);
+  EXPECT_EQ(posed, scenes);
+  EXPECT_LT(worst_true, 0.5 * settings.attitude_max_gradient_error);
+  EXPECT_LT(worst_fit, 0.5 * settings.attitude_max_gradient_error);
+  EXPECT_GT(least_tilted, 2.0 * settings.attitude_max_gradient_error);
+}
+
 TEST(StarPose, RefitFromAStartOffRecoversThePoseAndDropsStrayPoints) {
   const TestRig rig;
   const StereoCalibration calibration = rectify(station_rig_of(rig));

@@ -593,6 +593,15 @@ StarPose estimate_star_pose(const std::vector<cv::Point2f>& left, const std::vec
   if (!(pose.rms_px <= settings.max_rms_px) || !(p.t[2] > 0.0)) return pose;
   auto edges = [&](const Placement& q) { return linearise_edges(q, l, r, calibration, model); };
   if (!gauss_newton(p, edges, n)) return pose;
+  // The planar star's twin: turned half a turn about the line of sight through its centre it projects to
+  // nearly the same outline with its tilt mirrored, and far away the views' disparities barely tell the
+  // two apart, so the vertex start may fall on either. The twin is fitted too; the better fit stays.
+  Placement twin{rotation_from_vector(CV_PI * p.t / cv::norm(p.t)) * p.R, p.t, p.scale};
+  Normal twin_normal;
+  if (gauss_newton(twin, edges, twin_normal) && twin_normal.rows == n.rows && twin_normal.rss < n.rss) {
+    p = twin;
+    n = twin_normal;
+  }
   finish_pose(p, n, calibration, settings, pose);
   return pose;
 }
@@ -643,6 +652,15 @@ StarPose refit_star_pose(const StarPose& start, const StarEdgePoints& points, co
   if (dropped && !gauss_newton(p, edges, n, kIterations)) return pose;
   finish_pose(p, n, calibration, settings, pose);
   return pose;
+}
+
+cv::Vec2d plane_disparity_gradient(const cv::Matx33d& R_CS, const cv::Vec3d& t_C, const StereoCalibration& calibration) {
+  // On the plane n · X = c (rectified left frame) a pixel x (from the principal point) sees depth
+  // Z = c f / (n · (x, y, f)), so its disparity f b / Z = b (n_x x + n_y y + n_z f) / c is affine in x, y.
+  const cv::Vec3d n = calibration.R1 * cv::Vec3d(R_CS(0, 2), R_CS(1, 2), R_CS(2, 2));
+  const double c = n.dot(calibration.R1 * t_C);
+  const double b = calibration.baseline();
+  return cv::Vec2d(b * n[0] / c, b * n[1] / c);
 }
 
 cv::Matx33d star_attitude_in_body(const cv::Matx33d& R_BC, const cv::Matx33d& R_CS) {

@@ -253,6 +253,7 @@ bool StereoStarLocator::star_inside_images(const StarPose& pose) const {
 
 bool StereoStarLocator::coarse_fit(const StarPose& pose) const { return pose.rms_px > settings_.attitude_max_rms_px; }
 
+
 bool StereoStarLocator::wrong_size(double size_ratio) const {
   return std::fabs(size_ratio - 1.0) > settings_.max_pose_size_error;
 }
@@ -581,8 +582,13 @@ StarFix StereoStarLocator::locate(const cv::Mat& left_gray, const cv::Mat& right
     else if (off_axis > settings_.max_off_axis_rad) fix.refused = "off the axis";
     else if (fix.pose.valid && !star_inside_images(fix.pose)) fix.refused = "fitted star beyond the image edge";
     if (fix.refused != nullptr) fix.found = false;
-    // A fit good enough for the position and the checks above may still be too coarse for the attitude.
-    if (coarse_fit(fix.pose)) fix.pose.valid = false;
+    // A fit good enough for the position and the checks above may still be too coarse for the attitude,
+    // or tilted against the disparity gradient the two outlines measure (LocatorSettings::
+    // attitude_max_gradient_error).
+    if (fix.pose.valid && fix.outline.valid) {
+      fix.pose_gradient_error = cv::norm(plane_disparity_gradient(fix.pose.R_CS, fix.pose.t_C, calibration_) - fix.outline.gradient);
+    }
+    if (coarse_fit(fix.pose) || fix.pose_gradient_error > settings_.attitude_max_gradient_error) fix.pose.valid = false;
   };
 
   // A passing star of one view sought in the other by its outline, each candidate's fix judged by the

@@ -19,6 +19,7 @@
 //   guided_max_elongation guided_max_profile_rms guided_min_fourfold guided_max_other_harmonic
 //   guided_min_solidity guided_max_solidity (DetectorSettings::near_miss_shape)
 //   position_from_pose max_pose_offset require_pose_beyond_rad max_pose_size_error attitude_max_rms_px
+//   attitude_max_gradient_error
 //   star_tip_radius_m (the marker's centre-to-tip radius, metres)
 //   camera_to_body_R (3x3), camera_to_body_t (3x1): thesis eq. 7.22 by default
 #pragma once

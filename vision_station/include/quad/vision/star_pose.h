@@ -47,6 +47,10 @@ struct StarPose {
   bool left_vertices_by_radius = false, right_vertices_by_radius = false;
 };
 
+// The disparity gradient (rectified pixels per rectified pixel, along x and y) of the plane through
+// t_C with normal R_CS's z axis (left camera frame): the star's plane as the two views see it.
+cv::Vec2d plane_disparity_gradient(const cv::Matx33d& R_CS, const cv::Vec3d& t_C, const StereoCalibration& calibration);
+
 // Bilinear grey value of an 8-bit image at a raw point, or −1 outside the image. Inline: the edge
 // searches call it some thirty times per edge point.
 inline double grey_at(const cv::Mat& gray, cv::Point2d p) {

@@ -84,6 +84,11 @@ struct LocatorSettings {
   // The pose's attitude is reported (StarFix::pose.valid) only for a vertex RMS up to this; a fit up to
   // pose.max_rms_px still gives the position and the checks above.
   double attitude_max_rms_px = 1.5;
+  // Nor when the disparity gradient the fitted star's plane implies (b (n_x, n_y) / (n · t), rectified
+  // pixels per pixel) differs from the aligned outlines' by more than this: a fit tilted 50–70° where the
+  // star lies 5–20° off (on the tuning split, far stars with blurred or distorted outlines) predicts a
+  // gradient of 0.05–0.1, a true pose within 0.01 of the measured one.
+  double attitude_max_gradient_error = 0.02;
   // The centroids' disparity is replaced by the one that lays the right outline onto the left
   // (outline_alignment.h): a local defect of one view moves that view's centroid, not the whole
   // outline's fit. The fix's position without a pose comes from it. Needs estimate_pose (its edge points).
@@ -139,6 +144,7 @@ struct StarFix {
   double outline_disparity_px = 0.0;  // the disparity that alignment gives (valid outline only)
   cv::Vec3d p_outline;                // the star triangulated with it (p_centroids without it)
   double pose_disparity_px = 0.0;     // the pose centre's disparity (valid pose only)
+  double pose_gradient_error = 0.0;   // |the pose plane's disparity gradient − the outlines'| (both valid)
   const char* refused = nullptr;      // why a paired star gave no fix (the checks after the pose step)
   StageTimes times;
 };
