@@ -20,6 +20,14 @@ struct StarSceneRanges {
   double max_gradient = 0.35;                // uneven lighting
 };
 
+// The default ranges with the camera's height between min_height and max_height.
+inline StarSceneRanges heights_between(double min_height, double max_height) {
+  StarSceneRanges ranges;
+  ranges.min_height = min_height;
+  ranges.max_height = max_height;
+  return ranges;
+}
+
 struct StarScene {
   cv::Mat left, right;
   cv::Vec3d truth_left;  // star centre, left camera frame, metres

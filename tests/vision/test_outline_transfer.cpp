@@ -87,9 +87,7 @@ class OutlineTransferTest : public ::testing::Test {
 
 TEST_F(OutlineTransferTest, AStarMergedWithAStripToTheEdgeIsFoundByTheOtherViewsOutline) {
   cv::RNG rng(7);
-  testing::StarSceneRanges ranges;
-  ranges.min_height = 1.2;
-  ranges.max_height = 1.8;
+  const testing::StarSceneRanges ranges = testing::heights_between(1.2, 1.8);
   int strict_found = 0;
   TransferTally tally;
   for (int k = 0; k < 6; ++k) {
@@ -117,9 +115,7 @@ TEST_F(OutlineTransferTest, ANearMissWhoseOutlineDoesNotAlignGivesWayToTheOtherV
   // outlines do not lay onto each other. The left star's outline, sought in the right view, finds the
   // star's own edges there.
   cv::RNG rng(5);
-  testing::StarSceneRanges ranges;
-  ranges.min_height = 1.0;
-  ranges.max_height = 1.6;
+  const testing::StarSceneRanges ranges = testing::heights_between(1.0, 1.6);
   TransferTally tally;
   for (int k = 0; k < 60 && tally.scenes < 4; ++k) {
     auto scene = testing::random_star_scene(rig, rng, ranges);
@@ -148,9 +144,7 @@ TEST_F(OutlineTransferTest, AStarLostInTheLeftViewIsFoundWhenTheLeftCandidatePla
   // blot has no counterpart in the right view; the star, whole there, is found once the right view is
   // searched whole and its outline sought in the left view.
   cv::RNG rng(9);
-  testing::StarSceneRanges ranges;
-  ranges.min_height = 1.2;
-  ranges.max_height = 1.8;
+  const testing::StarSceneRanges ranges = testing::heights_between(1.2, 1.8);
   TransferTally tally;
   for (int k = 0; k < 40 && tally.scenes < 4; ++k) {
     auto scene = testing::random_star_scene(rig, rng, ranges);

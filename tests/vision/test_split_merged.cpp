@@ -77,9 +77,7 @@ class SplitMergedTest : public ::testing::Test {
 
 TEST_F(SplitMergedTest, AStarMergedWithALessDarkBandToTheEdgeIsFoundInsideTheMergedOutline) {
   cv::RNG rng(21);
-  testing::StarSceneRanges ranges;
-  ranges.min_height = 1.2;
-  ranges.max_height = 1.8;
+  const testing::StarSceneRanges ranges = testing::heights_between(1.2, 1.8);
   int scenes = 0, without = 0, with = 0, fixes_without = 0, fixes_with = 0;
   double worst = 0.0;
   for (int k = 0; k < 6; ++k) {

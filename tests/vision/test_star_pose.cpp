@@ -98,29 +98,44 @@ StereoRig station_rig_of(const TestRig& rig) {
   return station_rig;
 }
 
+// Both views of the star at attitude R_LS and centre t_L (left camera frame), the left drawn first.
+struct DrawnPair {
+  cv::Mat left, right;
+};
+DrawnPair draw_pair(const TestRig& rig, const cv::Matx33d& R_LS, const cv::Vec3d& t_L, cv::RNG& rng) {
+  const cv::Matx33d R_RL = station_rig_of(rig).R;
+  DrawnPair pair;
+  pair.left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
+  pair.right = draw(rig.K2, rig.D2, R_RL * R_LS, R_RL * t_L + rig.T, rig.size, rng);
+  return pair;
+}
+
+// The locator's settings for the drawn pairs: progressive frames, each pair on its own (no tracking).
+LocatorSettings drawn_pair_settings() {
+  LocatorSettings settings;
+  settings.track_roi = false;
+  settings.detector.deinterlace = Deinterlace::kNone;
+  return settings;
+}
+
 // A level star straight below a level vehicle (thesis mount), yawed by `yaw` about the vertical.
 struct LevelScene {
   cv::Mat left, right;
   cv::Matx33d R_LS;
 };
 LevelScene level_scene(const TestRig& rig, double yaw, double range, cv::RNG& rng) {
-  const StereoRig station_rig = station_rig_of(rig);
   LevelScene scene;
   cv::Rodrigues(cv::Vec3d(0, 0, yaw), scene.R_LS);
-  const cv::Vec3d t_L(0.06, 0.0, range);
-  scene.left = draw(rig.K1, rig.D1, scene.R_LS, t_L, rig.size, rng);
-  scene.right = draw(rig.K2, rig.D2, station_rig.R * scene.R_LS, station_rig.R * t_L + rig.T, rig.size, rng);
+  DrawnPair pair = draw_pair(rig, scene.R_LS, cv::Vec3d(0.06, 0.0, range), rng);
+  scene.left = pair.left;
+  scene.right = pair.right;
   return scene;
 }
 
 TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
   const TestRig rig;
-  const StereoRig station_rig = station_rig_of(rig);
-  const StereoCalibration calibration = rectify(station_rig);
-  LocatorSettings settings;
-  settings.track_roi = false;
-  settings.detector.deinterlace = Deinterlace::kNone;  // the pairs are drawn progressive
-  StereoStarLocator locator(calibration, settings);
+  const StereoCalibration calibration = rectify(station_rig_of(rig));
+  StereoStarLocator locator(calibration, drawn_pair_settings());
 
   cv::RNG rng(20261202);
   const std::vector<double> ranges{0.6, 1.0, 1.5, 2.0, 2.5};
@@ -138,11 +153,9 @@ TEST(StarPose, TiltFromIndependentlyDrawnStereoPairs) {
       const cv::Matx33d R_LS = R_tilt * R_yaw;
       const double lateral = std::max(0.0, 0.45 * range - 0.25);
       const cv::Vec3d t_L(rng.uniform(-lateral, lateral) + 0.06, rng.uniform(-0.6 * lateral, 0.6 * lateral), range);
-      const cv::Matx33d R_RL = station_rig.R;
-      const cv::Mat left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
-      const cv::Mat right = draw(rig.K2, rig.D2, R_RL * R_LS, R_RL * t_L + rig.T, rig.size, rng);
+      const DrawnPair pair = draw_pair(rig, R_LS, t_L, rng);
       ++drawn;
-      const StarFix fix = locator.locate(left, right);
+      const StarFix fix = locator.locate(pair.left, pair.right);
       if (!fix.found) continue;
       ++found;
       if (!fix.pose.valid) continue;
@@ -210,11 +223,8 @@ std::array<std::array<cv::Point2d, 8>, 2> rectified_corners(const StereoCalibrat
 // LocatorSettings::attitude_max_gradient_error, so its attitude is withheld.
 TEST(StarPose, AFitTiltedAgainstTheOutlinesDisparityGradientIsNoAttitude) {
   const TestRig rig;
-  const StereoRig station_rig = station_rig_of(rig);
-  const StereoCalibration calibration = rectify(station_rig);
-  LocatorSettings settings;
-  settings.track_roi = false;
-  settings.detector.deinterlace = Deinterlace::kNone;
+  const StereoCalibration calibration = rectify(station_rig_of(rig));
+  const LocatorSettings settings = drawn_pair_settings();
   StereoStarLocator locator(calibration, settings);
   cv::RNG rng(20261204);
   int scenes = 0, aligned = 0, posed = 0;
@@ -225,11 +235,9 @@ TEST(StarPose, AFitTiltedAgainstTheOutlinesDisparityGradientIsNoAttitude) {
       cv::Matx33d R_LS;
       cv::Rodrigues(cv::Vec3d(std::cos(axis), std::sin(axis), 0.0) * tilt, R_LS);
       const cv::Vec3d t_L(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), range);
-      const cv::Matx33d R_RL = station_rig.R;
-      const cv::Mat left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
-      const cv::Mat right = draw(rig.K2, rig.D2, R_RL * R_LS, R_RL * t_L + rig.T, rig.size, rng);
+      const DrawnPair pair = draw_pair(rig, R_LS, t_L, rng);
       ++scenes;
-      const StarFix fix = locator.locate(left, right);
+      const StarFix fix = locator.locate(pair.left, pair.right);
       if (!fix.found || !fix.outline.valid) continue;
       ++aligned;
       const cv::Vec2d measured = fix.outline.gradient;
@@ -307,11 +315,7 @@ TEST(StarPose, RefitFromAStartOffRecoversThePoseAndDropsStrayPoints) {
 // star reaches beyond the edge, so no fix. The same star 12 px further in is found.
 TEST(StarPose, AStarCutByTheImageEdgeIsNotTakenWhenItsOutlineStopsShortOfTheEdge) {
   const TestRig rig;
-  const StereoRig station_rig = station_rig_of(rig);
-  LocatorSettings settings;
-  settings.track_roi = false;
-  settings.detector.deinterlace = Deinterlace::kNone;
-  StereoStarLocator locator(rectify(station_rig), settings);
+  StereoStarLocator locator(rectify(station_rig_of(rig)), drawn_pair_settings());
   cv::Matx33d R_LS;
   cv::Rodrigues(cv::Vec3d(0.05, -0.04, 0.3), R_LS);
   // The star's right end in the left image, in pixels, for a centre at lateral offset x (metres).
@@ -336,10 +340,9 @@ TEST(StarPose, AStarCutByTheImageEdgeIsNotTakenWhenItsOutlineStopsShortOfTheEdge
     for (bool cut : {true, false}) {
       const double y = 0.05 * i - 0.12;
       const cv::Vec3d t_L(centre_with_rightmost(cut ? width + 1.0 : width - 13.0, y), y, 1.0);
-      cv::Mat left = draw(rig.K1, rig.D1, R_LS, t_L, rig.size, rng);
-      const cv::Mat right = draw(rig.K2, rig.D2, station_rig.R * R_LS, station_rig.R * t_L + rig.T, rig.size, rng);
-      left.colRange(width - 4, width).setTo(cv::Scalar(205));
-      const StarFix fix = locator.locate(left, right);
+      DrawnPair pair = draw_pair(rig, R_LS, t_L, rng);
+      pair.left.colRange(width - 4, width).setTo(cv::Scalar(205));
+      const StarFix fix = locator.locate(pair.left, pair.right);
       if (cut) {
         cut_found += fix.found ? 1 : 0;
         refused_at_edge += fix.refused != nullptr && std::strcmp(fix.refused, "fitted star beyond the image edge") == 0;

@@ -210,13 +210,13 @@ void StarDetector::robust_candidates(std::vector<StarCandidate>& candidates, dou
       note(box, ContourFate::kTooFewPoints);
       continue;
     }
+    const double raw_area = cv::contourArea(contour);  // coarse pixels²
     if (touches_border(box, binary_.size(), std::max(1, s.edge_margin_px / 2))) {  // cut by the edge
       note(box, ContourFate::kTouchesBorder);
-      const double area = cv::contourArea(contour);
-      if (collect_merged && area * px_area > s.min_area_px) merged_.push_back(MergedOutline{level_, area, std::move(contour)});
+      if (collect_merged && raw_area * px_area > s.min_area_px) merged_.push_back(MergedOutline{raw_area, std::move(contour)});
       continue;
     }
-    if (!(cv::contourArea(contour) * px_area > s.raw_area_prefilter * s.min_area_px)) {
+    if (!(raw_area * px_area > s.raw_area_prefilter * s.min_area_px)) {
       note(box, ContourFate::kSmallRawArea);
       continue;
     }
@@ -234,8 +234,7 @@ void StarDetector::robust_candidates(std::vector<StarCandidate>& candidates, dou
     robust_accept(contour, box, m, c, candidates);
     refine_us += microseconds(r0, Clock::now());
     if (collect_merged && candidates.size() == accepted && c.area > 2.0 * s.min_area_px) {
-      const double area = cv::contourArea(contour);
-      merged_.push_back(MergedOutline{level_, area, std::move(contour)});
+      merged_.push_back(MergedOutline{raw_area, std::move(contour)});
     }
   }
 }
@@ -247,6 +246,7 @@ void StarDetector::split_merged(std::vector<StarCandidate>& candidates, double& 
   constexpr size_t kMaxOutlines = 4;
   std::sort(merged_.begin(), merged_.end(), [](const MergedOutline& a, const MergedOutline& b) { return a.area > b.area; });
   const double searched_level = level_;
+  cv::Rect written;  // the box of binary_ the last outline's search wrote (empty: binary_ not cleared yet)
   for (size_t n = 0; n < std::min(kMaxOutlines, merged_.size()); ++n) {
     const std::vector<cv::Point>& outline = merged_[n].contour;
     const cv::Rect box = cv::boundingRect(outline) & cv::Rect(0, 0, coarse_.cols, coarse_.rows);
@@ -268,12 +268,15 @@ void StarDetector::split_merged(std::vector<StarCandidate>& candidates, double& 
     if (blob_ratios_.size() < 64) continue;
     cv::Mat ratios(1, static_cast<int>(blob_ratios_.size()), CV_8UC1, blob_ratios_.data());
     const double level = cv::threshold(ratios, blob_binary_, 0.0, 255.0, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
-    if (!(level < 0.9 * merged_[n].level && level > 0.05)) continue;
-    // The outline's pixels below its own level, opened, alone in binary_.
+    if (!(level < 0.9 * threshold_ratio_ && level > 0.05)) continue;
+    // The outline's pixels below its own level, opened, alone in binary_ (cleared whole once, then only
+    // where the outline before wrote).
     const uint16_t q = static_cast<uint16_t>(std::clamp(std::lround(level * 256.0), 0L, 256L));
     below_level(coarse_(box), coarse_floor_(box), q, blob_binary_);
     cv::bitwise_and(blob_binary_, blob_mask_, blob_binary_);
-    binary_.setTo(0);
+    if (written.empty()) binary_.setTo(0);
+    else binary_(written).setTo(0);
+    written = box;
     cv::Mat opened = binary_(box);  // open_rect writes into binary_ through this header
     open_rect(blob_binary_, settings_.morphology_kernel_px, opened, median_hi_);
     level_ = level;

@@ -218,15 +218,9 @@ bool sample_line(const cv::Mat& gray, const cv::Point2d& c, const cv::Point2d& n
     }
     return true;
   }
-  const uint8_t* data = gray.data;
-  const size_t row_step = gray.step[0];
   for (int k = -half; k <= half; ++k) {
     const cv::Point2d p = c + k * step * normal;
-    const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
-    const double fx = p.x - x, fy = p.y - y;
-    const uint8_t* r0 = data + y * row_step;
-    const uint8_t* r1 = r0 + row_step;
-    v[k + half] = (1 - fy) * ((1 - fx) * r0[x] + fx * r0[x + 1]) + fy * ((1 - fx) * r1[x] + fx * r1[x + 1]);
+    v[k + half] = bilinear_inside(gray.data, gray.step[0], p.x, p.y);
   }
   return true;
 }

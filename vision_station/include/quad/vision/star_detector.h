@@ -248,11 +248,10 @@ class StarDetector {
   double threshold_ratio_ = 0.0;
   std::vector<std::vector<cv::Point>> contours_;
   struct MergedOutline {
-    double level = 0.0;  // the threshold ratio it was found at
-    double area = 0.0;   // half-resolution pixels²
+    double area = 0.0;               // half-resolution pixels²
     std::vector<cv::Point> contour;  // half-resolution copy
   };
-  std::vector<MergedOutline> merged_;  // split_merged's outlines
+  std::vector<MergedOutline> merged_;  // split_merged's outlines, all of the first level
   std::vector<uchar> blob_ratios_;
   bool splitting_ = false;  // inside split_merged
   cv::Mat blob_mask_, blob_binary_;

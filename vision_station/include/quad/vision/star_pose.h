@@ -51,17 +51,22 @@ struct StarPose {
 // t_C with normal R_CS's z axis (left camera frame): the star's plane as the two views see it.
 cv::Vec2d plane_disparity_gradient(const cv::Matx33d& R_CS, const cv::Vec3d& t_C, const StereoCalibration& calibration);
 
+// Bilinear grey value at (x, y) of the 8-bit image at `data` (`step` bytes per row), a point whose
+// 2 × 2 neighbourhood lies inside the image (no checks).
+inline double bilinear_inside(const uint8_t* data, size_t step, double x, double y) {
+  const int ix = static_cast<int>(x), iy = static_cast<int>(y);  // truncation: the floor for x, y ≥ 0
+  const double fx = x - ix, fy = y - iy;
+  const uint8_t* r0 = data + iy * step;
+  const uint8_t* r1 = r0 + step;
+  return (1 - fy) * ((1 - fx) * r0[ix] + fx * r0[ix + 1]) + fy * ((1 - fx) * r1[ix] + fx * r1[ix + 1]);
+}
+
 // Bilinear grey value of an 8-bit image at a raw point, or −1 outside the image. Inline: the edge
 // searches call it some thirty times per edge point.
 inline double grey_at(const cv::Mat& gray, cv::Point2d p) {
-  // A negative coordinate is outside, so for the rest truncation is the floor (and cheaper).
   if (!(p.x >= 0.0 && p.y >= 0.0)) return -1.0;
-  const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
-  if (x + 1 >= gray.cols || y + 1 >= gray.rows) return -1.0;
-  const double fx = p.x - x, fy = p.y - y;
-  const uint8_t* r0 = gray.ptr<uint8_t>(y);
-  const uint8_t* r1 = r0 + gray.step[0];
-  return (1 - fy) * ((1 - fx) * r0[x] + fx * r0[x + 1]) + fy * ((1 - fx) * r1[x] + fx * r1[x + 1]);
+  if (static_cast<int>(p.x) + 1 >= gray.cols || static_cast<int>(p.y) + 1 >= gray.rows) return -1.0;
+  return bilinear_inside(gray.data, gray.step[0], p.x, p.y);
 }
 
 // The contour's points moved onto the grey-level edge: along the contour's normal, to where the profile
