@@ -1,17 +1,8 @@
 #include "quad/sim/ground_camera_loop.h"
 
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <thread>
 
@@ -26,34 +17,8 @@ namespace mav = quad::mavlink;
 
 namespace {
 
-constexpr int kAnswerTimeoutMs = 10000;
 constexpr double kAssociationSlackPx = 3.0;  // a detection may sit this far beyond its ball's image radius
 constexpr double kVisibleEnough = 0.3;       // another vehicle's ball counts as a rival when this much shows
-
-std::string socket_path_for_this_run() {
-  static std::atomic<int> counter{0};
-  return "/tmp/quad_sim_ground-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
-}
-
-void send_all(int fd, const void* data, size_t length) {
-  const auto* p = static_cast<const uint8_t*>(data);
-  while (length > 0) {
-    const ssize_t n = ::send(fd, p, length, MSG_NOSIGNAL);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw StationError(std::string("ground station: sending a frame set failed (") + std::strerror(errno) +
-                         "): the station stopped reading for 10 s or has gone");
-    }
-    p += n;
-    length -= static_cast<size_t>(n);
-  }
-}
-
-std::string default_cache(const std::vector<std::string>& station_argv, const std::string& out_dir) {
-  const std::string& exe = station_argv.empty() ? std::string() : station_argv.front();
-  const size_t slash = exe.rfind('/');
-  return slash == std::string::npos ? out_dir + "/station_calibration" : exe.substr(0, slash) + "/station_calibration";
-}
 
 double yaw_of(const Eigen::Quaterniond& q) {
   const Eigen::Matrix3d R = q.toRotationMatrix();
@@ -115,13 +80,14 @@ GroundCameraLoop::GroundCameraLoop(const GroundCameraParams& params, uint64_t se
     : p_(params),
       renderer_(params, ground_cameras_from(params), Rng(seed, "ground_cameras")),
       loss_rng_(seed, "ground_frame_loss"),
-      socket_path_(socket_path_for_this_run()),
+      station_("ground station", "quad_sim_ground"),
       next_frame_(static_cast<size_t>(params.count), 0),
       images_(static_cast<size_t>(params.count)) {
   if (start.empty()) throw StationError("ground cameras: no vehicle to watch");
   std::string room = options.room_file;
   if (room.empty()) {
-    const std::string cache = options.room_cache.empty() ? default_cache(station_argv, out_dir) : options.room_cache;
+    const std::string cache =
+        options.room_cache.empty() ? default_station_calibration_cache(station_argv, out_dir) : options.room_cache;
     room = room_calibration_file(p_, station_subcommand(station_argv, "calibrate-room"), cache, options.progress);
   }
   std::filesystem::copy_file(room, out_dir + "/room_calib.yaml", std::filesystem::copy_options::overwrite_existing);
@@ -134,51 +100,16 @@ GroundCameraLoop::GroundCameraLoop(const GroundCameraParams& params, uint64_t se
     radio += (radio.empty() ? "" : ",") + std::to_string(v.id) + "=" + link.port->slave_path();
   }
 
-  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  std::memcpy(address.sun_path, socket_path_.c_str(), socket_path_.size());
-  ::unlink(socket_path_.c_str());
-  if (listen_fd_ < 0 || ::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
-      ::listen(listen_fd_, 1) != 0)
-    throw StationError(socket_path_ + ": cannot listen for the ground station: " + std::strerror(errno));
   std::vector<std::string> argv = station_subcommand(station_argv, "track");
   for (const std::string& a :
        {std::string("--room"), out_dir + "/room_calib.yaml", std::string("--vehicles"), out_dir + "/ground_vehicles.yaml",
-        std::string("--source"), "sim:" + socket_path_, std::string("--radio"), radio, std::string("--baud"),
+        std::string("--source"), "sim:" + station_.socket_path(), std::string("--radio"), radio, std::string("--baud"),
         std::to_string(radio_baud), std::string("--message"), std::string(ground_fix_message_name(p_.message)),
         std::string("--out"), out_dir + "/ground_track.jsonl", std::string("--status-s"), std::string("10"),
         std::string("--timeout-ms"), std::string("10000")})
     argv.push_back(a);
-  process_ = std::make_unique<FirmwareProcess>(argv, out_dir + "/ground_station.log");
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (fd_ < 0) {
-    pollfd p{listen_fd_, POLLIN, 0};
-    if (::poll(&p, 1, 100) > 0) fd_ = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (fd_ >= 0) break;
-    if (!process_->running())
-      throw StationError("the ground station " + process_->status() + " before connecting (see " + out_dir + "/ground_station.log)");
-    if (std::chrono::steady_clock::now() > deadline)
-      throw StationError("the ground station did not connect to " + socket_path_ + " within 10 s");
-  }
-  const timeval send_timeout{kAnswerTimeoutMs / 1000, 0};
-  ::setsockopt(fd_, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
+  station_.start(argv, out_dir + "/ground_station.log");
   filling_.sequence = 0;
-}
-
-GroundCameraLoop::~GroundCameraLoop() {
-  finish();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  ::unlink(socket_path_.c_str());
-}
-
-void GroundCameraLoop::finish() {
-  if (fd_ >= 0) {
-    ::close(fd_);
-    fd_ = -1;
-    for (int i = 0; i < 100 && process_ && process_->running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  process_.reset();
 }
 
 double GroundCameraLoop::capture_time(size_t camera, uint64_t n) const {
@@ -240,45 +171,25 @@ void GroundCameraLoop::send_set(const Pending& set) {
     hi = std::max(hi, set.capture_us[k]);
   }
   figures_.capture_skew_us.push_back(static_cast<double>(hi - lo));
-  send_all(fd_, &header, sizeof header);
-  for (const cv::Mat& image : images_) send_all(fd_, image.data, image.total() * image.elemSize());
-}
-
-void GroundCameraLoop::read_exact(void* data, size_t length, const char* what) {
-  auto* p = static_cast<uint8_t*>(data);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
-  while (length > 0) {
-    pollfd pfd{fd_, POLLIN, 0};
-    if (::poll(&pfd, 1, 100) > 0) {
-      const ssize_t n = ::recv(fd_, p, length, 0);
-      if (n == 0) throw StationError(std::string("the ground station closed its socket while the simulator waited for ") + what);
-      if (n < 0 && errno != EINTR) throw StationError(std::string("ground station socket: ") + std::strerror(errno));
-      if (n > 0) {
-        p += n;
-        length -= static_cast<size_t>(n);
-      }
-      continue;
-    }
-    if (!process_->running()) throw StationError("the ground station " + process_->status() + " (see ground_station.log)");
-    if (std::chrono::steady_clock::now() > deadline)
-      throw StationError(std::string("the ground station did not send ") + what + " within 10 s");
-  }
+  station_.send_all(&header, sizeof header, "a frame set");
+  for (const cv::Mat& image : images_) station_.send_all(image.data, image.total() * image.elemSize(), "a frame set");
 }
 
 void GroundCameraLoop::collect(const Pending& set, const RadioSink& to_radio) {
   wire::SetAnswer answer;
-  read_exact(&answer, sizeof answer, "its answer");
+  station_.read_exact(&answer, sizeof answer, "its answer");
   if (answer.magic != wire::kAnswerMagic || answer.sequence != set.sequence || answer.vehicles > 256)
     throw StationError("the ground station answered set " + std::to_string(answer.sequence) + ", expected " +
                        std::to_string(set.sequence));
   std::vector<wire::VehicleReport> reports(answer.vehicles);
-  if (!reports.empty()) read_exact(reports.data(), reports.size() * sizeof(wire::VehicleReport), "its vehicle reports");
+  if (!reports.empty())
+    station_.read_exact(reports.data(), reports.size() * sizeof(wire::VehicleReport), "its vehicle reports");
   ++figures_.sets_answered;
   figures_.processing_us.push_back(answer.processing_us);
   figures_.cpu_us.push_back(answer.cpu_us);
   if (answer.processing_us > p_.latency_s * 1e6) ++figures_.late_answers;
   // The fixes follow the station's writes to the ports; the ptys may hand the bytes over a little later.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(StationChannel::kAnswerTimeoutMs);
   while (frames_read_ < answer.fixes_sent) {
     bool any = false;
     for (auto& entry : links_) {

@@ -1,18 +1,8 @@
 #include "quad/sim/station_loop.h"
 
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <sys/un.h>
-#include <unistd.h>
-
-#include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <thread>
 
 #include "quad/sim/station_calibration.h"
 #include "quad/sim/vision_fix.h"
@@ -24,36 +14,7 @@ namespace mav = quad::mavlink;
 
 namespace {
 
-constexpr int kAnswerTimeoutMs = 10000;
 constexpr double kHistoryS = 0.1;  // vehicle poses kept for interlaced fields and motion blur
-
-std::string socket_path_for_this_run() {
-  // Unix socket paths are limited to 108 bytes, so the socket lives in /tmp rather than the run folder.
-  static std::atomic<int> counter{0};
-  return "/tmp/quad_sim-" + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".sock";
-}
-
-void send_all(int fd, const void* data, size_t length) {
-  const auto* p = static_cast<const uint8_t*>(data);
-  while (length > 0) {
-    const ssize_t n = ::send(fd, p, length, MSG_NOSIGNAL);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw StationError(std::string("vision station: sending a frame pair failed (") + std::strerror(errno) +
-                         "): the station stopped reading for 10 s or has gone");
-    }
-    p += n;
-    length -= static_cast<size_t>(n);
-  }
-}
-
-std::string default_calibration_cache(const std::vector<std::string>& station_argv, const std::string& out_dir) {
-  // Beside the station executable (e.g. build/host/bin/station_calibration): shared by every run of that
-  // build; a station found through PATH calibrates into the run folder.
-  const std::string& exe = station_argv.empty() ? std::string() : station_argv.front();
-  const size_t slash = exe.rfind('/');
-  return slash == std::string::npos ? out_dir + "/station_calibration" : exe.substr(0, slash) + "/station_calibration";
-}
 
 }  // namespace
 
@@ -65,14 +26,15 @@ StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, cons
                 Rng(scenario.seed, "camera")),
       loss_rng_(scenario.seed, "camera_frame_loss"),
       port_(scenario.radio_baud),
-      socket_path_(socket_path_for_this_run()) {
+      station_("vision station", "quad_sim") {
   // The station learns the cameras from chessboards the simulator renders (quad/sim/station_calibration.h),
   // unless it is given a calibration file; a scenario's `calibration_focal_error` then scales its focal
   // lengths (fault campaign).
   std::string calib = options.calibration_file;
   if (calib.empty()) {
-    const std::string cache = options.calibration_cache.empty() ? default_calibration_cache(station_argv, out_dir)
-                                                                : options.calibration_cache;
+    const std::string cache = options.calibration_cache.empty()
+                                  ? default_station_calibration_cache(station_argv, out_dir)
+                                  : options.calibration_cache;
     calib = station_calibration_file(rig, scenario.camera, calibrate_command_for(station_argv), cache, options.progress);
   }
   if (scenario.camera.calibration_focal_error != 0.0) {
@@ -86,52 +48,15 @@ StationLoop::StationLoop(const Scenario& scenario, const SimStereoRig& rig, cons
   for (const auto& [key, value] : scenario.station_settings)
     if (key == "send_covariance") expect_covariance_ = !(value == "0" || value == "false");
 
-  listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  std::memcpy(address.sun_path, socket_path_.c_str(), socket_path_.size());
-  ::unlink(socket_path_.c_str());
-  if (listen_fd_ < 0 || ::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
-      ::listen(listen_fd_, 1) != 0) {
-    throw StationError(socket_path_ + ": cannot listen for the vision station: " + std::strerror(errno));
-  }
   std::vector<std::string> argv = station_argv;
-  for (const std::string& a : {std::string("--calib"), calib, std::string("--settings"), settings, std::string("--source"), "sim:" + socket_path_,
-                               std::string("--out"), port_.slave_path(), std::string("--baud"),
+  for (const std::string& a : {std::string("--calib"), calib, std::string("--settings"), settings, std::string("--source"),
+                               "sim:" + station_.socket_path(), std::string("--out"), port_.slave_path(), std::string("--baud"),
                                std::to_string(scenario.radio_baud), std::string("--status-s"), std::string("10"),
                                // A slow simulator is not a stalled camera: a stall would reset the
                                // station's tracking and make its output depend on the wall clock.
                                std::string("--timeout-ms"), std::string("60000")})
     argv.push_back(a);
-  process_ = std::make_unique<FirmwareProcess>(argv, out_dir + "/station.log");
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (fd_ < 0) {
-    pollfd p{listen_fd_, POLLIN, 0};
-    if (::poll(&p, 1, 100) > 0) fd_ = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (fd_ >= 0) break;
-    if (!process_->running())
-      throw StationError("the vision station " + process_->status() + " before connecting (see " + out_dir + "/station.log)");
-    if (std::chrono::steady_clock::now() > deadline)
-      throw StationError("the vision station did not connect to " + socket_path_ + " within 10 s");
-  }
-  // A station that is alive but stops reading must not hang the run: sends time out like answers do.
-  const timeval send_timeout{kAnswerTimeoutMs / 1000, 0};
-  ::setsockopt(fd_, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
-}
-
-StationLoop::~StationLoop() {
-  finish();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  ::unlink(socket_path_.c_str());
-}
-
-void StationLoop::finish() {
-  if (fd_ >= 0) {
-    ::close(fd_);  // the station's source sees the end of the stream and the station exits
-    fd_ = -1;
-    for (int i = 0; i < 100 && process_ && process_->running(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  process_.reset();
+  station_.start(argv, out_dir + "/station.log");
 }
 
 void StationLoop::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool star_hidden,
@@ -174,35 +99,14 @@ void StationLoop::send_pair(uint64_t sequence, double t) {
   header.height = static_cast<uint32_t>(left_.rows);
   header.sequence = sequence;
   header.capture_time_us = std::llround(t * 1e6);
-  send_all(fd_, &header, sizeof header);
-  send_all(fd_, left_.data, left_.total());
-  send_all(fd_, right_.data, right_.total());
-}
-
-void StationLoop::read_exact(void* data, size_t length, const char* what) {
-  auto* p = static_cast<uint8_t*>(data);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
-  while (length > 0) {
-    pollfd pfd{fd_, POLLIN, 0};
-    if (::poll(&pfd, 1, 100) > 0) {
-      const ssize_t n = ::recv(fd_, p, length, 0);
-      if (n == 0) throw StationError(std::string("the vision station closed its socket while the simulator waited for ") + what);
-      if (n < 0 && errno != EINTR) throw StationError(std::string("vision station socket: ") + std::strerror(errno));
-      if (n > 0) {
-        p += n;
-        length -= static_cast<size_t>(n);
-      }
-      continue;
-    }
-    if (!process_->running()) throw StationError("the vision station " + process_->status() + " (see station.log)");
-    if (std::chrono::steady_clock::now() > deadline)
-      throw StationError(std::string("the vision station did not send ") + what + " within 10 s");
-  }
+  station_.send_all(&header, sizeof header, "a frame pair");
+  station_.send_all(left_.data, left_.total(), "a frame pair");
+  station_.send_all(right_.data, right_.total(), "a frame pair");
 }
 
 void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
   wire::FrameAnswer answer;
-  read_exact(&answer, sizeof answer, "its answer");
+  station_.read_exact(&answer, sizeof answer, "its answer");
   if (answer.magic != wire::kAnswerMagic || answer.sequence != pending.sequence)
     throw StationError("the vision station answered pair " + std::to_string(answer.sequence) + ", expected " +
                        std::to_string(pending.sequence));
@@ -210,7 +114,7 @@ void StationLoop::collect(const Pending& pending, const RadioSink& to_radio) {
   figures_.processing_us.push_back(answer.processing_us);
   if (answer.processing_us > s_.vision.latency_s * 1e6) ++figures_.late_answers;
   // The answer follows the station's write to its port; the pty may hand the bytes over a little later.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kAnswerTimeoutMs);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(StationChannel::kAnswerTimeoutMs);
   while (frames_read_ < answer.fixes_sent || (expect_covariance_ && covariances_read_ < answer.fixes_sent)) {
     if (!port_.wait_readable(100)) {
       if (std::chrono::steady_clock::now() > deadline)

@@ -25,12 +25,11 @@
 #include <opencv2/core.hpp>
 
 #include "quad/link/mavlink.h"
-#include "quad/sim/firmware_process.h"
 #include "quad/sim/ground_camera.h"
 #include "quad/sim/pty.h"
 #include "quad/sim/rng.h"
 #include "quad/sim/run_output.h"
-#include "quad/sim/station_loop.h"
+#include "quad/sim/station_channel.h"
 
 namespace quad::vision::ground_sim_protocol {
 struct VehicleReport;
@@ -84,7 +83,6 @@ class GroundCameraLoop {
   GroundCameraLoop(const GroundCameraParams& params, uint64_t seed, int radio_baud, const std::vector<MarkedVehicle>& start,
                    const std::string& out_dir, const std::vector<std::string>& station_argv,
                    const GroundCameraLoopOptions& options = GroundCameraLoopOptions());
-  ~GroundCameraLoop();
   GroundCameraLoop(const GroundCameraLoop&) = delete;
   GroundCameraLoop& operator=(const GroundCameraLoop&) = delete;
 
@@ -98,8 +96,8 @@ class GroundCameraLoop {
 
   const GroundCameraFigures& figures() const { return figures_; }
   const GroundCameraParams& params() const { return p_; }
-  int station_pid() const { return process_ && process_->running() ? static_cast<int>(process_->pid()) : -1; }
-  void finish();
+  int station_pid() const { return station_.pid(); }
+  void finish() { station_.finish(); }
 
  private:
   struct Pending {
@@ -119,7 +117,6 @@ class GroundCameraLoop {
   void capture(size_t camera, double t, const std::vector<MarkedVehicle>& vehicles);
   void send_set(const Pending& set);
   void collect(const Pending& set, const RadioSink& to_radio);
-  void read_exact(void* data, size_t length, const char* what);
   void score(const Pending& set, const std::vector<quad::vision::ground_sim_protocol::VehicleReport>& reports);
   double capture_time(size_t camera, uint64_t n) const;
 
@@ -128,9 +125,7 @@ class GroundCameraLoop {
   Rng loss_rng_;
   std::vector<int> ids_;
   std::map<int, Link> links_;
-  std::string socket_path_;
-  int listen_fd_ = -1, fd_ = -1;
-  std::unique_ptr<FirmwareProcess> process_;
+  StationChannel station_;  // after links_: the station ends before its radios close
   uint64_t frames_read_ = 0;
   uint64_t next_set_ = 0;
   std::vector<uint64_t> next_frame_;   // per camera: the set its next capture belongs to

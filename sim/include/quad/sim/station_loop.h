@@ -13,9 +13,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
-#include <memory>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -25,17 +23,13 @@
 
 #include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
-#include "quad/sim/firmware_process.h"
 #include "quad/sim/pty.h"
 #include "quad/sim/rng.h"
 #include "quad/sim/scenario.h"
+#include "quad/sim/station_channel.h"
 #include "quad/sim/stereo_camera.h"
 
 namespace quad::sim {
-
-struct StationError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 // Figures of the station over a run.
 struct StationFigures {
@@ -60,7 +54,6 @@ class StationLoop {
   // the scenario's station_settings), and waits (10 s at most) for it to connect.
   StationLoop(const Scenario& scenario, const SimStereoRig& rig, const std::string& out_dir,
               const std::vector<std::string>& station_argv, const StationLoopOptions& options = StationLoopOptions());
-  ~StationLoop();
   StationLoop(const StationLoop&) = delete;
   StationLoop& operator=(const StationLoop&) = delete;
 
@@ -74,7 +67,7 @@ class StationLoop {
 
   const StationFigures& figures() const { return figures_; }
   // Ends the stream (the station then exits) and waits for the process.
-  void finish();
+  void finish() { station_.finish(); }
 
  private:
   struct Pending {
@@ -89,15 +82,12 @@ class StationLoop {
   VehiclePose pose_at(double t) const;  // interpolated in the recent history
   void send_pair(uint64_t sequence, double t);
   void collect(const Pending& pending, const RadioSink& to_radio);
-  void read_exact(void* data, size_t length, const char* what);
 
   const Scenario& s_;
   StereoCameraRenderer renderer_;
   Rng loss_rng_;
   Pty port_;  // the station's radio (its --out)
-  std::string socket_path_;
-  int listen_fd_ = -1, fd_ = -1;
-  std::unique_ptr<FirmwareProcess> process_;
+  StationChannel station_;  // after port_: the station ends before its radio closes
   // The dialect too: LANDING_TARGET_COVARIANCE follows each LANDING_TARGET.
   quad::mavlink::Parser parser_{quad::mavlink::dialect_message_info};
   std::deque<std::vector<uint8_t>> frames_;  // parsed from the port, not yet released
