@@ -5,13 +5,6 @@
 
 namespace quad::sim {
 
-template <class Msg>
-void SimulatedExternalPose::queue(double release_t, const Msg& msg) {
-  uint8_t buf[mavlink::max_frame_length<Msg>()];
-  const size_t n = sender_.encode(msg, buf, sizeof buf);
-  pending_.emplace_back(release_t, std::vector<uint8_t>(buf, buf + n));
-}
-
 void SimulatedExternalPose::update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib,
                                    bool dropout) {
   if (!p_.enabled || t + 1e-9 < next_capture_t_) return;

@@ -15,17 +15,19 @@
 #include <stdexcept>
 #include <thread>
 
+#include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
 #include "quad/sim/firmware_process.h"
 #include "quad/sim/fix_source.h"
 #include "quad/sim/fleet_model.h"
 #include "quad/sim/fleet_world.h"
-#include "quad/sim/flight_modes.h"
 #include "quad/sim/frames.h"
 #include "quad/sim/ground_ids.h"
+#include "quad/sim/hil_messages.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
 #include "quad/sim/metrics.h"
+#include "quad/sim/progress_pace.h"
 #include "quad/sim/pty.h"
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
@@ -36,14 +38,7 @@ namespace mav = quad::mavlink;
 
 namespace {
 
-constexpr uint8_t kVehicleSys = 1;  // every firmware's own id, on its own link (quad/link/dialect.h)
-constexpr uint8_t kSimComp = 200;
-constexpr uint8_t kGcsSys = 255;
-constexpr uint16_t kPositionAndYawOnly = 0x0008 | 0x0010 | 0x0020 | 0x0040 | 0x0080 | 0x0100 | 0x0800;
-
 using Clock = std::chrono::steady_clock;
-
-uint64_t to_usec(double t) { return static_cast<uint64_t>(std::llround(t * 1e6)); }
 
 const std::vector<std::string>& fleet_log_columns() {
   static const std::vector<std::string> c = {
@@ -132,8 +127,7 @@ struct Craft {
   std::vector<uint8_t> last_sensor_frame;
   // The firmware's view (telemetry on UART0).
   Eigen::Vector3d est = Eigen::Vector3d::Constant(NAN);
-  int mode = -1;
-  bool armed = false;
+  HeartbeatState heartbeat;
   // Figures.
   FlightMetrics metrics;
   ErrorStats tracking;     // 3-D distance from the truth to the setpoint within the metrics window, armed
@@ -182,7 +176,8 @@ class FleetSession {
   size_t min_pair_a_ = 0, min_pair_b_ = 0;
   double load_start_ = -1.0, cpu_start_ = 0.0;
   double station_cpu_s_ = 0.0;  // the ground-camera station's process, last read
-  Clock::time_point wall_start_, last_progress_, last_summary_;
+  Clock::time_point wall_start_, last_summary_;
+  ProgressPace progress_pace_;
 };
 
 FleetSession::FleetSession(const Scenario& s, const SessionOptions& o) : s_(s), o_(o), field_ned_(s.field_ned_gauss) {
@@ -240,40 +235,14 @@ void FleetSession::send_due_commands(Craft& c, double t) {
   while (c.next_command < commands.size() && commands[c.next_command].at_s <= t + 1e-9) {
     const GcsCommand& g = commands[c.next_command++];
     if (g.setpoint_ned_m) {
-      mav::SetPositionTargetLocalNed sp;
-      sp.time_boot_ms = static_cast<uint32_t>(t * 1000.0);
-      sp.x = static_cast<float>(g.setpoint_ned_m->x());
-      sp.y = static_cast<float>(g.setpoint_ned_m->y());
-      sp.z = static_cast<float>(g.setpoint_ned_m->z());
-      sp.yaw = static_cast<float>(g.yaw_rad);
-      sp.type_mask = kPositionAndYawOnly;
-      sp.target_system = kVehicleSys;
-      sp.target_component = mav::kCompIdAutopilot1;
-      sp.coordinate_frame = mav::kFrameLocalNed;
-      send_gcs(c, sp, t);
+      send_gcs(c, setpoint_message(g, t), t);
       c.setpoint = g.setpoint_ned_m;
       c.setpoint_time = t;
       continue;
     }
-    mav::CommandLong cmd;
-    cmd.target_system = kVehicleSys;
-    cmd.target_component = mav::kCompIdAutopilot1;
-    std::string what;
-    if (g.arm) {
-      cmd.command = mav::kCmdComponentArmDisarm;
-      cmd.param1 = *g.arm ? 1.0f : 0.0f;
-      what = *g.arm ? "arm" : "disarm";
-    } else if (g.mode) {
-      cmd.command = mav::kCmdDoSetMode;
-      cmd.param1 = mav::kModeFlagCustomModeEnabled;
-      cmd.param2 = static_cast<float>(*g.mode);
-      what = "mode " + flight_mode_name(*g.mode);
-    } else {
-      cmd.command = mav::kCmdNavLand;
-      what = "land";
-    }
-    send_gcs(c, cmd, t);
-    event(t, c, "gcs: " + what);
+    const CommandMessage cmd = command_long_message(g);
+    send_gcs(c, cmd.message, t);
+    event(t, c, "gcs: " + cmd.what);
   }
 }
 
@@ -294,18 +263,7 @@ void FleetSession::sample_sensors(Craft& c) {
 }
 
 void FleetSession::send_sensors(Craft& c, double t) {
-  mav::HilSensor m;
-  m.time_usec = to_usec(t);
-  m.xacc = static_cast<float>(c.imu_reading.specific_force_frd.x());
-  m.yacc = static_cast<float>(c.imu_reading.specific_force_frd.y());
-  m.zacc = static_cast<float>(c.imu_reading.specific_force_frd.z());
-  m.xgyro = static_cast<float>(c.imu_reading.rate_frd.x());
-  m.ygyro = static_cast<float>(c.imu_reading.rate_frd.y());
-  m.zgyro = static_cast<float>(c.imu_reading.rate_frd.z());
-  m.xmag = static_cast<float>(c.mag.reading().x());
-  m.ymag = static_cast<float>(c.mag.reading().y());
-  m.zmag = static_cast<float>(c.mag.reading().z());
-  m.fields_updated = 0x3Fu | (c.mag_fresh ? 0x1C0u : 0u);
+  const mav::HilSensor m = hil_sensor_message(t, c.imu_reading, c.mag.reading(), c.mag_fresh);
   c.mag_fresh = false;
   uint8_t buf[mav::max_frame_length<mav::HilSensor>()];
   const size_t n = c.sensor_sender.encode(m, buf, sizeof buf);
@@ -325,13 +283,7 @@ void FleetSession::handle_frame(Craft& c, const mav::Frame& f, double t, bool ua
     }
     case mav::Heartbeat::kId: {
       mav::Heartbeat m;
-      if (!mav::decode(f, m)) break;
-      const int mode = static_cast<int>(m.custom_mode);
-      const bool armed = (m.base_mode & mav::kModeFlagSafetyArmed) != 0;
-      if (mode != c.mode || armed != c.armed)
-        event(t, c, "firmware: mode " + flight_mode_name(mode) + (armed ? ", armed" : ", disarmed"));
-      c.mode = mode;
-      c.armed = armed;
+      if (mav::decode(f, m) && c.heartbeat.update(m)) event(t, c, "firmware: " + c.heartbeat.text());
       break;
     }
     case mav::LocalPositionNed::kId: {
@@ -516,13 +468,13 @@ void FleetSession::log_rows(double t) {
       if (o != c) nearest = std::min(nearest, (world_->truth(o->index).position_ned - tr.position_ned).norm());
     c->log->row({t, tr.position_ned.x(), tr.position_ned.y(), tr.position_ned.z(), tr.velocity_ned.x(), tr.velocity_ned.y(),
                  tr.velocity_ned.z(), e.x(), e.y(), e.z(), c->est.x(), c->est.y(), c->est.z(), sp.x(), sp.y(), sp.z(),
-                 cmd[0], cmd[1], cmd[2], cmd[3], static_cast<double>(c->mode), c->armed ? 1.0 : 0.0,
+                 cmd[0], cmd[1], cmd[2], cmd[3], static_cast<double>(c->heartbeat.mode), c->heartbeat.armed ? 1.0 : 0.0,
                  static_cast<double>(sent), crafts_.size() > 1 ? nearest : NAN});
     const double tilt = std::acos(std::clamp((tr.q_ib * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0));
     c->metrics.add(t, tr.position_ned, tr.velocity_ned, tilt, c->setpoint, c->setpoint_time);
-    if (c->armed && c->setpoint && t >= s_.hold_start_s && t <= s_.hold_end_s)
+    if (c->heartbeat.armed && c->setpoint && t >= s_.hold_start_s && t <= s_.hold_end_s)
       c->tracking.add((tr.position_ned - *c->setpoint).norm());
-    if (c->armed && c->est.allFinite()) c->estimate.add((c->est - tr.position_ned).head<2>().norm());
+    if (c->heartbeat.armed && c->est.allFinite()) c->estimate.add((c->est - tr.position_ned).head<2>().norm());
   }
 }
 
@@ -581,7 +533,7 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
     for (const auto& src : fixes_) sent += src->released(c->index);
     v.add("fixes_sent", static_cast<long>(sent)).add("crashed", c->metrics.crashed());
     if (c->metrics.crashed()) v.add("crash_time_s", c->metrics.crash_time_s());
-    v.add("armed_at_end", c->armed).add("mode_at_end", c->mode < 0 ? std::string("-") : flight_mode_name(c->mode));
+    v.add("armed_at_end", c->heartbeat.armed).add("mode_at_end", c->heartbeat.mode_name());
     if (c->udp) {
       const GroundIdStats& g = c->ids.stats();
       Json ids;
@@ -611,10 +563,8 @@ void FleetSession::write_summary(bool complete, const std::string& reason) {
 }
 
 void FleetSession::progress(double t, bool final_line) {
-  if (!o_.progress) return;
   const auto now = Clock::now();
-  if (!final_line && now - last_progress_ < std::chrono::milliseconds(250)) return;
-  last_progress_ = now;
+  if (!o_.progress || !progress_pace_.due(now, final_line)) return;
   const double wall = std::chrono::duration<double>(now - wall_start_).count();
   std::fprintf(stderr, "\r  t %6.1f / %.0f s | %6.2fx real time | %zu vehicles | nearest %5.2f m | collisions %zu%s", t,
                s_.duration_s, wall > 0 ? t / wall : 0.0, crafts_.size(), min_separation_m_, world_->collisions().size(),

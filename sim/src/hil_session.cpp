@@ -13,16 +13,18 @@
 #include <stdexcept>
 #include <thread>
 
+#include "quad/link/dialect.h"
 #include "quad/link/mavlink.h"
 #include "quad/link/tlog.h"
 #include "quad/sim/faults.h"
 #include "quad/sim/firmware_process.h"
-#include "quad/sim/flight_modes.h"
+#include "quad/sim/hil_messages.h"
 #include "quad/sim/log_download.h"
 #include "quad/sim/frames.h"
 #include "quad/sim/imu.h"
 #include "quad/sim/magnetometer.h"
 #include "quad/sim/metrics.h"
+#include "quad/sim/progress_pace.h"
 #include "quad/sim/pty.h"
 #include "quad/sim/run_output.h"
 #include "quad/sim/serial_line.h"
@@ -38,25 +40,14 @@ namespace mav = quad::mavlink;
 
 namespace {
 
-// System and component ids (docs/hil-protocol.md).
-constexpr uint8_t kVehicleSys = 1;
-constexpr uint8_t kSimComp = 200;
-constexpr uint8_t kGcsSys = 255;
-
-// SET_POSITION_TARGET_LOCAL_NED type_mask: use position and yaw, ignore velocity, acceleration, yaw rate.
-constexpr uint16_t kPositionAndYawOnly = 0x0008 | 0x0010 | 0x0020 | 0x0040 | 0x0080 | 0x0100 | 0x0800;
-
 using Clock = std::chrono::steady_clock;
-
-uint64_t to_usec(double t) { return static_cast<uint64_t>(std::llround(t * 1e6)); }
 
 // The firmware's view, from its telemetry.
 struct Telemetry {
   Eigen::Vector3d position_ned = Eigen::Vector3d::Constant(NAN);
   Eigen::Vector3d velocity_ned = Eigen::Vector3d::Constant(NAN);
   Eigen::Quaterniond q_ib{NAN, NAN, NAN, NAN};
-  int mode = -1;
-  bool armed = false;
+  HeartbeatState heartbeat;
   uint64_t frames = 0;
 };
 
@@ -203,8 +194,8 @@ class Session {
   std::deque<std::pair<long long, Eigen::Vector3d>> truth_history_;  // (ms, position) of the last rows
   std::optional<double> altitude_reached_s_;
   Clock::time_point wall_start_;
-  Clock::time_point last_progress_;
   Clock::time_point last_summary_;
+  ProgressPace progress_pace_;
 };
 
 VehicleParams vehicle_params(const Scenario& s) {
@@ -307,16 +298,7 @@ void Session::send_due_commands(double t) {
   while (next_command_ < s_.commands.size() && s_.commands[next_command_].at_s <= t + 1e-9) {
     const GcsCommand& c = s_.commands[next_command_++];
     if (c.setpoint_ned_m) {
-      mav::SetPositionTargetLocalNed sp;
-      sp.time_boot_ms = static_cast<uint32_t>(t * 1000.0);
-      sp.x = static_cast<float>(c.setpoint_ned_m->x());
-      sp.y = static_cast<float>(c.setpoint_ned_m->y());
-      sp.z = static_cast<float>(c.setpoint_ned_m->z());
-      sp.yaw = static_cast<float>(c.yaw_rad);
-      sp.type_mask = kPositionAndYawOnly;
-      sp.target_system = kVehicleSys;
-      sp.target_component = mav::kCompIdAutopilot1;
-      sp.coordinate_frame = mav::kFrameLocalNed;
+      const mav::SetPositionTargetLocalNed sp = setpoint_message(c, t);
       send_gcs(sp, t);
       setpoint_ = c.setpoint_ned_m;
       setpoint_yaw_ = c.yaw_rad;
@@ -340,25 +322,9 @@ void Session::send_due_commands(double t) {
       event(t, "gcs: parameter list");
       continue;
     }
-    mav::CommandLong cmd;
-    cmd.target_system = kVehicleSys;
-    cmd.target_component = mav::kCompIdAutopilot1;
-    std::string what;
-    if (c.arm) {
-      cmd.command = mav::kCmdComponentArmDisarm;
-      cmd.param1 = *c.arm ? 1.0f : 0.0f;
-      what = *c.arm ? "arm" : "disarm";
-    } else if (c.mode) {
-      cmd.command = mav::kCmdDoSetMode;
-      cmd.param1 = mav::kModeFlagCustomModeEnabled;
-      cmd.param2 = static_cast<float>(*c.mode);
-      what = "mode " + flight_mode_name(*c.mode);
-    } else {
-      cmd.command = mav::kCmdNavLand;
-      what = "land";
-    }
-    send_gcs(cmd, t);
-    event(t, "gcs: " + what);
+    const CommandMessage cmd = command_long_message(c);
+    send_gcs(cmd.message, t);
+    event(t, "gcs: " + cmd.what);
   }
 }
 
@@ -379,19 +345,7 @@ void Session::send_rc(double t) {
 }
 
 void Session::send_sensors(double t) {
-  mav::HilSensor m;
-  m.time_usec = to_usec(t);
-  m.xacc = static_cast<float>(imu_reading_.specific_force_frd.x());
-  m.yacc = static_cast<float>(imu_reading_.specific_force_frd.y());
-  m.zacc = static_cast<float>(imu_reading_.specific_force_frd.z());
-  m.xgyro = static_cast<float>(imu_reading_.rate_frd.x());
-  m.ygyro = static_cast<float>(imu_reading_.rate_frd.y());
-  m.zgyro = static_cast<float>(imu_reading_.rate_frd.z());
-  m.xmag = static_cast<float>(mag_.reading().x());
-  m.ymag = static_cast<float>(mag_.reading().y());
-  m.zmag = static_cast<float>(mag_.reading().z());
-  m.fields_updated = 0x3Fu | (mag_fresh_ ? 0x1C0u : 0u);  // accel bits 0-2, gyro 3-5, mag 6-8
-  m.id = 0;
+  const mav::HilSensor m = hil_sensor_message(t, imu_reading_, mag_.reading(), mag_fresh_);
   mag_fresh_ = false;
   uint8_t buf[mav::max_frame_length<mav::HilSensor>()];
   const size_t n = sensor_sender_.encode(m, buf, sizeof buf);
@@ -443,15 +397,8 @@ void Session::handle_frame(const mav::Frame& f, double t, const char* port) {
     }
     case mav::Heartbeat::kId: {
       mav::Heartbeat m;
-      if (!mav::decode(f, m)) break;
-      const int mode = static_cast<int>(m.custom_mode);
-      const bool armed = (m.base_mode & mav::kModeFlagSafetyArmed) != 0;
-      if (mode != tele_.mode || armed != tele_.armed) {
-        event(t, std::string("firmware (") + port + "): mode " + flight_mode_name(mode) +
-                     (armed ? ", armed" : ", disarmed"));
-      }
-      tele_.mode = mode;
-      tele_.armed = armed;
+      if (mav::decode(f, m) && tele_.heartbeat.update(m))
+        event(t, std::string("firmware (") + port + "): " + tele_.heartbeat.text());
       break;
     }
     case mav::LocalPositionNed::kId: {
@@ -708,7 +655,7 @@ void Session::log_row(double t) {
              tele_.velocity_ned.x(), tele_.velocity_ned.y(), tele_.velocity_ned.z(), ee.x(), ee.y(), ee.z(), sp.x(),
              sp.y(), sp.z(), setpoint_ ? setpoint_yaw_ : NAN, c[0], c[1], c[2], c[3], vehicle_.motor(0).thrust_n(),
              vehicle_.motor(1).thrust_n(), vehicle_.motor(2).thrust_n(), vehicle_.motor(3).thrust_n(),
-             static_cast<double>(tele_.mode), tele_.armed ? 1.0 : 0.0, imu_reading_.specific_force_frd.x(),
+             static_cast<double>(tele_.heartbeat.mode), tele_.heartbeat.armed ? 1.0 : 0.0, imu_reading_.specific_force_frd.x(),
              imu_reading_.specific_force_frd.y(), imu_reading_.specific_force_frd.z(), imu_reading_.rate_frd.x(),
              imu_reading_.rate_frd.y(), imu_reading_.rate_frd.z(), mag_.reading().x(), mag_.reading().y(),
              mag_.reading().z(), w.x(), w.y(), w.z(), static_cast<double>(vision_sent()),
@@ -732,7 +679,7 @@ void Session::log_row(double t) {
 void Session::score_estimate(uint32_t time_boot_ms, const Eigen::Vector3d& estimate) {
   // Against the truth at the estimate's own time (the firmware stamps it with the HIL clock), so the
   // telemetry's age does not count as estimation error. Only while armed: the flight, not the bench.
-  if (!tele_.armed || !estimate.allFinite()) return;
+  if (!tele_.heartbeat.armed || !estimate.allFinite()) return;
   for (auto it = truth_history_.rbegin(); it != truth_history_.rend(); ++it) {
     if (it->first != static_cast<long long>(time_boot_ms)) continue;
     est_horizontal_.add((estimate - it->second).head<2>().norm());
@@ -890,15 +837,13 @@ void Session::write_summary(bool complete, const std::string& reason) {
 }
 
 void Session::progress(double t, bool final_line) {
-  if (!o_.progress) return;
   const auto now = Clock::now();
-  if (!final_line && now - last_progress_ < std::chrono::milliseconds(250)) return;
-  last_progress_ = now;
+  if (!o_.progress || !progress_pace_.due(now, final_line)) return;
   const double wall = std::chrono::duration<double>(now - wall_start_).count();
   const VehicleTruth tr = vehicle_.truth();
   char err[32] = "     -";
   if (setpoint_) std::snprintf(err, sizeof err, "%6.3f", (tr.position_ned - *setpoint_).norm());
-  const std::string mode = tele_.mode < 0 ? "-" : flight_mode_name(tele_.mode);
+  const std::string mode = tele_.heartbeat.mode_name();
   std::fprintf(stderr, "\r  t %6.1f / %.0f s | %6.1fx real time | error %s m | height %5.2f m | %-8s%s", t,
                s_.duration_s, wall > 0 ? t / wall : 0.0, err, -(tr.position_ned.z() - vehicle_.rest_down_m()), mode.c_str(),
                final_line ? "\n" : "");

@@ -41,9 +41,7 @@ void SimulatedVisionFix::update(double t, const Eigen::Vector3d& p_ned, const Ei
     lt.q[3] = static_cast<float>(q_bs.z());
   }
   lt.position_valid = 1;
-  uint8_t buf[mavlink::max_frame_length<mavlink::LandingTarget>()];
-  const size_t n = sender_.encode(lt, buf, sizeof buf);
-  pending_.emplace_back(t + p_.latency_s + errors.extra_latency_s, std::vector<uint8_t>(buf, buf + n));
+  queue(t + p_.latency_s + errors.extra_latency_s, lt);
 }
 
 }  // namespace quad::sim

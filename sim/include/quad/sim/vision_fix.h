@@ -5,15 +5,14 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <optional>
 #include <utility>
-#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "quad/link/mavlink.h"
+#include "quad/sim/delayed_frames.h"
 #include "quad/sim/rng.h"
 #include "quad/sim/scenario.h"
 
@@ -33,35 +32,21 @@ struct FixErrors {
   std::optional<Eigen::Vector3d> decoy_ned;
 };
 
-class SimulatedVisionFix {
+// Its frames come out through DelayedFrames::release_until().
+class SimulatedVisionFix : public DelayedFrames {
  public:
-  SimulatedVisionFix(const VisionParams& params, Rng rng) : p_(params), rng_(std::move(rng)) {}
+  SimulatedVisionFix(const VisionParams& params, Rng rng)
+      : DelayedFrames(1, mavlink::kCompIdVisualInertialOdometry), p_(params), rng_(std::move(rng)) {}
 
   // Call every physics step with the truth at time t: captures a fix when one is due (none while
   // `dropout`, none when disabled), with the station's `errors`.
   void update(double t, const Eigen::Vector3d& p_ned, const Eigen::Quaterniond& q_ib, bool dropout,
               const FixErrors& errors = {});
 
-  // Hands sink(release_time, const uint8_t*, size_t) every frame whose release time is <= t, in order.
-  template <class Sink>
-  void release_until(double t, Sink&& sink) {
-    while (!pending_.empty() && pending_.front().first <= t + 1e-9) {
-      const auto& [when, bytes] = pending_.front();
-      sink(when, bytes.data(), bytes.size());
-      ++released_;
-      pending_.pop_front();
-    }
-  }
-
-  uint64_t released() const { return released_; }
-
  private:
   VisionParams p_;
   Rng rng_;
-  mavlink::Sender sender_{1, mavlink::kCompIdVisualInertialOdometry};
   double next_capture_t_ = 0.0;
-  std::deque<std::pair<double, std::vector<uint8_t>>> pending_;  // release time, frame
-  uint64_t released_ = 0;
 };
 
 }  // namespace quad::sim
