@@ -3,13 +3,10 @@
 // HIL_SENSOR for a still vehicle at 100 Hz, arms over MAVLink and checks that every sensor message is
 // answered by one HIL_ACTUATOR_CONTROLS with the same time stamp, the lockstep flag and the armed flag,
 // and that the motors answer the throttle stick. Also: the command line's errors.
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <poll.h>
-#include <pty.h>
 #include <signal.h>
 #include <sys/wait.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_port_pty.h"
 #include "quad/link/mavlink.h"
 
 namespace {
@@ -28,30 +26,7 @@ namespace {
 namespace mav = quad::mavlink;
 using Clock = std::chrono::steady_clock;
 
-// One pseudo-terminal pair: the test holds the master, the firmware opens the slave by path.
-struct Pty {
-  int master = -1;
-  int slave = -1;
-  std::string path;
-
-  Pty() {
-    char name[128];
-    if (openpty(&master, &slave, name, nullptr, nullptr) != 0) return;
-    path = name;
-    termios tio;
-    tcgetattr(slave, &tio);
-    cfmakeraw(&tio);
-    tcsetattr(slave, TCSANOW, &tio);
-    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
-    // The firmware must not inherit our ends, or closing them would not hang up its port.
-    fcntl(master, F_SETFD, FD_CLOEXEC);
-    fcntl(slave, F_SETFD, FD_CLOEXEC);
-  }
-  ~Pty() {
-    if (master >= 0) close(master);
-    if (slave >= 0) close(slave);
-  }
-};
+using Pty = quad_test::ChildPortPty;
 
 // The peer side of one port: encodes as one sender, parses everything coming back.
 class Peer {

@@ -1,13 +1,10 @@
 // quad_gs against quad_firmware over pseudo-terminals: the test plays the simulator on UART0 (lockstep
 // HIL_SENSOR for a still vehicle) and carries the radio (UART2) to a third pseudo-terminal where the
 // ground-station tool runs, as a user driving a HIL flight by hand would.
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <poll.h>
-#include <pty.h>
 #include <signal.h>
 #include <sys/wait.h>
-#include <termios.h>
 #include <unistd.h>
 
 #include <array>
@@ -22,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "child_port_pty.h"
 #include "param_file.h"
 #include "quad/firmware/params.h"
 #include "quad/link/mavlink.h"
@@ -30,26 +28,7 @@ namespace {
 
 namespace mav = quad::mavlink;
 
-struct Pty {
-  int master = -1, slave = -1;
-  std::string path;
-  Pty() {
-    char name[128];
-    if (openpty(&master, &slave, name, nullptr, nullptr) != 0) return;
-    path = name;
-    termios tio;
-    tcgetattr(slave, &tio);
-    cfmakeraw(&tio);
-    tcsetattr(slave, TCSANOW, &tio);
-    fcntl(master, F_SETFL, fcntl(master, F_GETFL) | O_NONBLOCK);
-    fcntl(master, F_SETFD, FD_CLOEXEC);
-    fcntl(slave, F_SETFD, FD_CLOEXEC);
-  }
-  ~Pty() {
-    if (master >= 0) close(master);
-    if (slave >= 0) close(slave);
-  }
-};
+using Pty = quad_test::ChildPortPty;
 
 // The simulator and the radio in one thread: a HIL step every 5 ms (lockstep: wait for the answer),
 // and every byte copied between the firmware's UART2 and the ground station's terminal.

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "loop_session.h"
 #include "loop_summary.h"
 #include "quad/sim/hil_session.h"
 #include "quad/sim/scenario.h"
@@ -23,12 +24,7 @@ namespace {
 
 SessionResult fly(const std::string& scenario, const std::string& out) {
   const Scenario s = load_scenario(std::string(QUAD_LOOP_TEST_DIR) + "/" + scenario);
-  SessionOptions o;
-  o.out_dir = out;
-  o.firmware_argv = {QUAD_SIM_FIRMWARE};
-  o.station_argv = {QUAD_VISION_STATION, "run"};
-  o.progress = false;
-  return run_session(s, o);
+  return run_session(s, loop_session_options(out));
 }
 
 std::string run_dir(const std::string& name) {

@@ -24,6 +24,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "loop_session.h"
 #include "loop_summary.h"
 #include "quad/sim/fleet_session.h"
 #include "quad/sim/scenario.h"
@@ -38,12 +39,7 @@ std::string run_dir(const std::string& name) {
 }
 
 SessionResult fly(const Scenario& s, const std::string& out) {
-  SessionOptions o;
-  o.out_dir = out;
-  o.firmware_argv = {QUAD_SIM_FIRMWARE};
-  o.station_argv = {QUAD_VISION_STATION, "run"};
-  o.progress = false;
-  return run_fleet_session(s, o);
+  return run_fleet_session(s, loop_session_options(out));
 }
 
 // One vehicle's logged truth (log.csv): time, NED position, ZYX angles.

@@ -16,6 +16,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "loop_session.h"
 #include "loop_summary.h"
 #include "quad/sim/ground_camera.h"
 #include "quad/sim/hil_session.h"
@@ -36,12 +37,7 @@ Scenario ground_scenario(const std::vector<ScenarioOverride>& extra) {
 }
 
 SessionResult fly(const Scenario& s, const std::string& out) {
-  SessionOptions o;
-  o.out_dir = out;
-  o.firmware_argv = {QUAD_SIM_FIRMWARE};
-  o.station_argv = {QUAD_VISION_STATION, "run"};
-  o.progress = false;
-  return run_session(s, o);
+  return run_session(s, loop_session_options(out));
 }
 
 // The station's room file against the simulator's cameras: optical centres, and pixels of points in the

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "quad/vision/ground/ground_sim_protocol.h"
+#include "quad/vision/sim_socket.h"
 
 namespace quad::vision::ground {
 
@@ -29,7 +30,6 @@ class GroundSimSource {
  public:
   // Connects to the simulator's socket, retrying until `connect_timeout`; throws GroundSourceError.
   GroundSimSource(const std::string& path, std::chrono::milliseconds connect_timeout);
-  ~GroundSimSource();
   GroundSimSource(const GroundSimSource&) = delete;
   GroundSimSource& operator=(const GroundSimSource&) = delete;
 
@@ -38,9 +38,7 @@ class GroundSimSource {
   void answer(const ground_sim_protocol::SetAnswer& answer, const std::vector<ground_sim_protocol::VehicleReport>& reports);
 
  private:
-  bool receive(void* data, size_t length);
-  std::string path_;
-  int fd_ = -1;
+  SimSocket socket_;
 };
 
 }  // namespace quad::vision::ground
