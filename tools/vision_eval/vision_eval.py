@@ -53,6 +53,7 @@ def load(sets_dir, detect_dir, condition):
         row["error"] = None
         row["tilt_error"] = None
         row["tilt_predicted"] = None
+        row["has_pose"] = d.get("q") is not None
         if row["found"] and row["in_view"]:
             err = math.dist((d["x"], d["y"], d["z"]), (float(t["x"]), float(t["y"]), float(t["z"])))
             row["error"] = err / float(t["range_m"])
@@ -147,12 +148,31 @@ FACTORS = [
 ]
 
 
+def false_fix_report(name, rows):
+    """What each false fix was: the star in full view placed more than 5 % of its range off (its error,
+    and whether the fix had a pose), or a fix on a pair without a star in full view (a decoy, a star cut
+    by the image edge, or nothing)."""
+    wrong = [r for r in rows if r["found"] and not (r["error"] is not None and r["error"] <= MATCH_FRACTION)]
+    if not wrong:
+        return []
+    out = [f"#### {name}: false fixes", "",
+           "| condition | pair | star in full view | its error | a star cut by the edge too | fix with a pose |",
+           "| --- | --- | --- | ---: | --- | --- |"]
+    yes_no = lambda b: "yes" if b else "no"
+    for r in wrong:
+        error = f"{100.0 * r['error']:.1f} %" if r["in_view"] else "—"
+        out.append(f"| {r['condition']} | {r['left']} | {yes_no(r['in_view'])} | {error} | "
+                   f"{yes_no(r.get('star_cut') == '1')} | {yes_no(r['has_pose'])} |")
+    return out + [""]
+
+
 def report(name, rows, conditions):
     out = [f"#### {name}: per condition", "", HEADER.format(k="condition")]
     for c in conditions:
         out.append(line(c, summarise([r for r in rows if r["condition"] == c])))
     out.append(line("all", summarise(rows)))
-    out += ["", f"#### {name}: per factor (all conditions; pairs without a star count under their own level)", ""]
+    out += [""] + false_fix_report(name, rows)
+    out += [f"#### {name}: per factor (all conditions; pairs without a star count under their own level)", ""]
     for factor, key in FACTORS:
         out.append(HEADER.format(k=factor))
         levels = sorted({key(r) for r in rows})
