@@ -20,6 +20,8 @@
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/math/math.h"
+#include "bench_hover_sensors.h"
+#include "bench_noise.h"
 
 namespace {
 
@@ -30,15 +32,10 @@ constexpr uint32_t kPeriodUs = 10000;  // 100 Hz, the thesis' loop (the cycle fi
 constexpr float kDt = 1e-6f * kPeriodUs;
 constexpr uint32_t kFixDelayUs = 40000;  // vision latency: capture to arrival
 
-volatile float g_noise_scale = 1.0f;
 volatile float g_in[8] = {0.11f, -0.23f, 0.31f, 0.01f, 0.7f, 0.1f, -0.2f, 0.67f};
 
-// Deterministic small sensor noise (LCG), so the warm-up is not a constant input.
-uint32_t g_seed = 12345u;
-float noise(float amplitude) {
-  g_seed = g_seed * 1664525u + 1013904223u;
-  return amplitude * g_noise_scale * (static_cast<float>(static_cast<int32_t>(g_seed >> 8) - 8388608L) * (1.0f / 8388608.0f));
-}
+// Deterministic small sensor noise, so the warm-up is not a constant input.
+using quad_bench::noise;
 
 // The classic bit-level inverse square root with one Newton step (relative error < 1.8e-3), measured
 // against 1 / sqrtf to show that it does not pay on this chip (docs/performance.md).
@@ -51,19 +48,8 @@ float inv_sqrt_newton(float x) {
   return y * (1.5f - 0.5f * x * y * y);
 }
 
-struct Sensors {
-  Vec3 gyro, accel, mag;
-};
-
-// A slowly rocking vehicle near hover: rates of a few deg/s, specific force near -g e_z, the earth field.
-Sensors sample(uint32_t k) {
-  const float phase = 0.02f * static_cast<float>(k % 300u) - 3.0f;
-  Sensors s;
-  s.gyro = Vec3{0.05f * phase + noise(0.01f), -0.03f + noise(0.01f), 0.02f + noise(0.01f)};
-  s.accel = Vec3{0.3f + noise(0.2f), -0.2f + noise(0.2f), -quad::kGravity + noise(0.2f)};
-  s.mag = Vec3{0.21f + noise(0.005f), 0.02f + noise(0.005f), 0.43f + noise(0.005f)};
-  return s;
-}
+using quad_bench::hover_sample;
+using quad_bench::Sensors;
 
 // The flight core as the firmware holds it (static storage, as in FlightApp).
 quad::est::ConditionedObserver g_observer;
@@ -102,12 +88,12 @@ quad::est::FixResult fuse_fix() {
 // Warm-up: two simulated seconds of hover with a magnetometer sample on three of four steps (75 Hz of
 // 100 Hz) and a vision fix every fourth step (25 Hz).
 void warm_up() {
-  const Sensors s0 = sample(0);
+  const Sensors s0 = hover_sample(0);
   g_observer.initialize(s0.accel, s0.mag);
   for (uint32_t k = 0; k < 200; ++k) {
     g_now_us += kPeriodUs;
     ++g_step;
-    estimate(sample(g_step), g_step % 4u != 0u);
+    estimate(hover_sample(g_step), g_step % 4u != 0u);
     if (g_step % 4u == 2u) fuse_fix();
     g_shaper.update(kDt, g_setpoint);
     g_cascade.step(vehicle_state(), g_setpoint);
@@ -158,9 +144,9 @@ int main() {
   {
     g_now_us += kPeriodUs;
     ++g_step;
-    const Sensors s = sample(g_step);
+    const Sensors s = hover_sample(g_step);
     measure("observer_with_mag", [&] { g_observer.update(s.gyro, s.accel, s.mag, true, kDt); });
-    const Sensors s2 = sample(g_step + 1);
+    const Sensors s2 = hover_sample(g_step + 1);
     measure("observer_without_mag", [&] { g_observer.update(s2.gyro, s2.accel, s2.mag, false, kDt); });
     // The gyro-only step of a faster loop (400 Hz; no renormalisation between corrections).
     measure("observer_propagate", [&] { g_observer.propagate(s2.gyro, 0.25f * kDt); });
@@ -234,7 +220,7 @@ int main() {
   {
     g_now_us += kPeriodUs;
     ++g_step;
-    const Sensors s = sample(g_step);
+    const Sensors s = hover_sample(g_step);
     measure("iteration_typical", [&] {
       estimate(s, false);
       g_shaper.update(kDt, g_setpoint);
@@ -248,7 +234,7 @@ int main() {
   {
     g_now_us += kPeriodUs;
     ++g_step;
-    const Sensors s = sample(g_step);
+    const Sensors s = hover_sample(g_step);
     g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
     g_shaper.update(kDt, g_setpoint);
     quad::ctrl::PositionSetpoint far;

@@ -2,7 +2,8 @@
 # check_ekf_instruction_count.cmake): QEMU, IMAGE and BUDGET set, the image run on QEMU's mps2-an386 with
 # -icount shift=0 (firmware/targets/cortexm/instruction_counter.h), `figure(NAME OUT)` to read a
 # "NAME instructions" line into `value`, and `failures` started with the calibration loops' check (their
-# exact instruction counts, +-1 SysTick tick = 40). The including script sets CHECK_NAME first.
+# exact instruction counts, +-1 SysTick tick = 40); `check_within_budget(NAME...)` and
+# `report_failures(TITLE)` to end the check. The including script sets CHECK_NAME first.
 foreach(var QEMU IMAGE BUDGET)
   if(NOT DEFINED ${var} OR "${${var}}" STREQUAL "" OR "${${var}}" MATCHES "NOTFOUND$")
     message(FATAL_ERROR "${CHECK_NAME}: ${var} is not set (qemu-system-arm: tools/packages-debian.txt)")
@@ -32,3 +33,22 @@ foreach(expected 4000 40000)
     list(APPEND failures "calibration_${expected} read ${value}: the SysTick/-icount method is off")
   endif()
 endforeach()
+
+# Each named figure at most BUDGET instructions.
+function(check_within_budget)
+  foreach(name ${ARGN})
+    figure(${name} "${out}")
+    if(value GREATER ${BUDGET})
+      list(APPEND failures "${name}: ${value} instructions > ${BUDGET}")
+    endif()
+  endforeach()
+  set(failures "${failures}" PARENT_SCOPE)
+endfunction()
+
+# Fails the test with every failure listed under TITLE, one a line.
+function(report_failures title)
+  if(failures)
+    string(REPLACE ";" "\n  " failures "${failures}")
+    message(FATAL_ERROR "${title}:\n  ${failures}")
+  endif()
+endfunction()

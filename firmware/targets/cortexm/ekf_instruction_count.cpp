@@ -17,16 +17,13 @@
 #include "quad/math/math.h"
 #include "bench_noise.h"
 #include "instruction_counter.h"
+#include "loop_timing_400hz.h"
 
 namespace {
 
 using quad::Vec3;
 
 // ---- the EKF in a hover, as the firmware runs it at 400 Hz ----------------------------------------
-constexpr uint32_t kPeriodUs = 2500;  // 400 Hz
-constexpr float kDt = 1e-6f * kPeriodUs;
-constexpr uint32_t kFixDelayUs = 40000;
-
 using quad_bench::noise;
 
 // The firmware's EKF: 250 ms of 100 Hz increments (kPositionHistory), 100 ms behind now.
@@ -70,11 +67,7 @@ bool fix_at(uint32_t k) { return k % 12u == 1u; }
 }  // namespace
 
 int main() {
-  kUart0[4] = 16u;  // BAUDDIV: the smallest legal divider
-  kUart0[2] = 1u;   // CTRL: transmitter on
-  start_counter();
-  calibrate("calibration_4000", 1000);
-  calibrate("calibration_40000", 10000);
+  start_and_calibrate();
 
   quad::est::EkfParams p;
   p.star_ned = kStar;

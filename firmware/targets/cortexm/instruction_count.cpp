@@ -15,31 +15,19 @@
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/math/math.h"
+#include "bench_hover_sensors.h"
 #include "bench_noise.h"
 #include "instruction_counter.h"
+#include "loop_timing_400hz.h"
 
 namespace {
 
 using quad::Vec3;
 
 // ---- the flight core, as in the cycle bench ------------------------------------------------------
-constexpr uint32_t kPeriodUs = 2500;  // 400 Hz
-constexpr float kDt = 1e-6f * kPeriodUs;
-constexpr uint32_t kFixDelayUs = 40000;
-
+using quad_bench::hover_sample;
 using quad_bench::noise;
-
-struct Sensors {
-  Vec3 gyro, accel, mag;
-};
-Sensors sample(uint32_t k) {
-  const float phase = 0.02f * static_cast<float>(k % 300u) - 3.0f;
-  Sensors s;
-  s.gyro = Vec3{0.05f * phase + noise(0.01f), -0.03f + noise(0.01f), 0.02f + noise(0.01f)};
-  s.accel = Vec3{0.3f + noise(0.2f), -0.2f + noise(0.2f), -quad::kGravity + noise(0.2f)};
-  s.mag = Vec3{0.21f + noise(0.005f), 0.02f + noise(0.005f), 0.43f + noise(0.005f)};
-  return s;
-}
+using quad_bench::Sensors;
 
 quad::est::ConditionedObserver g_observer;
 quad::est::PositionFilter<quad::est::history_length(400)> g_filter;
@@ -60,7 +48,7 @@ void estimate(const Sensors& s, bool mag_new) {
 void iteration(bool mag_new, bool fix) {
   g_now_us += kPeriodUs;
   ++g_step;
-  estimate(sample(g_step), mag_new);
+  estimate(hover_sample(g_step), mag_new);
   if (fix) g_filter.fuse_position(kHoverPoint + Vec3{noise(0.03f), noise(0.03f), noise(0.03f)}, g_now_us - kFixDelayUs);
   g_shaper.update(kDt, g_setpoint);
   keep(g_cascade.step(vehicle_state(), g_setpoint));
@@ -69,16 +57,10 @@ void iteration(bool mag_new, bool fix) {
 }  // namespace
 
 int main() {
-  kUart0[4] = 16u;  // BAUDDIV: the smallest legal divider
-  kUart0[2] = 1u;   // CTRL: transmitter on
-  start_counter();
-  // Calibration: n passes of a 4-instruction loop body (nop, nop, subs, bne) = 4 n instructions, at two
-  // lengths so a fixed offset of the reads shows apart from the slope.
-  calibrate("calibration_4000", 1000);
-  calibrate("calibration_40000", 10000);
+  start_and_calibrate();
   measure("loop_overhead", 10000, [] { __asm volatile("" ::: "memory"); });
 
-  const Sensors s0 = sample(0);
+  const Sensors s0 = hover_sample(0);
   g_observer.initialize(s0.accel, s0.mag);
   g_setpoint.p_d = kHoverPoint;
   g_shaper.set_target(kHoverPoint);
@@ -95,7 +77,7 @@ int main() {
     g_shaper.set_target(Vec3{5.0f, -3.0f, -2.5f});
     g_now_us += kPeriodUs;
     ++g_step;
-    const Sensors sw = sample(g_step);
+    const Sensors sw = hover_sample(g_step);
     const Vec3 fix = g_filter.position() + Vec3{-0.02f, 0.01f, 0.015f};
     measure("iteration_worst", 1, [&] {
       estimate(sw, true);
@@ -111,7 +93,7 @@ int main() {
                                                                                      : "worst_case_saturated 0\n");
   }
   // Stages on the live state.
-  const Sensors s = sample(g_step + 1);
+  const Sensors s = hover_sample(g_step + 1);
   measure("observer_with_mag", 100, [&] { g_observer.update(s.gyro, s.accel, s.mag, true, kDt); });
   measure("observer_without_mag", 100, [&] { g_observer.update(s.gyro, s.accel, s.mag, false, kDt); });
   Vec3 u;
