@@ -301,16 +301,39 @@ void expect_failsafe_landing(const Flight& f, const std::string& failsafe, doubl
               f.scenario.name.c_str(), failsafe.c_str(), *reported - t0, *disarmed - t0, drift);
 }
 
+// Flies a failsafe scenario: safe, and landing through `failsafe` within the bounds.
+void fly_landing_through(const std::string& name, const std::string& failsafe, double report_within_s,
+                         double disarmed_within_s, double max_drift_m) {
+  const Flight f = fly(name);
+  expect_safe(f);
+  expect_failsafe_landing(f, failsafe, report_within_s, disarmed_within_s, max_drift_m);
+}
+
 constexpr double kLandCommand = 24.0;  // the hold scenarios' land command
 // Vertical bounds: the fault-free hover held up to 8.6 cm above the setpoint (docs/simulator.md, before the
 // firmware's vertical trim), so a hold is within 15 cm vertically, a degraded hold within 30 cm.
 constexpr double kHoldVertical = 0.15;
 constexpr double kDegradeVertical = 0.30;
 
-TEST(FaultCampaign, RadioBitErrors) {
-  const Flight f = fly("radio_ber");
+// Flies a hold scenario: safe, and holding within the bounds until the land command.
+Flight fly_holding(const std::string& name, double max_horizontal_m, double max_vertical_m,
+                   double recovery_s = 5.0) {
+  Flight f = fly(name);
   expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  expect_hold(f, max_horizontal_m, max_vertical_m, kLandCommand, recovery_s);
+  return f;
+}
+
+// The fix's range 1 % long: the estimate believes 1 % (1.5 cm) higher than the truth.
+void expect_range_one_percent_long(const Flight& f) {
+  const double bias = f.mean_difference("est_d", "true_d", 15.0, 24.0);
+  EXPECT_GT(bias, -0.025);
+  EXPECT_LT(bias, -0.005);
+  std::printf("[campaign] %s: estimate - truth (down) %.4f m\n", f.scenario.name.c_str(), bias);
+}
+
+TEST(FaultCampaign, RadioBitErrors) {
+  const Flight f = fly_holding("radio_ber", 0.10, kHoldVertical);
   // The fault acted at its rate: 360 fixes of 72 bytes cross the uplink in the window, 207 360 bits, so
   // ~207 flips at 1e-3 (Poisson, sigma 7 %); the band is 3.6 sigma.
   const double bits = 8.0 * f.counter_increase("radio_up_bytes", 11.0, 23.0);
@@ -325,84 +348,59 @@ TEST(FaultCampaign, RadioBitErrors) {
 }
 
 TEST(FaultCampaign, RadioLossBursts) {
-  const Flight f = fly("radio_loss_bursts");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  const Flight f = fly_holding("radio_loss_bursts", 0.10, kHoldVertical);
   const double sent = f.counter_increase("radio_up_sent", 10.0, 13.0);
   EXPECT_NEAR(f.counter_increase("radio_up_lost", 10.0, 13.0) / sent, 0.30, 0.10);
 }
 
 TEST(FaultCampaign, VisionDropoutInAutoLands) {
-  const Flight f = fly("vision_dropout");
-  expect_safe(f);
   // FS_VIS_TIMEOUT 0.5 s after the last fix arrived (~40 ms after its capture). The level landing has no
   // position to hold: it drifts with the velocity and tilt error it had (up to 0.47 m over five seeds).
-  expect_failsafe_landing(f, "vision lost", 0.65, 6.0, 1.0);
+  fly_landing_through("vision_dropout", "vision lost", 0.65, 6.0, 1.0);
 }
 
 TEST(FaultCampaign, VisionLatency) {
-  const Flight f = fly("vision_latency");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  fly_holding("vision_latency", 0.10, kHoldVertical);
 }
 
 TEST(FaultCampaign, MagneticDisturbance) {
-  const Flight f = fly("mag_disturbance");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  fly_holding("mag_disturbance", 0.10, kHoldVertical);
 }
 
 TEST(FaultCampaign, GyroBiasStep) {
-  const Flight f = fly("gyro_bias_step");
-  expect_safe(f);
-  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
+  fly_holding("gyro_bias_step", 0.50, kDegradeVertical);
 }
 
 TEST(FaultCampaign, MotorEfficiencyLoss) {
-  const Flight f = fly("motor_efficiency");
-  expect_safe(f);
-  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
+  fly_holding("motor_efficiency", 0.50, kDegradeVertical);
 }
 
 TEST(FaultCampaign, RcLossLands) {
-  const Flight f = fly("rc_loss");
-  expect_safe(f);
   // FS_RC_TIMEOUT 1 s after the last MANUAL_CONTROL (50 Hz); the fix is still there, so the landing
   // holds the horizontal position.
-  expect_failsafe_landing(f, "RC lost", 1.1, 7.0, 0.10);
+  fly_landing_through("rc_loss", "RC lost", 1.1, 7.0, 0.10);
 }
 
 TEST(FaultCampaign, SaturatedImuSamples) {
-  const Flight f = fly("imu_saturation");
-  expect_safe(f);
-  expect_hold(f, 0.50, kDegradeVertical, kLandCommand);
+  fly_holding("imu_saturation", 0.50, kDegradeVertical);
 }
 
 TEST(FaultCampaign, NonFiniteImuSamples) {
-  const Flight f = fly("imu_non_finite");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  fly_holding("imu_non_finite", 0.10, kHoldVertical);
 }
 
 // The rendered cameras and the vision station in the loop, the station calibrated with focal lengths
 // 1 % long: its stereo range is ~1 % long.
 TEST(FaultCampaign, CameraFocalError) {
-  const Flight f = fly("camera_focal_error");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
-  const double bias = f.mean_difference("est_d", "true_d", 15.0, 24.0);
-  EXPECT_GT(bias, -0.025);
-  EXPECT_LT(bias, -0.005);
-  std::printf("[campaign] camera_focal_error: estimate - truth (down) %.4f m\n", bias);
+  const Flight f = fly_holding("camera_focal_error", 0.10, kHoldVertical);
+  expect_range_one_percent_long(f);
 }
 
 // A second star on the floor, 0.58 m from the star, 12-14 s, rendered (test_fault_effects checks that the
 // station's locator finds the copy when it is alone). The station searches around its last fix first, so
 // it keeps the star: every fix within 5 cm of the truth, the hold within 10 cm.
 TEST(FaultCampaign, SecondStarLikeShape) {
-  const Flight f = fly("vision_decoy");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
+  const Flight f = fly_holding("vision_decoy", 0.10, kHoldVertical);
   const size_t station = f.summary.find("\"fix_error_m\"");
   ASSERT_NE(station, std::string::npos) << "no vision station figures";
   const double worst_fix = json_number(f.summary.substr(station), "max");
@@ -411,22 +409,14 @@ TEST(FaultCampaign, SecondStarLikeShape) {
 }
 
 TEST(FaultCampaign, CameraFocalErrorSimulatedFix) {
-  const Flight f = fly("camera_focal_error_simulated_fix");
-  expect_safe(f);
-  expect_hold(f, 0.10, kHoldVertical, kLandCommand);
-  // The fix's range is 1 % long, so the estimate believes 1 % (1.5 cm) higher than the truth.
-  const double bias = f.mean_difference("est_d", "true_d", 15.0, 24.0);
-  EXPECT_GT(bias, -0.025);
-  EXPECT_LT(bias, -0.005);
-  std::printf("[campaign] camera_focal_error_simulated_fix: estimate - truth (down) %.4f m\n", bias);
+  const Flight f = fly_holding("camera_focal_error_simulated_fix", 0.10, kHoldVertical);
+  expect_range_one_percent_long(f);
 }
 
 TEST(FaultCampaign, SecondStarLikeShapeSimulatedFix) {
-  const Flight f = fly("vision_decoy_simulated_fix");
-  expect_safe(f);
   // The estimate follows the shape taken for the star (0.58 m away): a 0.58 m step of the estimate, not
   // shaped like a setpoint, so the vehicle overshoots on the way there and back; within 10 cm 8 s after.
-  expect_hold(f, 1.0, kDegradeVertical, kLandCommand, 8.0);
+  fly_holding("vision_decoy_simulated_fix", 1.0, kDegradeVertical, 8.0);
 }
 
 }  // namespace

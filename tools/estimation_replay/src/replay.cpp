@@ -90,13 +90,49 @@ void write_row(std::ostream& out, double t, bool att_valid, const Quat& q, const
   if (track) track->push_back(Estimate{t, att_valid, pos_valid, q, p});
 }
 
-// The row's magnetometer sample, or the last one when the row has none (the filters hold it).
-Vec3 held_mag(const LogRow& r, Vec3* last_mag) {
-  if (r.mag) {
-    *last_mag = Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
-                     static_cast<float>((*r.mag)[2])};
+// One row's sensor samples as the filters take them.
+struct RowSamples {
+  Vec3 gyro, accel;
+  Vec3 mag;      // the row's magnetometer sample, or the last one when the row has none (the filters hold it)
+  bool mag_new;  // whether the row has a magnetometer sample of its own
+  float dt;      // time since the previous row, s
+};
+
+// Reads the rows in order, keeping the last magnetometer sample and the previous row's time.
+class SampleReader {
+ public:
+  RowSamples next(const LogRow& r) {
+    RowSamples s;
+    s.gyro = vec(r.gyro);
+    s.accel = vec(r.accel);
+    s.mag_new = r.mag.has_value();
+    if (r.mag) {
+      last_mag_ = Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
+                       static_cast<float>((*r.mag)[2])};
+    }
+    s.mag = last_mag_;
+    s.dt = static_cast<float>(r.t - t_prev_);
+    t_prev_ = r.t;
+    return s;
   }
-  return *last_mag;
+
+ private:
+  Vec3 last_mag_;
+  double t_prev_ = 0.0;
+};
+
+// The replay loop: the header, then per log row its samples through `filter_row`, which writes the output
+// row and returns whether it took the row's fix.
+template <class FilterRow>
+ReplaySummary replay_rows(const std::vector<LogRow>& rows, std::ostream& out, FilterRow&& filter_row) {
+  ReplaySummary summary;
+  SampleReader samples;
+  out << kOutputHeader << "\n";
+  for (const LogRow& r : rows) {
+    if (filter_row(r, samples.next(r))) ++summary.fixes;
+    ++summary.rows;
+  }
+  return summary;
 }
 
 // The EKF over the rows: IMU increments every row, the predict every row (the log's rate), fixes as the
@@ -109,18 +145,11 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
   observer.set_params(options.observer);
   est::DelayedEkf<est::history_length(1000)> ekf;
   std::vector<std::pair<double, Quat>> history;  // the EKF's attitude per row, for fixes
-  ReplaySummary summary;
   bool initialized = false;
-  Vec3 last_mag;
-  double t_prev = 0.0;
-  out << kOutputHeader << "\n";
-  for (const LogRow& r : rows) {
-    const Vec3 g = vec(r.gyro), a = vec(r.accel);
-    const bool mag_new = r.mag.has_value();
-    const Vec3 m = held_mag(r, &last_mag);
+  ReplaySummary summary = replay_rows(rows, out, [&](const LogRow& r, const RowSamples& s) {
     const uint32_t now = to_us(r.t);
     if (!initialized) {
-      initialized = mag_new && observer.initialize(a, m);
+      initialized = s.mag_new && observer.initialize(s.accel, s.mag);
       if (initialized) {
         est::EkfParams p = options.ekf;
         p.star_ned = options.star_ned;
@@ -129,15 +158,13 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
         ekf.reset(observer.attitude(), Vec3{}, Vec3{}, now);
       }
     } else {
-      const float dt = static_cast<float>(r.t - t_prev);
-      ekf.imu(g, a, dt);
-      if (mag_new) ekf.mag(m);
+      ekf.imu(s.gyro, s.accel, s.dt);
+      if (s.mag_new) ekf.mag(s.mag);
       ekf.predict(now, false, false);
     }
-    t_prev = r.t;
     if (initialized) history.emplace_back(r.t, ekf.attitude());
-    if (r.fix && initialized) {
-      ++summary.fixes;
+    const bool fused = r.fix && initialized;
+    if (fused) {
       const double tc = options.fuse_on_arrival ? r.t : r.fix->t;
       // The EKF's own attitude at the row at or before the capture time: the logged fix is a NED position,
       // taken back into the body frame so that the update sees the position alone.
@@ -152,8 +179,8 @@ ReplaySummary replay_ekf(const std::vector<LogRow>& rows, const ReplayOptions& o
     const est::EkfState& x = ekf.delayed_state();
     write_row(out, r.t, initialized, ekf.attitude(), x.gyro_bias, initialized && ekf.position_initialized(),
               ekf.position(), ekf.velocity(), track);
-    ++summary.rows;
-  }
+    return fused;
+  });
   summary.ekf = ekf.health();
   return summary;
 }
@@ -166,34 +193,24 @@ ReplaySummary replay(const std::vector<LogRow>& rows, const ReplayOptions& optio
   Attitude attitude(options);
   // History for 250 ms at up to 1 kHz: logs of any rate up to the firmware's fastest loop.
   est::PositionFilter<est::history_length(1000)> position(options.position);
-  ReplaySummary summary;
   bool initialized = false;
-  Vec3 last_mag;
-  double t_prev = 0.0;
-  out << kOutputHeader << "\n";
-  for (const LogRow& r : rows) {
-    const Vec3 g = vec(r.gyro), a = vec(r.accel);
-    const bool mag_new = r.mag.has_value();
-    const Vec3 m = held_mag(r, &last_mag);
+  ReplaySummary summary = replay_rows(rows, out, [&](const LogRow& r, const RowSamples& s) {
     if (!initialized) {
-      initialized = mag_new && attitude.initialize(a, m);
+      initialized = s.mag_new && attitude.initialize(s.accel, s.mag);
     } else {
-      attitude.update(g, a, m, mag_new, static_cast<float>(r.t - t_prev));
+      attitude.update(s.gyro, s.accel, s.mag, s.mag_new, s.dt);
     }
-    t_prev = r.t;
 
     const uint32_t now = to_us(r.t);
     const Quat q = attitude.attitude();
-    position.predict(initialized ? est::kinematic_acceleration(q, a) : Vec3{}, now);
-    if (r.fix && initialized) {
-      ++summary.fixes;
-      position.fuse_position(vec(r.fix->p), options.fuse_on_arrival ? now : to_us(r.fix->t));
-    }
+    position.predict(initialized ? est::kinematic_acceleration(q, s.accel) : Vec3{}, now);
+    const bool fused = r.fix && initialized;
+    if (fused) position.fuse_position(vec(r.fix->p), options.fuse_on_arrival ? now : to_us(r.fix->t));
 
     write_row(out, r.t, initialized, q, attitude.gyro_bias(), position.initialized(), position.position(),
               position.velocity(), track);
-    ++summary.rows;
-  }
+    return fused;
+  });
   summary.position = position.health();
   if (attitude.uses_observer()) summary.observer = attitude.health();
   return summary;
