@@ -3,12 +3,10 @@
 #include <algorithm>
 #include <sstream>
 
+#include "quad/sim/hil_messages.h"
+
 namespace quad::sim {
 namespace mav = quad::mavlink;
-
-namespace {
-constexpr uint8_t kVehicleSys = 1;
-}
 
 void LogDownload::start(double t, const LogDownloadRequest& request) {
   Link link = std::move(link_);

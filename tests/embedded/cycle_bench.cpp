@@ -20,6 +20,8 @@
 #include "quad/estimation/conditioned_observer.h"
 #include "quad/estimation/position_filter.h"
 #include "quad/math/math.h"
+// The bench's own headers last: before the flight core's they move the shaper's code in the link and its
+// cycle figure by one.
 #include "bench_hover_sensors.h"
 #include "bench_noise.h"
 

@@ -253,7 +253,6 @@ bool StereoStarLocator::star_inside_images(const StarPose& pose) const {
 
 bool StereoStarLocator::coarse_fit(const StarPose& pose) const { return pose.rms_px > settings_.attitude_max_rms_px; }
 
-
 bool StereoStarLocator::wrong_size(double size_ratio) const {
   return std::fabs(size_ratio - 1.0) > settings_.max_pose_size_error;
 }

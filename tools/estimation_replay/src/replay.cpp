@@ -106,10 +106,7 @@ class SampleReader {
     s.gyro = vec(r.gyro);
     s.accel = vec(r.accel);
     s.mag_new = r.mag.has_value();
-    if (r.mag) {
-      last_mag_ = Vec3{static_cast<float>((*r.mag)[0]), static_cast<float>((*r.mag)[1]),
-                       static_cast<float>((*r.mag)[2])};
-    }
+    if (r.mag) last_mag_ = vec(r.mag->data());
     s.mag = last_mag_;
     s.dt = static_cast<float>(r.t - t_prev_);
     t_prev_ = r.t;
