@@ -17,43 +17,17 @@
 // step failed or the simulator ended early; 2 usage.
 'use strict';
 
-const dgram = require('dgram');
 const fs = require('fs');
 const os = require('os');
 const path = require('path');
-const { spawn, execFileSync } = require('child_process');
-const {
-  minimal, common, MavLinkData, MavLinkPacketField, MavLinkProtocolV2, MavLinkPacketSplitter, MavLinkPacketParser,
-} = require('node-mavlink');
+const { execFileSync } = require('child_process');
+const { common, MavLinkData, MavLinkPacketField } = require('node-mavlink');
+const { VEHICLE, parsePeerArguments, UdpMavlinkPeer, runStepsAgainstSim } = require('./udp_sim_peer.js');
 
-const VEHICLE = { system: 1, component: 1 };
 const RATE_HZ = 30;
 const P1 = [0.25, -0.15, -0.13];
 const P2 = [1.5, 0.6, -1.0];
 const P3 = [0.33, -0.15, -0.13];
-
-function usage(message) {
-  console.error(`external_pose_peer: ${message}\n` +
-    'usage: node external_pose_peer.js --sim QUAD_SIM --scenario FILE --out DIR --dialect XML [-- EXTRA SIM ARGS]');
-  process.exit(2);
-}
-
-function parseArguments(argv) {
-  const o = { sim: null, scenario: null, out: null, dialect: null, extra: [] };
-  for (let i = 0; i < argv.length; ++i) {
-    const a = argv[i];
-    if (a === '--') {
-      o.extra = argv.slice(i + 1);
-      break;
-    }
-    const key = { '--sim': 'sim', '--scenario': 'scenario', '--out': 'out', '--dialect': 'dialect' }[a];
-    if (!key) usage(`unknown argument ${a}`);
-    if (i + 1 >= argv.length) usage(`${a} needs a value`);
-    o[key] = argv[++i];
-  }
-  for (const k of ['sim', 'scenario', 'out', 'dialect']) if (!o[k]) usage(`--${k} is required`);
-  return o;
-}
 
 // The dialect's EXTERNAL_POSE_TARGETED as a node-mavlink class: mavlink-mappings-gen's command line
 // (as the XML's comment says) run on a copy of the XML, and the message's id, CRC_EXTRA, length and
@@ -85,54 +59,11 @@ function dialectClass(xml, name) {
   return Generated;
 }
 
-class UdpFeed {
+// The vision/mocap component of the ground side; it learns the vehicle's clock (timesync step).
+class UdpFeed extends UdpMavlinkPeer {
   constructor(socket) {
-    this.socket = socket;
-    this.protocol = new MavLinkProtocolV2(1, 197);  // the vision/mocap component of the ground side
-    this.sequence = 0;
-    this.peer = null;
-    this.waiters = [];
-    this.registry = { ...minimal.REGISTRY, ...common.REGISTRY };
-    this.splitter = new MavLinkPacketSplitter();
-    this.splitter.pipe(new MavLinkPacketParser()).on('data', (packet) => this.dispatch(packet));
-    socket.on('message', (datagram, from) => {
-      this.peer = { address: from.address, port: from.port };
-      this.splitter.write(datagram);
-    });
+    super(socket, 1, 197);
     this.offsetNs = null;  // vehicle clock minus this process' clock
-  }
-
-  dispatch(packet) {
-    const clazz = this.registry[packet.header.msgid];
-    if (!clazz || packet.header.sysid !== VEHICLE.system) return;
-    const message = packet.protocol.data(packet.payload, clazz);
-    for (const w of [...this.waiters]) w(clazz.MSG_NAME, message);
-  }
-
-  send(message) {
-    if (!this.peer) throw new Error('no datagram from the vehicle yet: nowhere to send');
-    this.socket.send(this.protocol.serialize(message, this.sequence), this.peer.port, this.peer.address);
-    this.sequence = (this.sequence + 1) & 255;
-  }
-
-  collect(timeoutMs, onMessage) {
-    return new Promise((resolve) => {
-      const waiter = (name, message) => {
-        const result = onMessage(name, message);
-        if (result !== undefined) finish(result);
-      };
-      const timer = setTimeout(() => finish(undefined), timeoutMs);
-      const finish = (result) => {
-        clearTimeout(timer);
-        this.waiters = this.waiters.filter((w) => w !== waiter);
-        resolve(result);
-      };
-      this.waiters.push(waiter);
-    });
-  }
-
-  waitFor(name, timeoutMs, predicate = () => true) {
-    return this.collect(timeoutMs, (n, m) => (n === name && predicate(m) ? m : undefined));
   }
 
   // The vehicle's clock now, in microseconds (TIMESYNC: the answer's tc1 against the request's mid-time).
@@ -221,43 +152,18 @@ const STEPS = [
 ];
 
 async function main() {
-  const o = parseArguments(process.argv.slice(2));
+  const o = parsePeerArguments(process.argv.slice(2), 'external_pose_peer', ['dialect'],
+    'node external_pose_peer.js --sim QUAD_SIM --scenario FILE --out DIR --dialect XML [-- EXTRA SIM ARGS]');
   const run = { Targeted: dialectClass(o.dialect, 'EXTERNAL_POSE_TARGETED') };
   console.log(`EXTERNAL_POSE_TARGETED: id ${run.Targeted.MSG_ID}, CRC_EXTRA ${run.Targeted.MAGIC_NUMBER}, ` +
     `${run.Targeted.PAYLOAD_LENGTH} bytes`);
-  const socket = dgram.createSocket('udp4');
-  await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
-  const port = socket.address().port;
-  const gs = new UdpFeed(socket);
-  const args = ['--scenario', o.scenario, '--out', o.out, '--gcs', `udp:127.0.0.1:${port}`, '--realtime',
-    '--no-plots', '--quiet', ...o.extra];
-  console.log(`feed on udp 127.0.0.1:${port}; ${o.sim} ${args.join(' ')}`);
-  const sim = spawn(o.sim, args, { stdio: ['ignore', 'inherit', 'inherit'] });
-  let simExit = null;
-  const exited = new Promise((resolve) => sim.on('exit', (code, signal) => {
-    simExit = { code, signal };
-    resolve();
-  }));
-  let failed = false;
-  for (const step of STEPS) {
-    if (simExit) {
-      console.log(`step ${step.name}: FAILED the simulator ended (status ${simExit.code}) before it`);
-      failed = true;
-      break;
-    }
-    try {
-      console.log(`step ${step.name}: ok ${await step(gs, run)}`);
-    } catch (e) {
-      console.log(`step ${step.name}: FAILED ${e.message}`);
-      failed = true;
-      break;
-    }
-  }
-  if (run.stopMocap) run.stopMocap();  // (clearInterval twice is harmless)
-  if (!simExit) sim.kill('SIGINT');
-  await exited;
-  socket.close();
-  process.exit(failed ? 1 : 0);
+  await runStepsAgainstSim(o, {
+    who: 'feed',
+    makePeer: (socket) => new UdpFeed(socket),
+    steps: STEPS,
+    run,
+    finish: (feed, r) => { if (r.stopMocap) r.stopMocap(); },  // (clearInterval twice is harmless)
+  });
 }
 
 main().catch((e) => {

@@ -13,41 +13,13 @@
 // steps passed; 1 a step failed or the simulator ended early; 2 usage.
 'use strict';
 
-const dgram = require('dgram');
 const fs = require('fs');
-const { spawn } = require('child_process');
-const {
-  minimal, common, MavLinkProtocolV2, MavLinkPacketSplitter, MavLinkPacketParser,
-} = require('node-mavlink');
+const { common } = require('node-mavlink');
+const { VEHICLE, parsePeerArguments, UdpMavlinkPeer, runStepsAgainstSim } = require('./udp_sim_peer.js');
 
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
-const VEHICLE = { system: 1, component: 1 };
 const MAV_MODE_FLAG_SAFETY_ARMED = 128;
 const MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1;
 const MAV_RESULT_ACCEPTED = 0;
-
-function usage(message) {
-  console.error(`udp_gcs_peer: ${message}\n` +
-    'usage: node udp_gcs_peer.js --sim QUAD_SIM --scenario FILE --out DIR --modes DIALECT_H [-- EXTRA SIM ARGS]');
-  process.exit(2);
-}
-
-function parseArguments(argv) {
-  const o = { sim: null, scenario: null, out: null, modes: null, extra: [] };
-  for (let i = 0; i < argv.length; ++i) {
-    const a = argv[i];
-    if (a === '--') {
-      o.extra = argv.slice(i + 1);
-      break;
-    }
-    const key = { '--sim': 'sim', '--scenario': 'scenario', '--out': 'out', '--modes': 'modes' }[a];
-    if (!key) usage(`unknown argument ${a}`);
-    if (i + 1 >= argv.length) usage(`${a} needs a value`);
-    o[key] = argv[++i];
-  }
-  for (const k of ['sim', 'scenario', 'out', 'modes']) if (!o[k]) usage(`--${k} is required`);
-  return o;
-}
 
 // The custom_mode number of a flight mode, from the X-macro list `X(kAuto, 2, "AUTO")`.
 function flightModeNumber(header, name) {
@@ -56,59 +28,10 @@ function flightModeNumber(header, name) {
   return Number(m[1]);
 }
 
-// The ground station's side of the UDP link: node-mavlink frames and parses, the peer is whoever the
-// vehicle's datagrams come from.
-class UdpGroundStation {
+// The ground station (QGroundControl's system id 255, component 190), which also sends commands.
+class UdpGroundStation extends UdpMavlinkPeer {
   constructor(socket) {
-    this.socket = socket;
-    this.protocol = new MavLinkProtocolV2(255, 190);
-    this.sequence = 0;
-    this.peer = null;
-    this.waiters = [];
-    this.received = 0;
-    this.splitter = new MavLinkPacketSplitter();
-    this.splitter.pipe(new MavLinkPacketParser()).on('data', (packet) => this.dispatch(packet));
-    socket.on('message', (datagram, from) => {
-      this.peer = { address: from.address, port: from.port };
-      this.splitter.write(datagram);
-    });
-  }
-
-  dispatch(packet) {
-    const clazz = REGISTRY[packet.header.msgid];
-    if (!clazz || packet.header.sysid !== VEHICLE.system) return;
-    ++this.received;
-    const message = packet.protocol.data(packet.payload, clazz);
-    for (const w of [...this.waiters]) w(clazz.MSG_NAME, message, packet);
-  }
-
-  send(message) {
-    if (!this.peer) throw new Error('no datagram from the vehicle yet: nowhere to send');
-    const bytes = this.protocol.serialize(message, this.sequence);
-    this.sequence = (this.sequence + 1) & 255;
-    this.socket.send(bytes, this.peer.port, this.peer.address);
-  }
-
-  // Calls onMessage(name, message, packet) for every vehicle message until it returns a value other
-  // than undefined (resolves with it) or timeoutMs pass (resolves with undefined).
-  collect(timeoutMs, onMessage) {
-    return new Promise((resolve) => {
-      const waiter = (name, message, packet) => {
-        const result = onMessage(name, message, packet);
-        if (result !== undefined) finish(result);
-      };
-      const timer = setTimeout(() => finish(undefined), timeoutMs);
-      const finish = (result) => {
-        clearTimeout(timer);
-        this.waiters = this.waiters.filter((w) => w !== waiter);
-        resolve(result);
-      };
-      this.waiters.push(waiter);
-    });
-  }
-
-  waitFor(name, timeoutMs, predicate = () => true) {
-    return this.collect(timeoutMs, (n, m) => (n === name && predicate(m) ? m : undefined));
+    super(socket, 255, 190);
   }
 
   // COMMAND_LONG, answered by COMMAND_ACK of the same command (one attempt).
@@ -273,43 +196,14 @@ function findFile(dir, name) {
 }
 
 async function main() {
-  const o = parseArguments(process.argv.slice(2));
-  const run = { autoMode: flightModeNumber(o.modes, 'AUTO'), out: o.out };
-  const socket = dgram.createSocket('udp4');
-  await new Promise((resolve) => socket.bind(0, '127.0.0.1', resolve));
-  const port = socket.address().port;
-  const gs = new UdpGroundStation(socket);
-
-  const args = ['--scenario', o.scenario, '--out', o.out, '--gcs', `udp:127.0.0.1:${port}`, '--realtime',
-    '--no-plots', '--quiet', ...o.extra];
-  console.log(`ground station on udp 127.0.0.1:${port}; ${o.sim} ${args.join(' ')}`);
-  const sim = spawn(o.sim, args, { stdio: ['ignore', 'inherit', 'inherit'] });
-  let simExit = null;
-  const exited = new Promise((resolve) => sim.on('exit', (code, signal) => {
-    simExit = { code, signal };
-    resolve();
-  }));
-
-  let failed = false;
-  for (const step of STEPS) {
-    if (simExit) {
-      console.log(`step ${step.name}: FAILED the simulator ended (status ${simExit.code}) before it`);
-      failed = true;
-      break;
-    }
-    try {
-      console.log(`step ${step.name}: ok ${await step(gs, run)}`);
-    } catch (e) {
-      console.log(`step ${step.name}: FAILED ${e.message}`);
-      failed = true;
-      break;
-    }
-  }
-  if (!simExit) sim.kill('SIGINT');
-  await exited;
-  socket.close();
-  console.log(`vehicle frames received ${gs.received}; simulator exit ${simExit.code ?? simExit.signal}`);
-  process.exit(failed ? 1 : 0);
+  const o = parsePeerArguments(process.argv.slice(2), 'udp_gcs_peer', ['modes'],
+    'node udp_gcs_peer.js --sim QUAD_SIM --scenario FILE --out DIR --modes DIALECT_H [-- EXTRA SIM ARGS]');
+  await runStepsAgainstSim(o, {
+    who: 'ground station',
+    makePeer: (socket) => new UdpGroundStation(socket),
+    steps: STEPS,
+    run: { autoMode: flightModeNumber(o.modes, 'AUTO'), out: o.out },
+  });
 }
 
 main().catch((e) => {
