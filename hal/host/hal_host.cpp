@@ -1,6 +1,8 @@
 // Host HAL: termios raw serial ports, CLOCK_MONOTONIC, file-backed parameter storage.
 #include "quad/hal/host.h"
 
+#include "quad/hal/termios_speed.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
@@ -35,31 +37,13 @@ struct State {
 
 State g_state;
 
-bool speed_for(uint32_t baud, speed_t* out) {
-  static const struct {
-    uint32_t baud;
-    speed_t speed;
-  } kTable[] = {{9600, B9600},       {19200, B19200},     {38400, B38400},     {57600, B57600},
-                {115200, B115200},   {230400, B230400},   {460800, B460800},   {500000, B500000},
-                {576000, B576000},   {921600, B921600},   {1000000, B1000000}, {1152000, B1152000},
-                {1500000, B1500000}, {2000000, B2000000}, {2500000, B2500000}, {3000000, B3000000},
-                {3500000, B3500000}, {4000000, B4000000}};
-  for (const auto& entry : kTable) {
-    if (entry.baud == baud) {
-      *out = entry.speed;
-      return true;
-    }
-  }
-  return false;
-}
-
 std::string system_error(const std::string& what, const std::string& path) {
   return what + " '" + path + "': " + strerror(errno);
 }
 
 bool open_port(const PortConfig& config, const char* name, PortState* port, std::string* error) {
   speed_t speed;
-  if (!speed_for(config.baud, &speed)) {
+  if (!quad::hal::termios_speed(config.baud, &speed)) {
     *error = std::string(name) + ": unsupported baud rate " + std::to_string(config.baud) +
              " (use a standard rate such as 57600, 115200 or 921600)";
     return false;
@@ -124,7 +108,7 @@ bool open_storage(const std::string& path, std::string* error) {
 
 bool baud_supported(uint32_t baud) {
   speed_t unused;
-  return speed_for(baud, &unused);
+  return quad::hal::termios_speed(baud, &unused);
 }
 
 bool open(const Config& config, std::string* error) {

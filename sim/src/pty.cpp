@@ -1,5 +1,7 @@
 #include "quad/sim/pty.h"
 
+#include "quad/hal/termios_speed.h"
+
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
@@ -14,17 +16,11 @@ namespace quad::sim {
 namespace {
 
 speed_t speed_constant(int baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 921600: return B921600;
-    default: throw std::invalid_argument("unsupported baud rate " + std::to_string(baud));
+  speed_t speed;
+  if (baud <= 0 || !hal::termios_speed(static_cast<uint32_t>(baud), &speed)) {
+    throw std::invalid_argument("unsupported baud rate " + std::to_string(baud));
   }
+  return speed;
 }
 
 void make_raw(int fd, speed_t speed) {

@@ -10,6 +10,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "quad/hal/termios_speed.h"
+
 namespace quad::vision {
 
 std::string fix_json(const StarFix& fix, const CameraMount& mount, const std::string& label) {
@@ -92,17 +94,11 @@ mavlink::LandingTargetCovariance landing_target_covariance(const StarFix& fix, c
 namespace {
 
 speed_t baud_constant(int baud) {
-  switch (baud) {
-    case 9600: return B9600;
-    case 19200: return B19200;
-    case 38400: return B38400;
-    case 57600: return B57600;
-    case 115200: return B115200;
-    case 230400: return B230400;
-    case 460800: return B460800;
-    case 921600: return B921600;
-    default: throw std::runtime_error("--baud " + std::to_string(baud) + ": unsupported (9600 ... 921600)");
+  speed_t speed;
+  if (baud <= 0 || !hal::termios_speed(static_cast<uint32_t>(baud), &speed)) {
+    throw std::runtime_error("--baud " + std::to_string(baud) + ": unsupported (a termios rate, 9600 ... 4000000)");
   }
+  return speed;
 }
 
 }  // namespace
