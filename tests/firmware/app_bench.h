@@ -108,6 +108,16 @@ class Bench {
     app->receive(port, bytes.data(), static_cast<uint16_t>(bytes.size()), static_cast<uint32_t>(t_us));
   }
 
+  // PARAM_SET of one parameter (REAL32), as a ground station sends it; the answer lands in `params`.
+  void set_param(const char* name, float value, uint8_t port = quad::hal::kUart0) {
+    mav::ParamSet set;
+    set.target_system = 1;
+    set.param_type = mav::kParamTypeReal32;
+    std::strncpy(set.param_id, name, 16);
+    set.param_value = value;
+    send(port, set, gcs);
+  }
+
   void sticks(int16_t throttle, uint16_t buttons = 0) {
     mav::ManualControl m;
     m.target = 1;

@@ -243,15 +243,8 @@ TEST(FirmwareApp, LandingTargetGivesTheVehiclePositionWithTheErrataSign) {
   b.boot();
   const Eigen::Quaternionf q(Eigen::AngleAxisf(1.047f, Eigen::Vector3f::UnitZ()));
   const Eigen::Vector3f p(1.0f, -0.5f, -1.5f), star(2.0f, 1.0f, 0.0f);
-  mav::ParamSet set;
-  set.target_system = 1;
-  set.param_type = mav::kParamTypeReal32;
-  std::strncpy(set.param_id, "VIS_STAR_N", 16);
-  set.param_value = 2.0f;
-  b.send(quad::hal::kUart0, set, b.gcs);
-  std::strncpy(set.param_id, "VIS_STAR_E", 16);
-  set.param_value = 1.0f;
-  b.send(quad::hal::kUart0, set, b.gcs);
+  b.set_param("VIS_STAR_N", 2.0f);
+  b.set_param("VIS_STAR_E", 1.0f);
   calibrate(b, q);
   // Hovering (still) at p: fixes at 30 Hz captured 60 ms before they arrive.
   // (The first fixes wait until the attitude history reaches back to their capture time.)
@@ -370,19 +363,14 @@ TEST(FirmwareApp, ParameterProtocolListReadSetAndPersist) {
     EXPECT_EQ(b.params[i].param_type, mav::kParamTypeReal32);
   }
 
-  mav::ParamSet set;
-  set.target_system = 1;
-  std::strncpy(set.param_id, "POS_KP_Z", 16);
-  set.param_value = 2.5f;
   b.params.clear();
-  b.send(quad::hal::kUart2, set, b.gcs);
+  b.set_param("POS_KP_Z", 2.5f, quad::hal::kUart2);
   ASSERT_EQ(b.params.size(), 1u);
   EXPECT_FLOAT_EQ(b.params[0].param_value, 2.5f);
   EXPECT_FLOAT_EQ(b.app->params().get(quad::fw::kPosKpZ), 2.5f);
 
   // Out of range: refused, the old value echoed, the reason said.
-  set.param_value = -1.0f;
-  b.send(quad::hal::kUart2, set, b.gcs);
+  b.set_param("POS_KP_Z", -1.0f, quad::hal::kUart2);
   ASSERT_EQ(b.params.size(), 2u);
   EXPECT_FLOAT_EQ(b.params[1].param_value, 2.5f);
   EXPECT_TRUE(b.said("param out of range: POS_KP_Z"));
@@ -418,13 +406,7 @@ TEST(FirmwareApp, ParametersReconfigureTheTelemetryRates) {
   b.boot();
   for (int i = 0; i < 100; ++i) b.still_step();
   const int base = b.frames_on[quad::hal::kUart2];
-  mav::ParamSet set;
-  set.target_system = 1;
-  for (const char* name : {"TEL_ATT_HZ", "TEL_POS_HZ", "TEL_SYS_HZ", "TEL_HB_HZ", "TEL_EST_HZ"}) {
-    std::strncpy(set.param_id, name, 16);
-    set.param_value = 0.0f;
-    b.send(quad::hal::kUart0, set, b.gcs);
-  }
+  for (const char* name : {"TEL_ATT_HZ", "TEL_POS_HZ", "TEL_SYS_HZ", "TEL_HB_HZ", "TEL_EST_HZ"}) b.set_param(name, 0.0f);
   const int after_set = b.frames_on[quad::hal::kUart2];
   for (int i = 0; i < 100; ++i) b.still_step();
   EXPECT_GT(base, 20) << "defaults: attitude and position at 10 Hz, heartbeat and status at 1 Hz";
@@ -450,11 +432,7 @@ TEST(FirmwareApp, RcSwitchesArmKillAndSelectTheMode) {
   // Thesis sec. 6.1.4: a motor-enable toggle and a manual/auto toggle (MANUAL_CONTROL buttons bits 0/1).
   Bench b;
   b.boot();
-  mav::ParamSet set;
-  set.target_system = 1;
-  std::strncpy(set.param_id, "RC_SWITCHES", 16);
-  set.param_value = 1.0f;
-  b.send(quad::hal::kUart0, set, b.gcs);
+  b.set_param("RC_SWITCHES", 1.0f);
   calibrate(b);
   const Eigen::Vector3f p(0, 0, -1.0f);
   auto fly = [&](int steps, uint16_t buttons, int16_t throttle = 0) {
@@ -538,11 +516,7 @@ TEST(FirmwareApp, FailsafeRcLostLands) {
 TEST(FirmwareApp, NoRcFailsafeWhenRcIsNotRequired) {
   Bench b;
   b.boot();
-  mav::ParamSet set;
-  set.target_system = 1;
-  std::strncpy(set.param_id, "FS_RC_ENABLE", 16);
-  set.param_value = 0.0f;
-  b.send(quad::hal::kUart0, set, b.gcs);
+  b.set_param("FS_RC_ENABLE", 0.0f);
   calibrate(b);
   quad::fw::test::ready_to_arm(b);
   ASSERT_EQ(b.arm(), mav::kResultAccepted) << "arming without any RC";

@@ -18,12 +18,7 @@ using quad::fw::test::Bench;
 namespace mav = quad::mavlink;
 
 void set_param(Bench& b, const char* name, float value) {
-  mav::ParamSet set;
-  set.target_system = 1;
-  set.param_type = mav::kParamTypeReal32;
-  std::strncpy(set.param_id, name, 16);
-  set.param_value = value;
-  b.send(quad::hal::kUart0, set, b.gcs);
+  b.set_param(name, value);
   ASSERT_FALSE(b.params.empty());
   ASSERT_FLOAT_EQ(b.params.back().param_value, value) << name;
 }

@@ -206,12 +206,7 @@ TEST(Telemetry, ConfiguredRatesAreTheRatesSent) {
   calibrate(f);
   // Set over the parameter protocol, as a ground station would.
   auto set = [&](const char* name, float value) {
-    mav::ParamSet p;
-    p.target_system = 1;
-    p.param_type = mav::kParamTypeReal32;
-    std::strncpy(p.param_id, name, 16);
-    p.param_value = value;
-    b.send(quad::hal::kUart0, p, b.gcs);
+    b.set_param(name, value);
     ASSERT_FALSE(b.params.empty());
     ASSERT_FLOAT_EQ(b.params.back().param_value, value) << name;
   };
