@@ -290,26 +290,50 @@ NearRectifier::NearRectifier(const StereoCalibration& c, int camera)
   back_ = (camera == 0 ? c.R1 : c.R2).t() * P33.inv();
 }
 
-cv::Point2d NearRectifier::raw(const cv::Point2d& q) const {
-  const cv::Vec3d ray = back_ * cv::Vec3d(q.x, q.y, 1.0);
-  const double x = ray[0] / ray[2], y = ray[1] / ray[2];
+cv::Point2d NearRectifier::pixel(double x, double y, cv::Matx22d* jacobian) const {
+  // OpenCV's lens model (k1, k2, p1, p2, k3), then the camera matrix.
+  const double k1 = D_[0], k2 = D_[1], p1 = D_[2], p2 = D_[3], k3 = D_[4];
   const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (D_[0] + r2 * (D_[1] + r2 * D_[4]));
-  const double xd = x * radial + 2.0 * D_[2] * x * y + D_[3] * (r2 + 2.0 * x * x);
-  const double yd = y * radial + D_[2] * (r2 + 2.0 * y * y) + 2.0 * D_[3] * x * y;
+  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+  const double yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+  if (jacobian != nullptr) {  // ∂(xd, yd)/∂(x, y), then through the camera matrix
+    const double radial_slope = k1 + r2 * (2.0 * k2 + 3.0 * r2 * k3);  // ∂radial/∂r²
+    const double cross = 2.0 * x * y * radial_slope + 2.0 * p1 * x + 2.0 * p2 * y;
+    const cv::Matx22d lens(radial + 2.0 * x * x * radial_slope + 2.0 * p1 * y + 6.0 * p2 * x, cross,
+                           cross, radial + 2.0 * y * y * radial_slope + 6.0 * p1 * y + 2.0 * p2 * x);
+    *jacobian = cv::Matx22d(K_(0, 0), K_(0, 1), 0.0, K_(1, 1)) * lens;
+  }
   return cv::Point2d(K_(0, 0) * xd + K_(0, 1) * yd + K_(0, 2), K_(1, 1) * yd + K_(1, 2));
 }
 
+cv::Point2d NearRectifier::raw(const cv::Point2d& q) const {
+  const cv::Vec3d ray = back_ * cv::Vec3d(q.x, q.y, 1.0);
+  return pixel(ray[0] / ray[2], ray[1] / ray[2], nullptr);
+}
+
+cv::Point2d NearRectifier::raw(const cv::Point2d& q, cv::Matx22d& jacobian) const {
+  const cv::Vec3d ray = back_ * cv::Vec3d(q.x, q.y, 1.0);
+  // The perspective division's ∂(x, y)/∂q.
+  const double w2 = ray[2] * ray[2];
+  const cv::Matx22d projection((back_(0, 0) * ray[2] - ray[0] * back_(2, 0)) / w2,
+                               (back_(0, 1) * ray[2] - ray[0] * back_(2, 1)) / w2,
+                               (back_(1, 0) * ray[2] - ray[1] * back_(2, 0)) / w2,
+                               (back_(1, 1) * ray[2] - ray[1] * back_(2, 1)) / w2);
+  cv::Matx22d lens;
+  const cv::Point2d p = pixel(ray[0] / ray[2], ray[1] / ray[2], &lens);
+  jacobian = lens * projection;
+  return p;
+}
+
 cv::Point2d NearRectifier::rectified(const cv::Point2d& target, cv::Point2d q) const {
-  constexpr double h = 1e-3;  // pixels, for the forward map's Jacobian
   for (int iteration = 0; iteration < 4; ++iteration) {
-    const cv::Point2d f = raw(q);
-    const cv::Point2d e = target - f;
+    cv::Matx22d J;
+    const cv::Point2d e = target - raw(q, J);
     if (e.dot(e) < 1e-12) break;
-    const cv::Point2d du = (raw(q + cv::Point2d(h, 0)) - f) / h, dv = (raw(q + cv::Point2d(0, h)) - f) / h;
-    const double det = du.x * dv.y - dv.x * du.y;
+    const double det = J(0, 0) * J(1, 1) - J(0, 1) * J(1, 0);
     if (std::fabs(det) < 1e-12) break;
-    q += cv::Point2d((dv.y * e.x - dv.x * e.y) / det, (-du.y * e.x + du.x * e.y) / det);
+    q += cv::Point2d((J(1, 1) * e.x - J(0, 1) * e.y) / det, (-J(1, 0) * e.x + J(0, 0) * e.y) / det);
   }
   return q;
 }

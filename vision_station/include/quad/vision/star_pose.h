@@ -82,7 +82,8 @@ bool edge_near(const cv::Mat& gray, const cv::Point2d& p, const cv::Point2d& nor
 
 // One camera's map between raw and rectified pixels, for points already known to within a pixel or so:
 // Newton steps on the forward map (rectified → raw: the rectifying rotation undone, then OpenCV's lens
-// model), far cheaper than cv::undistortPoints' fixed-point iterations from scratch.
+// model) with its analytic Jacobian, far cheaper than cv::undistortPoints' fixed-point iterations from
+// scratch.
 class NearRectifier {
  public:
   NearRectifier(const StereoCalibration& calibration, int camera);
@@ -91,6 +92,11 @@ class NearRectifier {
   cv::Point2d rectified(const cv::Point2d& raw, cv::Point2d guess) const;
 
  private:
+  // raw() and its Jacobian ∂raw/∂rectified (rows: raw x, raw y).
+  cv::Point2d raw(const cv::Point2d& rectified, cv::Matx22d& jacobian) const;
+  // Normalised camera coordinates → raw pixel (and its Jacobian when asked).
+  cv::Point2d pixel(double x, double y, cv::Matx22d* jacobian) const;
+
   cv::Matx33d K_;
   cv::Vec<double, 5> D_;
   cv::Matx33d back_;  // rectified pixel → ray in the camera frame: Rᵀ·(P's left 3x3)⁻¹
