@@ -28,6 +28,7 @@
 #include "quad/firmware/params.h"
 #include "quad/firmware/storage_layout.h"
 #include "quad/link/mavlink.h"
+#include "command_output.h"
 
 namespace {
 
@@ -109,30 +110,21 @@ TEST(BuildParamStorage, RefusesABadFileNamingIt) {
   std::remove(path.c_str());
 }
 
-// Runs `command` through the shell, returning its exit status and what it printed (stdout and stderr).
-int run(const std::string& command, std::string* output) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return -1;
-  char buf[512];
-  for (size_t n; (n = std::fread(buf, 1, sizeof buf, pipe)) > 0;) output->append(buf, n);
-  return pclose(pipe);
-}
-
 TEST(AvrPilParams, ABadFileStopsItBeforeTheEmulation) {
   ASSERT_EQ(access(HIL_ELF, R_OK), 0) << HIL_ELF << " missing: run `make avr` first";
   const std::string path = write_file("bad.txt", "SYS_LOOP_HZ 4000\n");
-  std::string out;
   // --max-seconds bounds the run should the file be ignored.
-  const int status = run(std::string(AVR_PIL_PATH) + " --elf " + HIL_ELF + " --params " + path + " --max-seconds 1", &out);
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0) << out;
-  EXPECT_NE(out.find(path), std::string::npos) << out;
-  EXPECT_NE(out.find("SYS_LOOP_HZ"), std::string::npos) << out;
-  EXPECT_EQ(out.find("UART0 on"), std::string::npos) << "the emulation started: " << out;
-  out.clear();
+  const quad::test::CommandOutput bad =
+      quad::test::run_command(std::string(AVR_PIL_PATH) + " --elf " + HIL_ELF + " --params " + path + " --max-seconds 1");
+  EXPECT_GT(bad.status, 0) << bad.out;
+  EXPECT_NE(bad.out.find(path), std::string::npos) << bad.out;
+  EXPECT_NE(bad.out.find("SYS_LOOP_HZ"), std::string::npos) << bad.out;
+  EXPECT_EQ(bad.out.find("UART0 on"), std::string::npos) << "the emulation started: " << bad.out;
   const std::string missing = ::testing::TempDir() + "/avr_params_no_such_file.txt";
-  const int status2 = run(std::string(AVR_PIL_PATH) + " --elf " + HIL_ELF + " --params " + missing + " --max-seconds 1", &out);
-  EXPECT_TRUE(WIFEXITED(status2) && WEXITSTATUS(status2) != 0) << out;
-  EXPECT_NE(out.find(missing), std::string::npos) << out;
+  const quad::test::CommandOutput absent =
+      quad::test::run_command(std::string(AVR_PIL_PATH) + " --elf " + HIL_ELF + " --params " + missing + " --max-seconds 1");
+  EXPECT_GT(absent.status, 0) << absent.out;
+  EXPECT_NE(absent.out.find(missing), std::string::npos) << absent.out;
   std::remove(path.c_str());
 }
 

@@ -20,6 +20,7 @@
 
 #include "child_port_pty.h"
 #include "quad/link/mavlink.h"
+#include "command_output.h"
 
 namespace {
 
@@ -277,14 +278,9 @@ TEST(FirmwarePty, AnswersEverySensorMessageAndArms) {
 }
 
 std::string run_capture(const std::string& args, int* status) {
-  const std::string cmd = std::string(QUAD_FIRMWARE_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[256];
-  while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
-  const int s = pclose(p);
-  *status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return out;
+  const quad::test::CommandOutput r = quad::test::run_command(std::string(QUAD_FIRMWARE_EXE) + " " + args);
+  *status = r.status;
+  return r.out;
 }
 
 TEST(FirmwareCli, PortThatCannotBeOpenedIsAClearError) {

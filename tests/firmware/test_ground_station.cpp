@@ -23,6 +23,7 @@
 #include "param_file.h"
 #include "quad/firmware/params.h"
 #include "quad/link/mavlink.h"
+#include "command_output.h"
 
 namespace {
 
@@ -149,20 +150,10 @@ class World {
   std::thread thread_;
 };
 
-struct Result {
-  int status;
-  std::string out;
-};
+using Result = quad::test::CommandOutput;
 
 Result gs(const std::string& port, const std::string& args) {
-  const std::string cmd = std::string(QUAD_GS_EXE) + " --port " + port + " --baud 57600 " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  Result r{-1, ""};
-  char buf[256];
-  while (fgets(buf, sizeof buf, p) != nullptr) r.out += buf;
-  const int s = pclose(p);
-  r.status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return r;
+  return quad::test::run_command(std::string(QUAD_GS_EXE) + " --port " + port + " --baud 57600 " + args);
 }
 
 // Starts the host firmware on the two pseudo-terminals with a short calibration and no RC requirement
@@ -210,14 +201,10 @@ bool stop_firmware(Pty& uart0, pid_t pid) {
 // valid CRC, time stamps in order, and the required frames. Returns its output; status in *status.
 std::string check_tlog(const std::string& path, const std::string& requirements, int* status) {
   const std::string cmd = std::string("'") + QUAD_NODE_EXECUTABLE + "' '" + QUAD_NODE_DIR + "/tlog_check.js' '" + path +
-                          "' " + requirements + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[256];
-  while (fgets(buf, sizeof buf, p) != nullptr) out += buf;
-  const int s = pclose(p);
-  *status = WIFEXITED(s) ? WEXITSTATUS(s) : -1;
-  return cmd + "\n" + out;
+                          "' " + requirements;
+  const quad::test::CommandOutput r = quad::test::run_command(cmd);
+  *status = r.status;
+  return cmd + "\n" + r.out;
 }
 
 TEST(GroundStation, DrivesTheFirmwareOverTheRadio) {

@@ -30,6 +30,7 @@
 #include "quad/link/mavlink.h"
 #include "quad/vision/ground/ground_sim_protocol.h"
 #include "raw_pty.h"
+#include "command_output.h"
 
 extern char** environ;
 
@@ -41,15 +42,10 @@ namespace mav = quad::mavlink;
 using namespace ground_eval;
 
 std::string run(const std::string& command, int* status_out = nullptr) {
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  std::string out;
-  char buffer[4096];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0) out.append(buffer, n);
-  const int status = pclose(pipe.release());
-  if (status_out) *status_out = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  else if (status != 0) throw std::runtime_error(command + " failed (" + std::to_string(status) + "):\n" + out);
-  return out;
+  const quad::test::CommandOutput r = quad::test::run_command(command);
+  if (status_out) *status_out = r.status;
+  else if (r.status != 0) throw std::runtime_error(command + " failed (" + std::to_string(r.status) + "):\n" + r.out);
+  return r.out;
 }
 
 bool recv_exact(int fd, void* data, size_t length, int timeout_ms) {

@@ -25,6 +25,7 @@
 #include <opencv2/core.hpp>
 
 #include "ground_scenes.h"
+#include "command_output.h"
 
 namespace {
 
@@ -122,14 +123,9 @@ class JsonParser {
 
 std::string run(const std::string& command) {
   std::printf("[vision] $ %s\n", command.c_str());
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  std::string out;
-  char buffer[4096];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0) out.append(buffer, n);
-  const int status = pclose(pipe.release());
-  if (status != 0) throw std::runtime_error(command + " failed (" + std::to_string(status) + "):\n" + out);
-  return out;
+  const quad::test::CommandOutput r = quad::test::run_command(command);
+  if (r.status != 0) throw std::runtime_error(command + " failed (" + std::to_string(r.status) + "):\n" + r.out);
+  return r.out;
 }
 
 double percentile(std::vector<double> v, double p) {
