@@ -307,6 +307,13 @@ struct VerticalFlight {
   float f_z = -kG;  // the accelerometer's z reading of the last step
 };
 
+// Bench::set_param, and the firmware's PARAM_VALUE answer holding the new value.
+inline void set_param_echoed(Bench& b, const char* name, float value) {
+  b.set_param(name, value);
+  ASSERT_FALSE(b.params.empty());
+  ASSERT_FLOAT_EQ(b.params.back().param_value, value) << name;
+}
+
 }  // namespace test
 }  // namespace fw
 }  // namespace quad

@@ -17,12 +17,6 @@ namespace {
 using quad::fw::test::Bench;
 namespace mav = quad::mavlink;
 
-void set_param(Bench& b, const char* name, float value) {
-  b.set_param(name, value);
-  ASSERT_FALSE(b.params.empty());
-  ASSERT_FLOAT_EQ(b.params.back().param_value, value) << name;
-}
-
 void calibrate(Bench& b) {
   for (int i = 0; i < 1000 && !b.app->calibrated(); ++i) b.still_step();
   ASSERT_TRUE(b.app->calibrated());
@@ -42,9 +36,9 @@ float stand(Bench& b, const Eigen::Vector3f& where) {
 TEST(GroundHoldApp, BeforeAnyFixTheEstimateIsTheGroundsAndStaysThere) {
   Bench b;
   b.boot();
-  set_param(b, "VIS_STAR_N", 1.0f);
-  set_param(b, "VIS_STAR_E", -2.0f);
-  set_param(b, "VIS_STAR_D", 0.3f);
+  set_param_echoed(b, "VIS_STAR_N", 1.0f);
+  set_param_echoed(b, "VIS_STAR_E", -2.0f);
+  set_param_echoed(b, "VIS_STAR_D", 0.3f);
   calibrate(b);
   // The accelerometer drifts after the calibration (0.5 deg of apparent tilt, 0.08 m/s^2 vertically).
   b.accel_bias += Eigen::Vector3f(0.085f, -0.05f, 0.08f);

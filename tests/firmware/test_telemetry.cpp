@@ -205,14 +205,9 @@ TEST(Telemetry, ConfiguredRatesAreTheRatesSent) {
   Feed f(b);
   calibrate(f);
   // Set over the parameter protocol, as a ground station would.
-  auto set = [&](const char* name, float value) {
-    b.set_param(name, value);
-    ASSERT_FALSE(b.params.empty());
-    ASSERT_FLOAT_EQ(b.params.back().param_value, value) << name;
-  };
-  set("TEL_ATT_HZ", 25.0f);
-  set("TEL_SYS_HZ", 5.0f);
-  set("TEL_HB_HZ", 2.0f);
+  set_param_echoed(b, "TEL_ATT_HZ", 25.0f);
+  set_param_echoed(b, "TEL_SYS_HZ", 5.0f);
+  set_param_echoed(b, "TEL_HB_HZ", 2.0f);
   f.steps(7);  // out of phase with whole seconds
   int before[2][4];
   const uint32_t ids[4] = {mav::AttitudeQuaternion::kId, mav::LocalPositionNed::kId, mav::SysStatus::kId,
